@@ -1,0 +1,82 @@
+#pragma once
+/// @file parameterization.h
+/// The common interface of every environment-map parameterization.
+///
+/// Image coordinates are continuous pixels: texel (i, j) covers [i, i+1) x [j, j+1), its centre is
+/// (i + 0.5, j + 0.5), x grows to the right and y grows downwards (row 0 is the top of the file).
+/// Directions are expressed in the map's own frame (see convention.h for how a map's frame relates to the
+/// canonical envkit world frame, +Y up); they point from the centre towards what is seen.
+///
+/// Every parameterization keeps its direction->texel map, its texel->direction map and its exact solid
+/// angle side by side in one header/source pair (latlong.h, cubemap.h, mirrorball.h, angular.h,
+/// octahedral.h, paraboloid.h).
+#include <envkit/vec.h>
+
+#include <memory>
+#include <string>
+
+namespace envkit {
+
+enum class Kind { LatLong, MirrorBall, AngularMap, CubeMap, Octahedral, DualParaboloid };
+
+/// "latlong", "mirrorball", "angular", "cube", "octahedral", "paraboloid".
+std::string kind_name(Kind kind);
+/// Inverse of kind_name; also accepts common aliases ("equirect", "lightprobe", "ball", "cubemap",
+/// "octa", "dualparaboloid"). Throws Error on unknown names.
+Kind parse_kind(const std::string& name);
+
+/// Where texel centres lie relative to the edges of the domain.
+enum class TexelGrid {
+  /// Texel centres at ((i + 0.5) / W): texels tile the domain exactly (envkit, Blender, GL).
+  Centre,
+  /// First and last texel centres lie exactly on the domain edges ((i) / (W - 1)): OpenEXR's envmaps.
+  /// Edge texels then cover half a texel of the domain.
+  Corner,
+};
+
+class Parameterization {
+ public:
+  Parameterization(int width, int height) : width_(width), height_(height) {}
+  virtual ~Parameterization() = default;
+
+  virtual Kind kind() const = 0;
+  /// One line for users, e.g. "latlong 2048x1024, centre-sampled".
+  virtual std::string describe() const = 0;
+  virtual std::unique_ptr<Parameterization> clone() const = 0;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  /// Direction (unit length, map frame) seen at continuous image position `pos`.
+  /// Returns false where the image holds no data (outside a mirror ball, blank cells of a cross).
+  virtual bool to_direction(Vec2 pos, Vec3& dir) const = 0;
+
+  /// Continuous image position that sees `dir` (any non-zero length). For maps that cover the whole sphere
+  /// the result lies inside [0, W] x [0, H]; a mirror-ball photograph whose ball is cropped may return a
+  /// position outside the image, which callers treat as no coverage.
+  virtual Vec2 to_image(const Vec3& dir) const = 0;
+
+  /// Exact solid angle (steradians) of the image rectangle [x0, x1] x [y0, y1] (x0 <= x1, y0 <= y1), counting
+  /// only the parts that hold data. Any sub-texel rectangle is allowed; the sum over all texels is 4 pi
+  /// (minus whatever a cropped photograph does not see).
+  virtual double solid_angle(double x0, double y0, double x1, double y1) const = 0;
+
+  /// Exact solid angle of texel (i, j); 0 for texels that hold no data.
+  double texel_solid_angle(int i, int j) const { return solid_angle(i, j, i + 1.0, j + 1.0); }
+
+  /// Filter taps may fall outside the chart (face, image, disk) of the texel being reconstructed.
+  /// Given the texel `anchor` the reconstruction is centred on and an integer tap (i, j), rewrite (i, j) into
+  /// the texel that sees the same direction: longitude wraps, latitude clamps, cube faces re-project onto the
+  /// neighbouring face, octahedral maps fold. Returns false if the tap has no data (the caller then drops it
+  /// and renormalises the filter weights).
+  virtual bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const;
+
+ protected:
+  /// Clamp a tap into the image; false only for an empty image.
+  bool clamp_tap(int& i, int& j) const;
+
+  int width_;
+  int height_;
+};
+
+}  // namespace envkit

@@ -1,0 +1,45 @@
+#include <envkit/error.h>
+#include <envkit/parameterization.h>
+
+#include <algorithm>
+#include <cctype>
+
+namespace envkit {
+
+std::string kind_name(Kind kind) {
+  switch (kind) {
+    case Kind::LatLong: return "latlong";
+    case Kind::MirrorBall: return "mirrorball";
+    case Kind::AngularMap: return "angular";
+    case Kind::CubeMap: return "cube";
+    case Kind::Octahedral: return "octahedral";
+    case Kind::DualParaboloid: return "paraboloid";
+  }
+  return "unknown";
+}
+
+Kind parse_kind(const std::string& name) {
+  std::string n = name;
+  std::transform(n.begin(), n.end(), n.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (n == "latlong" || n == "latlon" || n == "equirect" || n == "equirectangular" || n == "spherical") return Kind::LatLong;
+  if (n == "mirrorball" || n == "ball" || n == "chrome" || n == "mirror") return Kind::MirrorBall;
+  if (n == "angular" || n == "angmap" || n == "lightprobe" || n == "probe") return Kind::AngularMap;
+  if (n == "cube" || n == "cubemap") return Kind::CubeMap;
+  if (n == "octahedral" || n == "octa" || n == "octahedron") return Kind::Octahedral;
+  if (n == "paraboloid" || n == "dualparaboloid" || n == "dual-paraboloid") return Kind::DualParaboloid;
+  throw Error("unknown parameterization '" + name +
+              "' (expected latlong, mirrorball, angular, cube, octahedral or paraboloid)");
+}
+
+bool Parameterization::clamp_tap(int& i, int& j) const {
+  if (width_ <= 0 || height_ <= 0) return false;
+  i = std::clamp(i, 0, width_ - 1);
+  j = std::clamp(j, 0, height_ - 1);
+  return true;
+}
+
+bool Parameterization::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const {
+  return clamp_tap(i, j);
+}
+
+}  // namespace envkit

@@ -1,0 +1,1 @@
+// Keeps envkit_toolcommon non-empty before any shared tool code exists.
