@@ -1,0 +1,180 @@
+#pragma once
+/// @file distribution.h
+/// The one interface of envkit's 2D sampling distributions: sample(u) -> {uv, pdf}, pdf(uv), invert(uv) -> u.
+///
+/// Domain and conventions
+/// ----------------------
+/// A distribution is built from a W x H grid of non-negative weights (row-major, row 0 first) and lives on the
+/// unit square [0,1)^2 ("uv space"): texel (x, y) covers [x/W, (x+1)/W) x [y/H, (y+1)/H), its centre is
+/// ((x + 0.5)/W, (y + 0.5)/H). Densities are with respect to uv AREA, so a texel of weight w has density
+/// w / integral() everywhere inside it, where integral() = sum(w) / (W H). Mapping to the sphere (sin theta,
+/// texel solid angles) is the job of the layer above: it multiplies the weights by the Jacobian before building
+/// and divides pdf_uv by it afterwards.
+///
+/// Which warp to prefer (all three are exact: sample() and pdf() agree, and pdf = w / integral for every texel
+/// up to float table rounding of at most a few 1e-7 relative, see each class for its bound)
+/// ---------------------------------------------------------------------------------------------------------
+/// - CdfDistribution2D (distribution_cdf.h): marginal CDF over rows + conditional CDF per row, continuous
+///   inversion. The smallest tables (~4 bytes/texel), O(log H + log W) per sample, O(1) pdf, invertible. The warp is
+///   monotone along each axis, so stratification of u.y survives, but rows are warped independently: around a
+///   peak neighbouring u.x strata shear apart. The default when memory matters or when an invertible warp is
+///   needed and the map is not too peaky.
+/// - AliasDistribution2D (distribution_alias.h): Walker/Vose alias tables, marginal over rows + one per row.
+///   O(1) per sample whatever the size, the fastest with plain random numbers on large maps, but the mapping from
+///   u to texels is discontinuous everywhere (neighbouring u go to unrelated texels): it destroys stratification,
+///   so low-discrepancy sequences gain nothing. Not invertible. Largest tables (12 bytes/texel).
+/// - PyramidDistribution2D (distribution_pyramid.h): sum pyramid with hierarchical sample warping (Clarberg et
+///   al. 2005). The warp is continuous inside every quadtree cell, so it preserves the stratification of Sobol
+///   or other low-discrepancy points best (lowest variance per sample with QMC), and it is the structure that
+///   product sampling with a BSDF quadtree descends (Clarberg 2008). O(log max(W,H)) per sample, O(1) pdf,
+///   invertible, ~5.3 bytes/texel. Every node stores its own sum, so probabilities keep float RELATIVE precision
+///   even for texels a billion times dimmer than the sun next to them.
+/// Mitsuba 3's distr_2d.h makes the same call: hierarchical warping when sample quality matters, marginal
+/// inversion as the compact fallback.
+///
+/// Random numbers
+/// --------------
+/// u is taken in [0,1)^2 and clamped internally; values outside (and NaN) are clamped, never propagated.
+/// Every discrete decision (bin, coin flip, child) re-uniformises the part of u it did not use, and every
+/// re-uniformised value is clamped again to [0, kOneMinusEpsilon]: rounding may otherwise push it to 1 and pick a
+/// bin that does not exist. The fraction left for the position inside the chosen texel is clamped to
+/// [0, kTexelOffsetMax] so that the returned uv stays strictly inside texel (x, y) after rounding (W, H < 2^24).
+/// Each decision consumes bits of u: feed 53-bit doubles (not float-derived u) so that tiny probabilities are
+/// reachable: a 24-bit u cannot select a bin whose probability is below 2^-24 of its parent's.
+///
+/// Precision: tables are accumulated in double and stored in float. A float running sum stops growing once an
+/// addend is below half an ulp of the sum, i.e. texels below ~2^-24 of the running sum get zero CDF steps and are
+/// never sampled although their weight says otherwise (and a long tail of such texels vanishes together). Double
+/// accumulation keeps every partial sum exact to ~1e-16; each stored float is then rounded once, on its own.
+#include <envkit/error.h>
+#include <envkit/vec.h>
+
+#include <algorithm>
+#include <cfloat>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace envkit {
+
+/// Largest double below 1: every discrete decision uses u clamped to [0, kOneMinusEpsilon]. (Not 1 - 2^-24: with
+/// double u that would make the top 2^-24 of every re-uniformised range unreachable, i.e. a texel whose share of
+/// its parent is below 2^-24 and sits after the bright part could never be drawn.)
+inline constexpr double kOneMinusEpsilon = 0x1.fffffffffffffp-1;
+/// 1 - 2^-24, the largest float below 1: bound of the offset inside the chosen texel, wide enough that
+/// (x + offset) / W never rounds up to the next texel for W < 2^24.
+inline constexpr double kTexelOffsetMax = 0x1.fffffep-1;
+/// Largest width or height a distribution accepts (see kTexelOffsetMax).
+inline constexpr int kMaxDistributionSize = 1 << 24;
+
+/// One sample drawn from a Distribution2D.
+struct DistributionSample {
+  Vec2 uv{0.0, 0.0};  ///< position in [0,1)^2, strictly inside texel (x, y)
+  double pdf = 0.0;   ///< density w.r.t. uv area; exactly pdf(uv); > 0 for any drawn sample
+  int x = 0;          ///< column of the texel the sample lies in
+  int y = 0;          ///< row of the texel the sample lies in
+};
+
+/// A 2D distribution over the W x H texels of the unit square (see the file comment for conventions).
+/// Implementations are immutable after construction and safe to use from many threads at once.
+class Distribution2D {
+ public:
+  virtual ~Distribution2D() = default;
+  Distribution2D(const Distribution2D&) = default;
+  Distribution2D& operator=(const Distribution2D&) = default;
+  Distribution2D(Distribution2D&&) = default;
+  Distribution2D& operator=(Distribution2D&&) = default;
+
+  /// "cdf", "alias" or "pyramid".
+  virtual const char* method() const = 0;
+
+  /// Warp u in [0,1)^2 to a sample. Deterministic: identical tables and u give bit-identical results.
+  virtual DistributionSample sample(Vec2 u) const = 0;
+
+  /// Density w.r.t. uv area at uv: the density of the texel containing uv. uv on the closed square [0,1]^2 is
+  /// accepted (1.0 belongs to the last texel, as to_uv() of a pole may return it); 0 outside and for NaN.
+  /// Never inf or NaN.
+  virtual double pdf(Vec2 uv) const = 0;
+
+  /// The probability the stored (float) tables actually give texel (x, y), recomputed from them in double:
+  /// what sample() draws, to be compared with the ideal w / sum(w). 0 for texels outside the grid.
+  /// Cost: O(1) for cdf, O(levels) for pyramid, O(W + H) for alias (a diagnostic, not for render loops).
+  virtual double texel_probability(int x, int y) const = 0;
+
+  /// Whether invert() is available (cdf, pyramid: yes; alias: no).
+  virtual bool can_invert() const { return false; }
+
+  /// The u that sample() maps to uv: invert(sample(u).uv) == u up to rounding wherever the texel has non-zero
+  /// probability. uv is clamped to [0,1]^2 (NaN -> 0). Throws Error when can_invert() is false.
+  virtual Vec2 invert(Vec2 /*uv*/) const {
+    throw Error(std::string(method()) + " distribution: invert() is not supported (can_invert() is false)");
+  }
+
+  /// Memory held by the tables, in bytes.
+  virtual std::size_t bytes() const = 0;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  /// sum(weights) x texel area (1 / (W H)), accumulated in double over the sanitised weights: the normaliser of
+  /// pdf. 0 for an all-zero map (which then samples uniformly, see used_uniform_fallback()).
+  double integral() const { return integral_; }
+
+  /// True when every weight was zero (or invalid): the distribution is then uniform over [0,1)^2 and pdf() is 1
+  /// everywhere. Tools should warn: the map carries no light.
+  bool used_uniform_fallback() const { return uniform_fallback_; }
+
+  /// Rows whose weights are all zero and whose conditional table (cdf, alias) was therefore made uniform.
+  /// Such rows have zero marginal probability: they are never sampled (pdf is 0 there) unless the whole map is
+  /// zero; the uniform conditional only gives invert() a defined answer. Always 0 for the pyramid.
+  int uniform_fallback_rows() const { return fallback_rows_; }
+
+  /// Texels with positive weight to which the float tables give zero probability (cdf only: a bin below the
+  /// float resolution of its CDF entries; see distribution_cdf.h). pdf() is 0 there too, so estimators stay
+  /// consistent, but that light can only be found by other strategies (BSDF sampling under MIS).
+  std::size_t unreachable_texels() const { return unreachable_texels_; }
+
+ protected:
+  /// Validates the size (1..kMaxDistributionSize each) and that weights is not null; throws Error otherwise.
+  Distribution2D(const float* weights, int width, int height) : width_(width), height_(height) {
+    if (width < 1 || height < 1 || width > kMaxDistributionSize || height > kMaxDistributionSize)
+      throw Error("distribution: invalid size " + std::to_string(width) + "x" + std::to_string(height) +
+                  " (each side must be in 1.." + std::to_string(kMaxDistributionSize) + ")");
+    if (weights == nullptr) throw Error("distribution: null weights");
+  }
+
+  int width_ = 0;
+  int height_ = 0;
+  double integral_ = 0.0;
+  bool uniform_fallback_ = false;
+  int fallback_rows_ = 0;
+  std::size_t unreachable_texels_ = 0;
+};
+
+/// Small helpers shared by the implementations (and handy for callers writing their own warps).
+namespace sampling {
+
+/// Weight as the tables see it: negative, -0 and NaN become 0, +inf becomes FLT_MAX (very bright, but finite).
+inline float sanitize_weight(float w) { return w > 0.0f ? std::min(w, FLT_MAX) : 0.0f; }
+
+/// u clamped to [0, kOneMinusEpsilon]; NaN -> 0.
+inline double clamp_decision(double u) { return u > 0.0 ? std::min(u, kOneMinusEpsilon) : 0.0; }
+
+/// Offset inside a texel clamped to [0, kTexelOffsetMax]; NaN -> 0.
+inline double clamp_offset(double f) { return f > 0.0 ? std::min(f, kTexelOffsetMax) : 0.0; }
+
+/// Texel index along an axis of n texels for a coordinate t in [0,1]; 1.0 maps to n - 1. The caller checks
+/// the range first.
+inline int texel_index(double t, int n) { return std::min(static_cast<int>(t * n), n - 1); }
+
+/// True if uv lies in the closed unit square (false for NaN).
+inline bool in_unit_square(Vec2 uv) { return uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0; }
+
+/// uv clamped into [0,1]^2, NaN -> 0.
+inline Vec2 clamp_uv(Vec2 uv) {
+  return Vec2(uv.x > 0.0 ? std::min(uv.x, 1.0) : 0.0, uv.y > 0.0 ? std::min(uv.y, 1.0) : 0.0);
+}
+
+}  // namespace sampling
+
+}  // namespace envkit

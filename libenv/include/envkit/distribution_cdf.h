@@ -1,0 +1,90 @@
+#pragma once
+/// @file distribution_cdf.h
+/// Piecewise-constant distributions sampled by CDF inversion: 1D, and 2D as a marginal over rows times a
+/// conditional per row (the classic lat-long environment sampler).
+///
+/// Two-sided float CDF
+/// -------------------
+/// Each CDF is accumulated in double and stored in float, but not as plain cdf[i] values: an entry whose
+/// cumulative mass is at most 1/2 is stored as cdf[i], an entry past the half-way point as 1 - cdf[i] (the mass
+/// still to come, accumulated backwards in double). A float's resolution is relative to its magnitude, so each
+/// bin's step is resolved relative to the SMALLER of the masses before and after it. With a plain float CDF every
+/// bin after a sun sits where the CDF is ~1 and ulp = 2^-24: the sky texels of a sun row (1e-9 of the row each)
+/// get steps of 0 or 6e-8, i.e. are never sampled or 60x oversampled. Two-sided, they are resolved to ~1e-6
+/// relative. The last entry is exactly 1 (stored as 0 remaining mass), the first exactly 0.
+/// What remains: a bin below ~2^-24 of BOTH the mass before and after it (a dim texel between two suns of one
+/// row) can still round to a zero step; unreachable_texels() counts those. The pyramid has no such limit.
+///
+/// pdf() is computed from the stored steps (not from the weights), so pdf() is exactly the density sample()
+/// draws: consistent for MIS and chi-square even where rounding moved a bin's probability. For ordinary maps it
+/// equals w / integral to ~1e-7 relative; texel_probability() gives the step product for diagnostics.
+///
+/// Sampling uses u.y for the row (marginal) and u.x for the column (conditional of that row); inside the chosen
+/// bin the position is linear in u (continuous inversion), so invert() is exact.
+#include <envkit/distribution.h>
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace envkit {
+
+/// A piecewise-constant density on [0,1) with n equal bins, bin i = [i/n, (i+1)/n) with weight w[i].
+class PiecewiseConstant1D {
+ public:
+  struct Sample {
+    double x = 0.0;    ///< position in [0,1), strictly inside bin `index`
+    double pdf = 0.0;  ///< density w.r.t. length on [0,1)
+    int index = 0;     ///< the bin
+  };
+
+  PiecewiseConstant1D() = default;
+  /// Weights are sanitised (negative/NaN -> 0, inf -> FLT_MAX). All-zero weights give the uniform density
+  /// (used_uniform_fallback()). Throws Error for an empty span or more than 2^24 bins.
+  explicit PiecewiseConstant1D(std::span<const float> weights);
+
+  Sample sample(double u) const;
+  /// Density at x in [0,1] (1.0 belongs to the last bin); 0 outside and for NaN.
+  double pdf(double x) const;
+  /// Inverse of sample(): the u that maps to x (x clamped to [0,1]).
+  double invert(double x) const;
+  /// Probability of bin i as stored (the CDF step); 0 outside.
+  double bin_probability(int i) const;
+
+  int size() const { return n_; }
+  /// sum(w) / n in double (the normaliser); 0 for all-zero weights.
+  double integral() const { return integral_; }
+  bool used_uniform_fallback() const { return uniform_fallback_; }
+  std::size_t bytes() const { return cdf_.capacity() * sizeof(float); }
+
+ private:
+  std::vector<float> cdf_;  // n + 1 two-sided entries
+  int n_ = 0;
+  int split_ = 0;  // first entry stored as remaining mass
+  double integral_ = 0.0;
+  bool uniform_fallback_ = false;
+};
+
+/// Marginal/conditional CDF inversion over a W x H grid (see the file comment). ~4 bytes per texel.
+class CdfDistribution2D final : public Distribution2D {
+ public:
+  /// weights: W x H floats, row-major, row 0 first. Rows are built in parallel with TBB for large grids; the
+  /// result does not depend on the thread count. Throws Error for a bad size or null weights.
+  CdfDistribution2D(const float* weights, int width, int height);
+
+  const char* method() const override { return "cdf"; }
+  DistributionSample sample(Vec2 u) const override;
+  double pdf(Vec2 uv) const override;
+  double texel_probability(int x, int y) const override;
+  bool can_invert() const override { return true; }
+  Vec2 invert(Vec2 uv) const override;
+  std::size_t bytes() const override;
+
+ private:
+  std::vector<float> conditional_;          // H rows of W + 1 two-sided entries
+  std::vector<std::int32_t> row_split_;     // per row: first entry stored as remaining mass
+  std::vector<float> marginal_;             // H + 1 two-sided entries
+  int marginal_split_ = 0;
+};
+
+}  // namespace envkit

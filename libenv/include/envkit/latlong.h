@@ -1,0 +1,51 @@
+#pragma once
+/// @file latlong.h
+/// Latitude-longitude (equirectangular) map, W x H (any size; 2:1 is usual).
+///
+/// Frame (the canonical envkit frame; OpenEXR's orientation): +Y up. With u = x / W in [0, 1] and
+/// v = y / H in [0, 1] (row 0 at the top):
+///   latitude  lat = pi (1/2 - v)           (+pi/2 at the top row edge: the +Y pole)
+///   longitude lon = pi - 2 pi u            (u = 0 looks along -Z, u = 1/4 along +X, u = 1/2 along +Z,
+///                                           u = 3/4 along -X)
+///   dir = (sin lon cos lat, sin lat, cos lon cos lat).
+/// TexelGrid::Centre: texel (i, j) centre at ((i + 0.5) / W, (j + 0.5) / H); texels tile the sphere exactly,
+/// row j spans polar angle theta in [pi j / H, pi (j + 1) / H] and has the exact solid angle
+/// (2 pi / W) (cos theta0 - cos theta1): never zero at the poles.
+/// TexelGrid::Corner (OpenEXR's LATLONG): texel centres sit at u = i / (W - 1), v = j / (H - 1): the first and
+/// last rows lie on the poles and the first and last columns duplicate (both look along -Z). Edge texels
+/// cover half a texel of the domain, so solid angles still sum to 4 pi.
+#include <envkit/parameterization.h>
+
+namespace envkit {
+
+class LatLongMap final : public Parameterization {
+ public:
+  LatLongMap(int width, int height, TexelGrid grid = TexelGrid::Centre);
+
+  Kind kind() const override { return Kind::LatLong; }
+  std::string describe() const override;
+  std::unique_ptr<Parameterization> clone() const override { return std::make_unique<LatLongMap>(*this); }
+  TexelGrid grid() const { return grid_; }
+
+  bool to_direction(Vec2 pos, Vec3& dir) const override;
+  Vec2 to_image(const Vec3& dir) const override;
+  double solid_angle(double x0, double y0, double x1, double y1) const override;
+  bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
+
+  /// Exact solid angle of one texel of row j (all texels of a row have the same solid angle, except the
+  /// duplicated edge columns of a corner-sampled map, which have half of it).
+  double row_solid_angle(int j) const;
+
+  /// Unit direction for (u, v) in the centre-grid domain: u = x / W, v = y / H.
+  static Vec3 direction_from_uv(double u, double v);
+  /// (u, v) in [0, 1) x [0, 1] of a direction (u = 0 at longitude pi, i.e. -Z).
+  static Vec2 uv_from_direction(const Vec3& dir);
+
+ private:
+  /// Domain coordinates (u, v) in [0,1]^2 of a continuous image position, per grid.
+  Vec2 domain_from_image(Vec2 pos) const;
+  Vec2 image_from_domain(Vec2 uv) const;
+  TexelGrid grid_;
+};
+
+}  // namespace envkit

@@ -1,0 +1,33 @@
+#pragma once
+/// @file octahedral.h
+/// Equal-area octahedral map (Clarberg 2008; pbrt-v4's EqualAreaSquareToSphere), square N x N.
+///
+/// Every texel has exactly the solid angle 4 pi / N^2, so importance needs no Jacobian and a square
+/// power-of-two sum pyramid fits it exactly. Texel centres at ((i + 0.5) / N, (j + 0.5) / N).
+/// Frame: the image centre sees +Y (up), the four corners see -Y; the mid-points of the right, bottom, left and
+/// top edges see +Z, +X, -Z and -X (octahedron coordinates (x_o, y_o, z_o) = (Z, X, Y), a proper rotation).
+/// Edges fold: a point just beyond an edge is the point mirrored across that edge's mid-point.
+#include <envkit/parameterization.h>
+
+namespace envkit {
+
+class OctahedralMap final : public Parameterization {
+ public:
+  explicit OctahedralMap(int size);
+
+  Kind kind() const override { return Kind::Octahedral; }
+  std::string describe() const override;
+  std::unique_ptr<Parameterization> clone() const override { return std::make_unique<OctahedralMap>(*this); }
+
+  bool to_direction(Vec2 pos, Vec3& dir) const override;
+  Vec2 to_image(const Vec3& dir) const override;
+  double solid_angle(double x0, double y0, double x1, double y1) const override;
+  bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
+
+  /// Unit square [0,1]^2 -> unit direction in octahedron coordinates (pole +z_o).
+  static Vec3 square_to_sphere(Vec2 p);
+  /// Inverse of square_to_sphere.
+  static Vec2 sphere_to_square(const Vec3& d);
+};
+
+}  // namespace envkit

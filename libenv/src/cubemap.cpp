@@ -1,0 +1,203 @@
+#include <envkit/cubemap.h>
+#include <envkit/error.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+namespace envkit {
+
+namespace {
+
+const Vec3 kAxes[6] = {Vec3(1, 0, 0), Vec3(-1, 0, 0), Vec3(0, 1, 0), Vec3(0, -1, 0), Vec3(0, 0, 1), Vec3(0, 0, -1)};
+
+int face_of_axis(const Vec3& axis) {
+  for (int f = 0; f < 6; ++f)
+    if ((kAxes[f] ^ axis) > 0.5) return f;
+  return 0;
+}
+
+// Per-face (right, down) for the strip layouts, see the table in cubemap.h.
+void strip_basis(CubeBasis basis, int face, Vec3& right, Vec3& down) {
+  static const Vec3 envkit[6][2] = {{Vec3(0, 0, 1), Vec3(0, -1, 0)},  {Vec3(0, 0, -1), Vec3(0, -1, 0)},
+                                    {Vec3(1, 0, 0), Vec3(0, 0, -1)},  {Vec3(1, 0, 0), Vec3(0, 0, 1)},
+                                    {Vec3(-1, 0, 0), Vec3(0, -1, 0)}, {Vec3(1, 0, 0), Vec3(0, -1, 0)}};
+  static const Vec3 gl[6][2] = {{Vec3(0, 0, -1), Vec3(0, -1, 0)}, {Vec3(0, 0, 1), Vec3(0, -1, 0)},
+                                {Vec3(1, 0, 0), Vec3(0, 0, 1)},   {Vec3(1, 0, 0), Vec3(0, 0, -1)},
+                                {Vec3(1, 0, 0), Vec3(0, -1, 0)},  {Vec3(-1, 0, 0), Vec3(0, -1, 0)}};
+  const auto& table = basis == CubeBasis::GL ? gl : envkit;
+  right = table[face][0];
+  down = table[face][1];
+}
+
+// Unfolds the cube around a front face f with up u and image-right r. Each cell of the net gets
+// (axis, right, down) so that neighbouring cells agree along their shared edge.
+struct NetCell { int cx, cy; Vec3 axis, right, down; };
+
+std::array<NetCell, 6> cross_cells(CubeLayout layout, CubeBasis basis) {
+  const Vec3 f(0, 0, 1), u(0, 1, 0);
+  // Seen from inside a right-handed frame, right = f x u (-X); the GL table is mirrored (+X).
+  const Vec3 r = basis == CubeBasis::GL ? Vec3(1, 0, 0) : f % u;
+  if (layout == CubeLayout::HorizontalCross) {
+    return {{{1, 1, f, r, -u}, {2, 1, r, -f, -u}, {3, 1, -f, -r, -u},
+             {0, 1, -r, f, -u}, {1, 0, u, r, f}, {1, 2, -u, r, -f}}};
+  }
+  // Vertical cross: the back face continues below the down face, upside down.
+  return {{{1, 1, f, r, -u}, {2, 1, r, -f, -u}, {1, 3, -f, r, u},
+           {0, 1, -r, f, -u}, {1, 0, u, r, f}, {1, 2, -u, r, -f}}};
+}
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+}  // namespace
+
+std::string layout_name(CubeLayout layout) {
+  switch (layout) {
+    case CubeLayout::VerticalStrip: return "vstrip";
+    case CubeLayout::HorizontalStrip: return "hstrip";
+    case CubeLayout::HorizontalCross: return "hcross";
+    case CubeLayout::VerticalCross: return "vcross";
+  }
+  return "vstrip";
+}
+
+CubeLayout parse_layout(const std::string& name) {
+  const std::string n = lower(name);
+  if (n == "vstrip" || n == "vertical-strip" || n == "openexr" || n == "exr" || n == "sixfiles" || n == "faces")
+    return CubeLayout::VerticalStrip;
+  if (n == "hstrip" || n == "horizontal-strip" || n == "strip") return CubeLayout::HorizontalStrip;
+  if (n == "hcross" || n == "horizontal-cross" || n == "cross") return CubeLayout::HorizontalCross;
+  if (n == "vcross" || n == "vertical-cross") return CubeLayout::VerticalCross;
+  throw Error("unknown cube layout '" + name + "' (expected vstrip, hstrip, hcross, vcross or faces)");
+}
+
+void layout_size(CubeLayout layout, int n, int& width, int& height) {
+  switch (layout) {
+    case CubeLayout::VerticalStrip: width = n; height = 6 * n; return;
+    case CubeLayout::HorizontalStrip: width = 6 * n; height = n; return;
+    case CubeLayout::HorizontalCross: width = 4 * n; height = 3 * n; return;
+    case CubeLayout::VerticalCross: width = 3 * n; height = 4 * n; return;
+  }
+}
+
+int face_size_for(CubeLayout layout, int width, int height) {
+  int w1 = 0, h1 = 0;
+  layout_size(layout, 1, w1, h1);
+  if (width <= 0 || height <= 0 || width % w1 != 0 || height % h1 != 0) return 0;
+  const int n = width / w1;
+  return height / h1 == n ? n : 0;
+}
+
+CubeMap::CubeMap(int face_size, CubeLayout layout, CubeBasis basis, TexelGrid grid)
+    : Parameterization(0, 0), n_(face_size), layout_(layout), basis_(basis), grid_(grid) {
+  if (face_size <= 0) throw Error("cube map face size must be positive");
+  layout_size(layout, face_size, width_, height_);
+  if (layout == CubeLayout::VerticalStrip || layout == CubeLayout::HorizontalStrip) {
+    for (int f = 0; f < 6; ++f) {
+      CubeFace& cf = faces_[f];
+      cf.face = f;
+      cf.axis = kAxes[f];
+      strip_basis(basis, f, cf.right, cf.down);
+      cf.origin_x = layout == CubeLayout::HorizontalStrip ? f * n_ : 0;
+      cf.origin_y = layout == CubeLayout::VerticalStrip ? f * n_ : 0;
+    }
+  } else {
+    for (const NetCell& cell : cross_cells(layout, basis)) {
+      const int f = face_of_axis(cell.axis);
+      faces_[f] = CubeFace{f, cell.axis, cell.right, cell.down, cell.cx * n_, cell.cy * n_};
+    }
+  }
+}
+
+std::string CubeMap::describe() const {
+  return "cube " + std::to_string(n_) + "^2 faces, " + layout_name(layout_) + " " + std::to_string(width_) + "x" +
+         std::to_string(height_) + ", " + (basis_ == CubeBasis::GL ? "GL" : "envkit/OpenEXR") + " face basis, " +
+         (grid_ == TexelGrid::Corner ? "corner-sampled (OpenEXR)" : "centre-sampled");
+}
+
+int CubeMap::face_at(int i, int j) const {
+  if (i < 0 || j < 0 || i >= width_ || j >= height_) return -1;
+  for (int f = 0; f < 6; ++f) {
+    const CubeFace& cf = faces_[f];
+    if (i >= cf.origin_x && i < cf.origin_x + n_ && j >= cf.origin_y && j < cf.origin_y + n_) return f;
+  }
+  return -1;
+}
+
+// A one-texel face (N = 1) has no spacing to divide by in the corner grid; like OpenEXR it looks at the
+// face centre, and we let it cover the whole face.
+double CubeMap::face_coord(double local) const {
+  if (grid_ == TexelGrid::Corner && n_ > 1) return 2.0 * (local - 0.5) / (n_ - 1) - 1.0;
+  return 2.0 * local / n_ - 1.0;
+}
+
+double CubeMap::local_coord(double a) const {
+  if (grid_ == TexelGrid::Corner && n_ > 1) return (a + 1.0) * 0.5 * (n_ - 1) + 0.5;
+  return (a + 1.0) * 0.5 * n_;
+}
+
+bool CubeMap::to_direction(Vec2 pos, Vec3& dir) const {
+  const int f = face_at(static_cast<int>(std::floor(pos.x)), static_cast<int>(std::floor(pos.y)));
+  if (f < 0) return false;
+  const CubeFace& cf = faces_[f];
+  const double a = face_coord(pos.x - cf.origin_x), b = face_coord(pos.y - cf.origin_y);
+  dir = (cf.axis + a * cf.right + b * cf.down).normalized();
+  return true;
+}
+
+Vec2 CubeMap::to_image(const Vec3& d) const {
+  // Major axis picks the face; ties go to the first face in order (as OpenEXR does).
+  const double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
+  int f;
+  if (ax >= ay && ax >= az) f = d.x >= 0 ? 0 : 1;
+  else if (ay >= az) f = d.y >= 0 ? 2 : 3;
+  else f = d.z >= 0 ? 4 : 5;
+  const CubeFace& cf = faces_[f];
+  const double major = d ^ cf.axis;
+  if (!(major > 0.0)) return Vec2(cf.origin_x + 0.5 * n_, cf.origin_y + 0.5 * n_);  // zero vector
+  const double a = std::clamp((d ^ cf.right) / major, -1.0, 1.0);
+  const double b = std::clamp((d ^ cf.down) / major, -1.0, 1.0);
+  const double limit = std::nextafter(static_cast<double>(n_), 0.0);
+  const double lx = std::clamp(local_coord(a), 0.0, limit), ly = std::clamp(local_coord(b), 0.0, limit);
+  return Vec2(cf.origin_x + lx, cf.origin_y + ly);
+}
+
+double CubeMap::face_rect_solid_angle(double a0, double b0, double a1, double b1) {
+  // Solid angle subtended by [0, a] x [0, b] on the plane at unit distance is atan(a b / sqrt(a^2 + b^2 + 1)).
+  auto corner = [](double a, double b) { return std::atan2(a * b, std::sqrt(a * a + b * b + 1.0)); };
+  return std::abs(corner(a1, b1) - corner(a0, b1) - corner(a1, b0) + corner(a0, b0));
+}
+
+double CubeMap::solid_angle(double x0, double y0, double x1, double y1) const {
+  double total = 0.0;
+  for (const CubeFace& cf : faces_) {
+    // Overlap of the rectangle with this face's square, in face-local pixels.
+    const double lx0 = std::max(x0 - cf.origin_x, 0.0), lx1 = std::min(x1 - cf.origin_x, static_cast<double>(n_));
+    const double ly0 = std::max(y0 - cf.origin_y, 0.0), ly1 = std::min(y1 - cf.origin_y, static_cast<double>(n_));
+    if (lx1 <= lx0 || ly1 <= ly0) continue;
+    // Corner grids: half texels that stick out beyond the cube edges hold no extra area.
+    const double a0 = std::clamp(face_coord(lx0), -1.0, 1.0), a1 = std::clamp(face_coord(lx1), -1.0, 1.0);
+    const double b0 = std::clamp(face_coord(ly0), -1.0, 1.0), b1 = std::clamp(face_coord(ly1), -1.0, 1.0);
+    if (a1 > a0 && b1 > b0) total += face_rect_solid_angle(a0, b0, a1, b1);
+  }
+  return total;
+}
+
+bool CubeMap::resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const {
+  const int f = face_at(anchor_i, anchor_j);
+  if (f < 0) return clamp_tap(i, j);
+  const CubeFace& cf = faces_[f];
+  const int li = i - cf.origin_x, lj = j - cf.origin_y;
+  if (li >= 0 && li < n_ && lj >= 0 && lj < n_) return true;  // same face
+  // Extend the anchor's face plane to the tap's centre and re-project onto the face that sees it.
+  const Vec3 dir = cf.axis + face_coord(li + 0.5) * cf.right + face_coord(lj + 0.5) * cf.down;
+  const Vec2 p = to_image(dir);
+  i = std::min(static_cast<int>(p.x), width_ - 1);
+  j = std::min(static_cast<int>(p.y), height_ - 1);
+  return true;
+}
+
+}  // namespace envkit

@@ -1,0 +1,92 @@
+#include <envkit/latlong.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace envkit {
+
+LatLongMap::LatLongMap(int width, int height, TexelGrid grid) : Parameterization(width, height), grid_(grid) {}
+
+std::string LatLongMap::describe() const {
+  return "latlong " + std::to_string(width_) + "x" + std::to_string(height_) +
+         (grid_ == TexelGrid::Corner ? ", corner-sampled (OpenEXR)" : ", centre-sampled");
+}
+
+Vec3 LatLongMap::direction_from_uv(double u, double v) {
+  const double lat = kPi * (0.5 - v);
+  const double lon = kPi - kTwoPi * u;
+  const double cos_lat = std::cos(lat);
+  return Vec3(std::sin(lon) * cos_lat, std::sin(lat), std::cos(lon) * cos_lat);
+}
+
+Vec2 LatLongMap::uv_from_direction(const Vec3& d) {
+  const double horizontal = std::hypot(d.x, d.z);
+  const double lat = std::atan2(d.y, horizontal);  // accurate near the poles, unlike asin
+  const double lon = (horizontal == 0.0) ? 0.0 : std::atan2(d.x, d.z);
+  double u = (kPi - lon) / kTwoPi;
+  if (u >= 1.0) u -= 1.0;
+  if (u < 0.0) u = 0.0;
+  return Vec2(u, 0.5 - lat / kPi);
+}
+
+// Corner grid: texel centre i + 0.5 sits at u = i / (W - 1). A one-texel axis has no spacing to divide by:
+// it is treated as centre-sampled, like OpenEXR, which maps it to longitude/latitude 0.
+Vec2 LatLongMap::domain_from_image(Vec2 p) const {
+  if (grid_ == TexelGrid::Centre) return Vec2(p.x / width_, p.y / height_);
+  const double u = width_ > 1 ? (p.x - 0.5) / (width_ - 1) : p.x / width_;
+  const double v = height_ > 1 ? (p.y - 0.5) / (height_ - 1) : p.y / height_;
+  return Vec2(u, v);
+}
+
+Vec2 LatLongMap::image_from_domain(Vec2 uv) const {
+  if (grid_ == TexelGrid::Centre) return Vec2(uv.x * width_, uv.y * height_);
+  const double x = width_ > 1 ? uv.x * (width_ - 1) + 0.5 : uv.x * width_;
+  const double y = height_ > 1 ? uv.y * (height_ - 1) + 0.5 : uv.y * height_;
+  return Vec2(x, y);
+}
+
+bool LatLongMap::to_direction(Vec2 pos, Vec3& dir) const {
+  const Vec2 uv = domain_from_image(pos);
+  dir = direction_from_uv(uv.x, std::clamp(uv.y, 0.0, 1.0));
+  return true;
+}
+
+Vec2 LatLongMap::to_image(const Vec3& dir) const {
+  Vec2 p = image_from_domain(uv_from_direction(dir));
+  // Keep the result inside the image: u = 1 - epsilon may round up to x = W.
+  p.x = std::min(p.x, std::nextafter(static_cast<double>(width_), 0.0));
+  p.y = std::clamp(p.y, 0.0, std::nextafter(static_cast<double>(height_), 0.0));
+  return p;
+}
+
+namespace {
+// cos(a) - cos(b) without cancellation for nearby a, b.
+double cos_difference(double a, double b) { return 2.0 * std::sin(0.5 * (b + a)) * std::sin(0.5 * (b - a)); }
+}  // namespace
+
+double LatLongMap::solid_angle(double x0, double y0, double x1, double y1) const {
+  Vec2 d0 = domain_from_image(Vec2(x0, y0));
+  Vec2 d1 = domain_from_image(Vec2(x1, y1));
+  // Corner grids: the half texels beyond the poles and beyond the duplicated seam hold no extra area.
+  const double du = std::clamp(d1.x, 0.0, 1.0) - std::clamp(d0.x, 0.0, 1.0);
+  const double v0 = std::clamp(d0.y, 0.0, 1.0), v1 = std::clamp(d1.y, 0.0, 1.0);
+  if (du <= 0.0 || v1 <= v0) return 0.0;
+  return kTwoPi * du * cos_difference(kPi * v0, kPi * v1);
+}
+
+double LatLongMap::row_solid_angle(int j) const {
+  const int i = width_ > 2 ? 1 : 0;  // an interior column (corner grids halve the edge columns)
+  return texel_solid_angle(i, j);
+}
+
+bool LatLongMap::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const {
+  // Longitude wraps with the period of the grid (a corner grid repeats column 0 as column W-1);
+  // latitude clamps.
+  const int period = (grid_ == TexelGrid::Corner && width_ > 1) ? width_ - 1 : width_;
+  i %= period;
+  if (i < 0) i += period;
+  j = std::clamp(j, 0, height_ - 1);
+  return true;
+}
+
+}  // namespace envkit
