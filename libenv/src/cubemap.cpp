@@ -160,9 +160,11 @@ Vec2 CubeMap::to_image(const Vec3& d) const {
   if (!(major > 0.0)) return Vec2(cf.origin_x + 0.5 * n_, cf.origin_y + 0.5 * n_);  // zero vector
   const double a = std::clamp((d ^ cf.right) / major, -1.0, 1.0);
   const double b = std::clamp((d ^ cf.down) / major, -1.0, 1.0);
-  const double limit = std::nextafter(static_cast<double>(n_), 0.0);
-  const double lx = std::clamp(local_coord(a), 0.0, limit), ly = std::clamp(local_coord(b), 0.0, limit);
-  return Vec2(cf.origin_x + lx, cf.origin_y + ly);
+  // Clamp the final coordinates (not the face-local ones): origin + (n - ulp) can round up onto the next cell.
+  const double x0 = cf.origin_x, y0 = cf.origin_y;
+  const double x = std::clamp(x0 + local_coord(a), x0, std::nextafter(x0 + n_, x0));
+  const double y = std::clamp(y0 + local_coord(b), y0, std::nextafter(y0 + n_, y0));
+  return Vec2(x, y);
 }
 
 double CubeMap::face_rect_solid_angle(double a0, double b0, double a1, double b1) {

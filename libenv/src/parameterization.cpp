@@ -38,6 +38,19 @@ bool Parameterization::clamp_tap(int& i, int& j) const {
   return true;
 }
 
+bool Parameterization::covered_point(int i, int j, Vec2& pos) const {
+  Vec3 dir;
+  pos = Vec2(i + 0.5, j + 0.5);
+  if (to_direction(pos, dir)) return true;
+  for (int n : {4, 16, 64})
+    for (int b = 0; b < n; ++b)
+      for (int a = 0; a < n; ++a) {
+        pos = Vec2(i + (a + 0.5) / n, j + (b + 0.5) / n);
+        if (to_direction(pos, dir)) return true;
+      }
+  return false;
+}
+
 bool Parameterization::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const {
   return clamp_tap(i, j);
 }

@@ -1,5 +1,6 @@
 #include <envkit/radial_map.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -27,6 +28,18 @@ int RadialMap::disk_at(Vec2 pos) const {
 int RadialMap::disk_for_direction(const Vec3& dir) const {
   if (disks_.size() < 2) return 0;
   return (dir ^ disks_[0].axis) >= 0.0 ? 0 : 1;
+}
+
+bool RadialMap::covered_point(int i, int j, Vec2& pos) const {
+  pos = Vec2(i + 0.5, j + 0.5);
+  if (disk_at(pos) >= 0) return true;
+  // The texel's point nearest to a disk centre is covered if any point of the texel is.
+  for (const Disk& d : disks_) {
+    const double e = 1e-9;
+    pos = Vec2(std::clamp(d.cx, i + e, i + 1 - e), std::clamp(d.cy, j + e, j + 1 - e));
+    if (disk_at(pos) >= 0) return true;
+  }
+  return false;
 }
 
 bool RadialMap::to_direction(Vec2 pos, Vec3& dir) const {

@@ -64,6 +64,10 @@ class Parameterization {
   /// Exact solid angle of texel (i, j); 0 for texels that hold no data.
   double texel_solid_angle(int i, int j) const { return solid_angle(i, j, i + 1.0, j + 1.0); }
 
+  /// A position inside texel (i, j) that holds data: the centre when it does, otherwise (a rim texel holding a
+  /// sliver of a disk) some covered point of the texel. False when the texel holds no data at all.
+  virtual bool covered_point(int i, int j, Vec2& pos) const;
+
   /// Filter taps may fall outside the chart (face, image, disk) of the texel being reconstructed.
   /// Given the texel `anchor` the reconstruction is centred on and an integer tap (i, j), rewrite (i, j) into
   /// the texel that sees the same direction: longitude wraps, latitude clamps, cube faces re-project onto the

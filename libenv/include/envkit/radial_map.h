@@ -29,6 +29,7 @@ class RadialMap : public Parameterization {
  public:
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;
+  bool covered_point(int i, int j, Vec2& pos) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
 
   const std::vector<Disk>& disks() const { return disks_; }

@@ -1,0 +1,228 @@
+#include <envkit/distribution_alias.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cfloat>
+
+namespace envkit {
+
+namespace {
+
+using sampling::clamp_decision;
+using sampling::clamp_offset;
+using sampling::sanitize_weight;
+
+constexpr std::size_t kParallelTexels = std::size_t(1) << 16;
+
+/// Vose's alias method in double. weight(i) >= 0 with sum `sum` > 0 (the caller handles the uniform case).
+/// Writes keep/alias of bins[0..n). scaled and work are scratch arrays of n entries.
+/// Deterministic: the work lists are processed in a fixed order.
+template <class Bin, class WeightFn>
+void build_vose(int n, const WeightFn& weight, double sum, Bin* bins, double* scaled, std::uint32_t* work) {
+  // Small items stack up from the front of `work`, large ones from the back; together never more than n.
+  int n_small = 0, n_large = 0;
+  std::uint32_t some_positive = 0;
+  const double scale = double(n) / sum;
+  for (int i = 0; i < n; ++i) {
+    const double w = weight(i);
+    scaled[i] = w * scale;
+    if (w > 0.0) some_positive = std::uint32_t(i);
+    if (scaled[i] < 1.0)
+      work[n_small++] = std::uint32_t(i);
+    else
+      work[n - 1 - n_large++] = std::uint32_t(i);
+  }
+  while (n_small > 0 && n_large > 0) {
+    const std::uint32_t s = work[--n_small];
+    const std::uint32_t l = work[n - n_large];
+    // q of a positive bin must not round to 0 (it would become unreachable while pdf says otherwise).
+    float keep = static_cast<float>(std::clamp(scaled[s], 0.0, 1.0));
+    if (keep == 0.0f && weight(int(s)) > 0.0) keep = FLT_TRUE_MIN;
+    bins[s].keep = keep;
+    bins[s].alias = l;
+    scaled[l] = (scaled[l] + scaled[s]) - 1.0;  // Vose's form: the donation 1 - scaled[s] in one rounding
+    if (scaled[l] < 1.0) {
+      --n_large;
+      work[n_small++] = l;
+    }
+  }
+  while (n_large > 0) {
+    const std::uint32_t l = work[n - n_large--];
+    bins[l].keep = 1.0f;
+    bins[l].alias = l;
+  }
+  // Leftover small items are ~1 up to rounding, except that a zero-weight bin must never be kept.
+  while (n_small > 0) {
+    const std::uint32_t s = work[--n_small];
+    const bool positive = weight(int(s)) > 0.0;
+    bins[s].keep = positive ? 1.0f : 0.0f;
+    bins[s].alias = positive ? s : some_positive;
+  }
+}
+
+template <class Bin>
+void make_uniform(int n, Bin* bins) {
+  for (int i = 0; i < n; ++i) {
+    bins[i].keep = 1.0f;
+    bins[i].alias = std::uint32_t(i);
+  }
+}
+
+/// The alias step shared by 1D and 2D: u (clamped) in [0,1) over n bins -> chosen bin and the uniform fraction
+/// left over for the position inside it.
+template <class Bin>
+int alias_pick(const Bin* bins, int n, double u, double& offset) {
+  const double s = clamp_decision(u) * n;
+  const int candidate = std::min(static_cast<int>(s), n - 1);
+  const double coin = clamp_decision(s - candidate);
+  const double keep = bins[candidate].keep;
+  if (coin < keep) {  // keep == 0 never keeps; keep == 1 always does (coin < 1)
+    offset = clamp_offset(coin / keep);
+    return candidate;
+  }
+  offset = clamp_offset((coin - keep) / (1.0 - keep));
+  return static_cast<int>(bins[candidate].alias);
+}
+
+/// Probability alias_pick() returns bin i: its own keep share plus every donation aimed at it, over n. O(n).
+template <class Bin>
+double alias_probability(const Bin* bins, int n, int i) {
+  double p = bins[i].keep;
+  for (int j = 0; j < n; ++j)
+    if (bins[j].alias == std::uint32_t(i)) p += 1.0 - double(bins[j].keep);
+  return p / n;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------------
+// AliasTable1D
+
+AliasTable1D::AliasTable1D(std::span<const float> weights) {
+  if (weights.empty() || weights.size() > std::size_t(kMaxDistributionSize))
+    throw Error("AliasTable1D: need 1.." + std::to_string(kMaxDistributionSize) + " weights, got " +
+                std::to_string(weights.size()));
+  const int n = static_cast<int>(weights.size());
+  bins_.resize(weights.size());
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    bins_[i].weight = sanitize_weight(weights[std::size_t(i)]);
+    sum += bins_[i].weight;
+  }
+  integral_ = sum / n;
+  uniform_fallback_ = !(sum > 0.0);
+  if (uniform_fallback_) {
+    make_uniform(n, bins_.data());
+    for (AliasBin& b : bins_) b.weight = 1.0f;
+    pdf_scale_ = 1.0;
+    return;
+  }
+  std::vector<double> scaled(weights.size());
+  std::vector<std::uint32_t> work(weights.size());
+  build_vose(n, [&](int i) { return double(bins_[i].weight); }, sum, bins_.data(), scaled.data(), work.data());
+  pdf_scale_ = n / sum;
+}
+
+AliasTable1D::Sample AliasTable1D::sample(double u) const {
+  const int n = size();
+  double offset;
+  const int i = alias_pick(bins_.data(), n, u, offset);
+  return {(i + offset) / n, bins_[i].weight * pdf_scale_, i};
+}
+
+double AliasTable1D::pdf(double x) const {
+  if (!(x >= 0.0 && x <= 1.0) || bins_.empty()) return 0.0;
+  return bins_[sampling::texel_index(x, size())].weight * pdf_scale_;
+}
+
+double AliasTable1D::bin_probability(int i) const {
+  if (i < 0 || i >= size()) return 0.0;
+  return alias_probability(bins_.data(), size(), i);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// AliasDistribution2D
+
+AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int height)
+    : Distribution2D(weights, width, height) {
+  const std::size_t W = std::size_t(width), H = std::size_t(height);
+  texels_.resize(W * H);
+  rows_.resize(H);
+  std::vector<double> row_sum(H);
+
+  const auto build_rows = [&](int y0, int y1) {
+    std::vector<double> scaled(W);
+    std::vector<std::uint32_t> work(W);
+    for (int y = y0; y < y1; ++y) {
+      AliasBin* bins = texels_.data() + std::size_t(y) * W;
+      const float* row = weights + std::size_t(y) * W;
+      double sum = 0.0;
+      for (int x = 0; x < width; ++x) {
+        bins[x].weight = sanitize_weight(row[x]);
+        sum += bins[x].weight;
+      }
+      row_sum[y] = sum;
+      if (sum > 0.0)
+        build_vose(width, [bins](int x) { return double(bins[x].weight); }, sum, bins, scaled.data(), work.data());
+      else
+        make_uniform(width, bins);  // never drawn (zero marginal) unless the whole map is zero
+    }
+  };
+  if (W * H >= kParallelTexels)
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 16),
+                      [&](const tbb::blocked_range<int>& r) { build_rows(r.begin(), r.end()); });
+  else
+    build_rows(0, height);
+
+  double sum = 0.0;  // fixed order: independent of the thread count
+  for (int y = 0; y < height; ++y) {
+    sum += row_sum[y];
+    fallback_rows_ += !(row_sum[y] > 0.0);
+  }
+  integral_ = sum / (double(W) * double(H));
+  uniform_fallback_ = !(sum > 0.0);
+  if (uniform_fallback_) {
+    make_uniform(height, rows_.data());
+    for (AliasBin& b : texels_) b.weight = 1.0f;
+    pdf_scale_ = 1.0;
+    return;
+  }
+  std::vector<double> scaled(H);
+  std::vector<std::uint32_t> work(H);
+  build_vose(height, [&](int y) { return row_sum[y]; }, sum, rows_.data(), scaled.data(), work.data());
+  pdf_scale_ = (double(W) * double(H)) / sum;
+}
+
+DistributionSample AliasDistribution2D::sample(Vec2 u) const {
+  double oy, ox;
+  const int y = alias_pick(rows_.data(), height_, u.y, oy);
+  const AliasBin* row = texels_.data() + std::size_t(y) * std::size_t(width_);
+  const int x = alias_pick(row, width_, u.x, ox);
+  DistributionSample s;
+  s.uv = Vec2((x + ox) / width_, (y + oy) / height_);
+  s.pdf = row[x].weight * pdf_scale_;
+  s.x = x;
+  s.y = y;
+  return s;
+}
+
+double AliasDistribution2D::pdf(Vec2 uv) const {
+  if (!sampling::in_unit_square(uv)) return 0.0;
+  const int x = sampling::texel_index(uv.x, width_);
+  const int y = sampling::texel_index(uv.y, height_);
+  return texels_[std::size_t(y) * std::size_t(width_) + std::size_t(x)].weight * pdf_scale_;
+}
+
+double AliasDistribution2D::texel_probability(int x, int y) const {
+  if (x < 0 || x >= width_ || y < 0 || y >= height_) return 0.0;
+  return alias_probability(rows_.data(), height_, y) *
+         alias_probability(texels_.data() + std::size_t(y) * std::size_t(width_), width_, x);
+}
+
+std::size_t AliasDistribution2D::bytes() const {
+  return texels_.capacity() * sizeof(AliasBin) + rows_.capacity() * sizeof(RowBin);
+}
+
+}  // namespace envkit

@@ -1,0 +1,252 @@
+#include <envkit/distribution_cdf.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace envkit {
+
+namespace {
+
+using sampling::clamp_decision;
+using sampling::clamp_offset;
+using sampling::sanitize_weight;
+
+/// Grids with at least this many texels build their rows in parallel.
+constexpr std::size_t kParallelTexels = std::size_t(1) << 16;
+
+/// Read-only view of a two-sided CDF of n bins: t[0..n], entries below `split` hold cdf[i], entries from `split`
+/// on hold 1 - cdf[i] (see distribution_cdf.h). Bin i is [lower(i), lower(i+1)) in u.
+struct TwoSidedCdf {
+  const float* t;
+  int n;
+  int split;
+
+  /// Bin probability, computed in double from the two stored floats (exact except at the junction bin, where
+  /// 1 - t may round by 2^-53).
+  double step(int i) const {
+    if (i + 1 < split) return double(t[i + 1]) - double(t[i]);
+    if (i >= split) return double(t[i]) - double(t[i + 1]);
+    return (1.0 - double(t[i + 1])) - double(t[i]);
+  }
+
+  /// u at the start of bin i.
+  double lower(int i) const { return i < split ? double(t[i]) : 1.0 - double(t[i]); }
+
+  /// The bin containing u (u in [0, kOneMinusEpsilon]) and the fraction of the bin before u. Never returns a
+  /// zero-step bin: with lower(i) <= u < lower(i+1) the step is positive.
+  int find(double u, double& fraction, double& bin_step) const {
+    int i;
+    // For u >= 1/2, r = 1 - u is exact (Sterbenz), so comparisons with the stored remaining mass are exact too.
+    const double r = 1.0 - u;
+    if (u < 0.5 || double(t[split]) < r) {
+      // Bin in the forward part: the last entry <= u among t[0..split) (t[0] = 0 <= u).
+      const float* p = std::upper_bound(t, t + split, u, [](double v, float e) { return v < double(e); });
+      i = static_cast<int>(p - t) - 1;
+      bin_step = step(i);
+      fraction = (u - double(t[i])) / bin_step;
+    } else {
+      // Bin in the backward part: t decreases there; the last entry with remaining mass >= r. t[n] = 0 < r.
+      const float* p = std::partition_point(t + split, t + n, [r](float e) { return double(e) >= r; });
+      i = static_cast<int>(p - t) - 1;
+      bin_step = step(i);
+      fraction = (double(t[i]) - r) / bin_step;
+    }
+    return i;
+  }
+
+  /// The u at fraction f of bin i.
+  double invert(int i, double f) const {
+    const double s = step(i);
+    return i < split ? double(t[i]) + f * s : 1.0 - (double(t[i]) - f * s);
+  }
+};
+
+struct CdfBuild {
+  double sum = 0.0;             // sum of the (sanitised) weights, double
+  int split = 0;
+  bool uniform = false;         // all weights were zero: uniform bins instead
+  std::size_t unreachable = 0;  // positive-weight bins that got a zero step
+  std::size_t positive = 0;     // positive-weight bins
+};
+
+/// Builds the two-sided CDF of n bins with weights weight(i) (double, >= 0) into t[0..n].
+template <class WeightFn>
+CdfBuild build_two_sided(int n, const WeightFn& weight, float* t) {
+  CdfBuild b;
+  for (int i = 0; i < n; ++i) {
+    const double w = weight(i);
+    b.sum += w;
+    b.positive += w > 0.0;
+  }
+  b.uniform = !(b.sum > 0.0);
+  const auto w_at = [&](int i) { return b.uniform ? 1.0 : weight(i); };
+  const double total = b.uniform ? double(n) : b.sum;
+  const double half = 0.5 * total;
+
+  // Forward part: cumulative mass while it stays <= half of the total.
+  double prefix = 0.0;
+  int i = 0;
+  for (; i <= n; ++i) {
+    if (prefix > half) break;
+    t[i] = static_cast<float>(prefix / total);
+    if (i < n) prefix += w_at(i);
+  }
+  b.split = i;  // >= 1 since t[0] = 0; <= n since the full prefix exceeds half of a positive total
+  // Backward part: remaining mass accumulated from the end, so it keeps full relative precision near 1.
+  double suffix = 0.0;
+  t[n] = 0.0f;
+  for (int j = n - 1; j >= b.split; --j) {
+    suffix += w_at(j);
+    t[j] = static_cast<float>(suffix / total);
+  }
+  // Keep the junction monotone (lower(split) >= lower(split - 1)) if both halves rounded towards each other.
+  // (Only possible when the junction bin is at the rounding level; the loop keeps later entries monotone too.)
+  while (1.0 - double(t[b.split]) < double(t[b.split - 1]))
+    t[b.split] = std::nextafter(t[b.split], 0.0f);
+  for (int j = b.split + 1; j <= n && t[j] > t[j - 1]; ++j) t[j] = t[j - 1];
+
+  if (!b.uniform) {
+    const TwoSidedCdf view{t, n, b.split};
+    for (int j = 0; j < n; ++j) b.unreachable += (weight(j) > 0.0 && !(view.step(j) > 0.0));
+  }
+  return b;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------------
+// PiecewiseConstant1D
+
+PiecewiseConstant1D::PiecewiseConstant1D(std::span<const float> weights) {
+  if (weights.empty() || weights.size() > std::size_t(kMaxDistributionSize))
+    throw Error("PiecewiseConstant1D: need 1.." + std::to_string(kMaxDistributionSize) + " weights, got " +
+                std::to_string(weights.size()));
+  n_ = static_cast<int>(weights.size());
+  cdf_.resize(std::size_t(n_) + 1);
+  const CdfBuild b = build_two_sided(
+      n_, [&](int i) { return double(sanitize_weight(weights[std::size_t(i)])); }, cdf_.data());
+  split_ = b.split;
+  integral_ = b.sum / n_;
+  uniform_fallback_ = b.uniform;
+}
+
+PiecewiseConstant1D::Sample PiecewiseConstant1D::sample(double u) const {
+  const TwoSidedCdf view{cdf_.data(), n_, split_};
+  double fraction, step;
+  const int i = view.find(clamp_decision(u), fraction, step);
+  return {(i + clamp_offset(fraction)) / n_, step * n_, i};
+}
+
+double PiecewiseConstant1D::pdf(double x) const {
+  if (!(x >= 0.0 && x <= 1.0)) return 0.0;
+  return bin_probability(sampling::texel_index(x, n_)) * n_;
+}
+
+double PiecewiseConstant1D::invert(double x) const {
+  x = x > 0.0 ? std::min(x, 1.0) : 0.0;
+  const int i = sampling::texel_index(x, n_);
+  const TwoSidedCdf view{cdf_.data(), n_, split_};
+  return clamp_decision(view.invert(i, x * n_ - i));
+}
+
+double PiecewiseConstant1D::bin_probability(int i) const {
+  if (i < 0 || i >= n_) return 0.0;
+  return TwoSidedCdf{cdf_.data(), n_, split_}.step(i);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// CdfDistribution2D
+
+CdfDistribution2D::CdfDistribution2D(const float* weights, int width, int height)
+    : Distribution2D(weights, width, height) {
+  const std::size_t W = std::size_t(width), H = std::size_t(height), stride = W + 1;
+  conditional_.resize(stride * H);
+  row_split_.resize(H);
+  std::vector<double> row_sum(H);
+  std::vector<std::size_t> row_positive(H), row_unreachable(H);
+  std::vector<char> row_uniform(H);
+
+  const auto build_rows = [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const float* row = weights + std::size_t(y) * W;
+      const CdfBuild b = build_two_sided(
+          width, [row](int x) { return double(sanitize_weight(row[x])); }, conditional_.data() + stride * y);
+      row_split_[y] = b.split;
+      row_sum[y] = b.sum;
+      row_positive[y] = b.positive;
+      row_unreachable[y] = b.unreachable;
+      row_uniform[y] = b.uniform;
+    }
+  };
+  if (W * H >= kParallelTexels)
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 16),
+                      [&](const tbb::blocked_range<int>& r) { build_rows(r.begin(), r.end()); });
+  else
+    build_rows(0, height);
+
+  marginal_.resize(H + 1);
+  const CdfBuild m = build_two_sided(height, [&](int y) { return row_sum[y]; }, marginal_.data());
+  marginal_split_ = m.split;
+
+  // Sequential, fixed-order reductions: identical whatever the thread count.
+  integral_ = m.sum / (double(W) * double(H));
+  uniform_fallback_ = m.uniform;
+  const TwoSidedCdf marginal{marginal_.data(), height, marginal_split_};
+  for (int y = 0; y < height; ++y) {
+    fallback_rows_ += row_uniform[y] != 0;
+    // A row whose marginal step rounded to zero loses all its texels; otherwise only its zero-step bins.
+    unreachable_texels_ += (m.uniform || marginal.step(y) > 0.0) ? row_unreachable[y] : row_positive[y];
+  }
+}
+
+DistributionSample CdfDistribution2D::sample(Vec2 u) const {
+  const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
+  double fy, step_y;
+  const int y = marginal.find(clamp_decision(u.y), fy, step_y);
+  const TwoSidedCdf row{conditional_.data() + std::size_t(y) * (std::size_t(width_) + 1), width_, row_split_[y]};
+  double fx, step_x;
+  const int x = row.find(clamp_decision(u.x), fx, step_x);
+
+  DistributionSample s;
+  s.uv = Vec2((x + clamp_offset(fx)) / width_, (y + clamp_offset(fy)) / height_);
+  s.pdf = (step_y * height_) * (step_x * width_);
+  s.x = x;
+  s.y = y;
+  return s;
+}
+
+double CdfDistribution2D::texel_probability(int x, int y) const {
+  if (x < 0 || x >= width_ || y < 0 || y >= height_) return 0.0;
+  const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
+  const TwoSidedCdf row{conditional_.data() + std::size_t(y) * (std::size_t(width_) + 1), width_, row_split_[y]};
+  return marginal.step(y) * row.step(x);
+}
+
+double CdfDistribution2D::pdf(Vec2 uv) const {
+  if (!sampling::in_unit_square(uv)) return 0.0;
+  const int x = sampling::texel_index(uv.x, width_);
+  const int y = sampling::texel_index(uv.y, height_);
+  // Same expression as in sample(), so pdf(sample(u).uv) == sample(u).pdf bit for bit.
+  const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
+  const TwoSidedCdf row{conditional_.data() + std::size_t(y) * (std::size_t(width_) + 1), width_, row_split_[y]};
+  return (marginal.step(y) * height_) * (row.step(x) * width_);
+}
+
+Vec2 CdfDistribution2D::invert(Vec2 uv) const {
+  uv = sampling::clamp_uv(uv);
+  const int x = sampling::texel_index(uv.x, width_);
+  const int y = sampling::texel_index(uv.y, height_);
+  const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
+  const TwoSidedCdf row{conditional_.data() + std::size_t(y) * (std::size_t(width_) + 1), width_, row_split_[y]};
+  return Vec2(clamp_decision(row.invert(x, uv.x * width_ - x)), clamp_decision(marginal.invert(y, uv.y * height_ - y)));
+}
+
+std::size_t CdfDistribution2D::bytes() const {
+  return conditional_.capacity() * sizeof(float) + row_split_.capacity() * sizeof(std::int32_t) +
+         marginal_.capacity() * sizeof(float);
+}
+
+}  // namespace envkit

@@ -1,0 +1,205 @@
+#include <envkit/distribution_pyramid.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace envkit {
+
+namespace {
+
+using sampling::clamp_decision;
+using sampling::clamp_offset;
+using sampling::sanitize_weight;
+
+/// Levels with at least this many nodes are built in parallel (each task writes its own rows of nodes).
+constexpr std::size_t kParallelNodes = std::size_t(1) << 14;
+/// Totals above this are stored scaled down by a power of two, so float node sums cannot overflow.
+constexpr double kMaxStoredTotal = 0x1p120;
+
+template <class Body>
+void for_rows(int rows, std::size_t nodes, const Body& body) {
+  if (nodes >= kParallelNodes)
+    tbb::parallel_for(tbb::blocked_range<int>(0, rows, 8), [&](const tbb::blocked_range<int>& r) {
+      for (int j = r.begin(); j < r.end(); ++j) body(j);
+    });
+  else
+    for (int j = 0; j < rows; ++j) body(j);
+}
+
+/// Probability of the left column pair and, within column dx, of the top child (sample() draws them by comparing
+/// u x sum with the left/top sum; the same ratios up to the rounding of that product).
+inline double left_share(const float* c) {
+  const double left = double(c[0]) + double(c[2]);
+  return left / (left + (double(c[1]) + double(c[3])));
+}
+inline double top_share(const float* c, int dx) {
+  const double top = c[dx];
+  return top / (top + double(c[2 + dx]));
+}
+
+}  // namespace
+
+PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, int height)
+    : Distribution2D(weights, width, height) {
+  // Level sizes: ceil-halving down to 1 x 1, with at least one level above the weights.
+  levels_.push_back({width, height, 0});
+  while (levels_.size() == 1 || levels_.back().width > 1 || levels_.back().height > 1)
+    levels_.push_back({(levels_.back().width + 1) / 2, (levels_.back().height + 1) / 2, 0});
+  const int top = levels();
+  std::size_t size = 0;
+  for (int k = 0; k < top; ++k) {
+    levels_[k].offset = size;
+    size += 4 * std::size_t(levels_[k + 1].width) * std::size_t(levels_[k + 1].height);
+  }
+  nodes_.assign(size, 0.0f);
+
+  const std::size_t W = std::size_t(width);
+  const int w1 = levels_[1].width, h1 = levels_[1].height;
+  std::vector<double> sums(std::size_t(w1) * std::size_t(h1));
+
+  // Level 0 from leaf values leaf_value(x, y) (sanitised weight, possibly scaled, or 1 for the fallback);
+  // level-1 sums in double from the stored floats, so the sums describe exactly what is stored.
+  const auto fill_leaves = [&](const auto& leaf_value) {
+    for_rows(h1, sums.size(), [&](int j) {
+      for (int i = 0; i < w1; ++i) {
+        float* c = nodes_.data() + (std::size_t(j) * std::size_t(w1) + std::size_t(i)) * 4;
+        double s = 0.0;
+        for (int d = 0; d < 4; ++d) {
+          const int x = 2 * i + (d & 1), y = 2 * j + (d >> 1);
+          c[d] = (x < width && y < height) ? leaf_value(x, y) : 0.0f;
+          s += c[d];
+        }
+        sums[std::size_t(j) * std::size_t(w1) + std::size_t(i)] = s;
+      }
+    });
+  };
+  // Upper levels: node values are the double sums of the level below, rounded to float once each. Consumes
+  // `sums`; returns the root, the pairwise double sum of the stored leaves.
+  const auto build_upper = [&]() {
+    std::vector<double> next;
+    for (int k = 1; k < top; ++k) {
+      const int cw = levels_[k].width, ch = levels_[k].height;
+      const int pw = levels_[k + 1].width, ph = levels_[k + 1].height;
+      next.assign(std::size_t(pw) * std::size_t(ph), 0.0);
+      for_rows(ph, next.size() * 4, [&](int j) {
+        for (int i = 0; i < pw; ++i) {
+          float* c = nodes_.data() + levels_[k].offset + (std::size_t(j) * std::size_t(pw) + std::size_t(i)) * 4;
+          double s = 0.0;
+          for (int d = 0; d < 4; ++d) {
+            const int x = 2 * i + (d & 1), y = 2 * j + (d >> 1);
+            const double v = (x < cw && y < ch) ? sums[std::size_t(y) * std::size_t(cw) + std::size_t(x)] : 0.0;
+            c[d] = static_cast<float>(v);
+            s += v;
+          }
+          next[std::size_t(j) * std::size_t(pw) + std::size_t(i)] = s;
+        }
+      });
+      sums.swap(next);
+    }
+    return sums[0];
+  };
+
+  fill_leaves([&](int x, int y) { return sanitize_weight(weights[std::size_t(y) * W + std::size_t(x)]); });
+  const double total = build_upper();
+  integral_ = total / (double(width) * double(height));
+  double root = total;
+  if (!(total > 0.0)) {
+    uniform_fallback_ = true;
+    sums.assign(std::size_t(w1) * std::size_t(h1), 0.0);
+    fill_leaves([](int, int) { return 1.0f; });
+    root = build_upper();
+  } else if (total > kMaxStoredTotal) {
+    const int shift = std::ilogb(total);  // scaled total in [1, 2): no upper node can overflow
+    sums.assign(std::size_t(w1) * std::size_t(h1), 0.0);
+    fill_leaves([&](int x, int y) {
+      return static_cast<float>(std::ldexp(double(sanitize_weight(weights[std::size_t(y) * W + std::size_t(x)])),
+                                           -shift));
+    });
+    root = build_upper();
+  }
+  pdf_scale_ = (double(width) * double(height)) / root;
+}
+
+DistributionSample PyramidDistribution2D::sample(Vec2 u) const {
+  double ux = clamp_decision(u.x), uy = clamp_decision(u.y);
+  int i = 0, j = 0;
+  for (int k = levels() - 1; k >= 0; --k) {
+    const float* c = children(k, i, j);
+    if (k > 0) {
+      // The next block is one of the children's blocks: two 32-byte pairs, rows 2j and 2j + 1. Fetching both
+      // now hides the miss behind this level's arithmetic on large maps.
+      __builtin_prefetch(children(k - 1, 2 * i, 2 * j));
+      __builtin_prefetch(children(k - 1, 2 * i, std::min(2 * j + 1, levels_[k].height - 1)));
+    }
+    // Decide by comparing u x sum with the left (top) sum: one division per axis and level, and it only feeds
+    // the next level. Visited nodes have a positive sum; a zero-sum side is never chosen (u x sum < sum).
+    // Written without branches: the choices are data-dependent coin flips that no predictor can learn.
+    const double col[2] = {double(c[0]) + double(c[2]), double(c[1]) + double(c[3])};
+    const double tx = ux * (col[0] + col[1]);
+    const int dx = tx >= col[0];
+    ux = clamp_decision((tx - col[0] * dx) / col[dx]);
+    const double cell[2] = {c[dx], c[2 + dx]};
+    const double ty = uy * (cell[0] + cell[1]);
+    const int dy = ty >= cell[0];
+    uy = clamp_decision((ty - cell[0] * dy) / cell[dy]);
+    i = 2 * i + dx;
+    j = 2 * j + dy;
+  }
+  DistributionSample s;
+  s.uv = Vec2((i + clamp_offset(ux)) / width_, (j + clamp_offset(uy)) / height_);
+  s.pdf = leaf(i, j) * pdf_scale_;
+  s.x = i;
+  s.y = j;
+  return s;
+}
+
+double PyramidDistribution2D::pdf(Vec2 uv) const {
+  if (!sampling::in_unit_square(uv)) return 0.0;
+  return leaf(sampling::texel_index(uv.x, width_), sampling::texel_index(uv.y, height_)) * pdf_scale_;
+}
+
+double PyramidDistribution2D::texel_probability(int x, int y) const {
+  if (x < 0 || x >= width_ || y < 0 || y >= height_) return 0.0;
+  double p = 1.0;
+  for (int k = 0; k < levels(); ++k) {
+    const float* c = children(k, x >> 1, y >> 1);
+    const int dx = x & 1, dy = y & 1;
+    const double pl = left_share(c), pt = top_share(c, dx);
+    if (!(pl >= 0.0) || !(pt >= 0.0)) return 0.0;  // 0/0: an unreachable zero-sum node
+    p *= (dx ? 1.0 - pl : pl) * (dy ? 1.0 - pt : pt);
+    x >>= 1;
+    y >>= 1;
+  }
+  return p;
+}
+
+Vec2 PyramidDistribution2D::invert(Vec2 uv) const {
+  uv = sampling::clamp_uv(uv);
+  int x = sampling::texel_index(uv.x, width_), y = sampling::texel_index(uv.y, height_);
+  double ux = std::min(uv.x * width_ - x, 1.0), uy = std::min(uv.y * height_ - y, 1.0);
+  // Undo the choices from the leaf up, mirroring sample(): u = (left + u' right) / sum or u' left / sum.
+  // Zero-sum nodes are never sampled; they get the even split so the answer stays defined.
+  const auto undo = [](double u, int d, double first, double second) {
+    const double sum = first + second;
+    if (!(sum > 0.0)) return 0.5 * (d + u);
+    return d == 0 ? u * first / sum : (first + u * second) / sum;
+  };
+  for (int k = 0; k < levels(); ++k) {
+    const float* c = children(k, x >> 1, y >> 1);
+    const int dx = x & 1, dy = y & 1;
+    uy = undo(uy, dy, c[dx], c[2 + dx]);
+    ux = undo(ux, dx, double(c[0]) + double(c[2]), double(c[1]) + double(c[3]));
+    x >>= 1;
+    y >>= 1;
+  }
+  return Vec2(clamp_decision(ux), clamp_decision(uy));
+}
+
+std::size_t PyramidDistribution2D::bytes() const {
+  return nodes_.capacity() * sizeof(float) + levels_.capacity() * sizeof(Level);
+}
+
+}  // namespace envkit

@@ -1,0 +1,635 @@
+#include <envkit/atomic_file.h>
+#include <envkit/color.h>
+#include <envkit/error.h>
+#include <envkit/image_io.h>
+
+#include <OpenImageIO/imageio.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cfloat>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <set>
+
+namespace envkit {
+namespace fs = std::filesystem;
+
+namespace {
+
+// ---- small helpers ---------------------------------------------------------------------------------------
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+/// Library messages can span lines and name envkit's temp file; users get one line naming their path.
+std::string condense(std::string text, const std::string& temp = "", const std::string& target = "") {
+  if (!temp.empty())
+    for (std::size_t pos; (pos = text.find(temp)) != std::string::npos;) text.replace(pos, temp.size(), target);
+  for (char& c : text)
+    if (c == '\n' || c == '\r' || c == '\t') c = ' ';
+  std::string out;
+  for (char c : text)
+    if (!(c == ' ' && (out.empty() || out.back() == ' '))) out += c;
+  while (!out.empty() && out.back() == ' ') out.pop_back();
+  return out.empty() ? "unknown error" : out;
+}
+
+// ---- non-finite values -------------------------------------------------------------------------------------
+
+struct NonFiniteCounts {
+  std::size_t nan = 0, posinf = 0, neginf = 0;
+  NonFiniteCounts operator+(const NonFiniteCounts& o) const { return {nan + o.nan, posinf + o.posinf, neginf + o.neginf}; }
+};
+
+using Range = tbb::blocked_range<std::size_t>;
+constexpr std::size_t kGrain = 1 << 16;
+
+NonFiniteCounts count_nonfinite(const std::vector<float>& values) {
+  return tbb::parallel_reduce(
+      Range(0, values.size(), kGrain), NonFiniteCounts{},
+      [&](const Range& r, NonFiniteCounts acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const float v = values[i];
+          if (std::isnan(v)) ++acc.nan;
+          else if (std::isinf(v)) ++(v > 0 ? acc.posinf : acc.neginf);
+        }
+        return acc;
+      },
+      std::plus<>());
+}
+
+std::size_t count_negative(const std::vector<float>& values) {
+  return tbb::parallel_reduce(
+      Range(0, values.size(), kGrain), std::size_t{0},
+      [&](const Range& r, std::size_t acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) acc += values[i] < 0.0f ? 1 : 0;
+        return acc;
+      },
+      std::plus<>());
+}
+
+/// Largest finite value of each channel (0 for a channel without finite values).
+std::vector<float> channel_max_finite(const Image& image) {
+  const auto nc = static_cast<std::size_t>(image.channels);
+  using Maxes = std::vector<float>;
+  const Maxes lowest(nc, -std::numeric_limits<float>::infinity());
+  Maxes m = tbb::parallel_reduce(
+      Range(0, image.texel_count(), kGrain / 4), lowest,
+      [&](const Range& r, Maxes acc) {
+        for (std::size_t t = r.begin(); t != r.end(); ++t)
+          for (std::size_t c = 0; c < nc; ++c) {
+            const float v = image.pixels[t * nc + c];
+            if (std::isfinite(v)) acc[c] = std::max(acc[c], v);
+          }
+        return acc;
+      },
+      [](Maxes a, const Maxes& b) {
+        for (std::size_t c = 0; c < a.size(); ++c) a[c] = std::max(a[c], b[c]);
+        return a;
+      });
+  for (float& v : m)
+    if (!std::isfinite(v)) v = 0.0f;
+  return m;
+}
+
+void apply_nonfinite_policy(Image& image, NonFinitePolicy policy) {
+  const std::vector<float> maxes = policy == NonFinitePolicy::Clamp ? channel_max_finite(image) : std::vector<float>{};
+  const auto nc = static_cast<std::size_t>(image.channels);
+  tbb::parallel_for(Range(0, image.pixels.size(), kGrain), [&](const Range& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      float& v = image.pixels[i];
+      if (std::isfinite(v)) continue;
+      v = (policy == NonFinitePolicy::Clamp && std::isinf(v) && v > 0) ? maxes[i % nc] : 0.0f;
+    }
+  });
+}
+
+// ---- reading: header checks, layout, colour space ----------------------------------------------------------
+
+void check_header(const std::string& path, const OIIO::ImageSpec& spec, const ReadOptions& options) {
+  if (spec.deep) fail(path, "deep images are not supported");
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    fail(path, "zero-size image (" + std::to_string(spec.width) + "x" + std::to_string(spec.height) + ", " +
+                   std::to_string(spec.nchannels) + " channels)");
+  if (spec.depth > 1) fail(path, "volume images (depth " + std::to_string(spec.depth) + ") are not supported");
+  const std::string size = std::to_string(spec.width) + "x" + std::to_string(spec.height);
+  if (spec.width > options.max_side || spec.height > options.max_side)
+    fail(path, "image too large: " + size + " (envkit reads at most " + std::to_string(options.max_side) +
+                   " pixels per side)");
+  const std::int64_t texels = std::int64_t(spec.width) * std::int64_t(spec.height);
+  if (texels > options.max_texels)
+    fail(path, "image too large: " + size + " = " + std::to_string(texels) + " texels (limit " +
+                   std::to_string(options.max_texels) + ")");
+  if (spec.nchannels > 4)
+    fail(path, "unsupported channel count " + std::to_string(spec.nchannels) +
+                   " (envkit reads 1 to 4 channels: Y, YA, RGB, RGBA)");
+}
+
+int find_alpha(const OIIO::ImageSpec& spec) {
+  if (spec.alpha_channel >= 0 && spec.alpha_channel < spec.nchannels) return spec.alpha_channel;
+  for (int c = 0; c < spec.nchannels; ++c) {
+    const std::string name = lower(spec.channel_name(c));
+    if (name == "a" || name == "alpha") return c;
+  }
+  // envkit's layouts are Y, YA, RGB, RGBA: a second or fourth channel is coverage.
+  return (spec.nchannels == 2 || spec.nchannels == 4) ? spec.nchannels - 1 : -1;
+}
+
+/// Moves the alpha channel (if any, and not already last) to the end, keeping colour channels in order.
+void move_alpha_last(Image& image) {
+  const int a = image.alpha_channel;
+  const int last = image.channels - 1;
+  if (a < 0 || a == last) return;
+  const auto nc = static_cast<std::size_t>(image.channels);
+  tbb::parallel_for(Range(0, image.texel_count(), kGrain / 4), [&](const Range& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t) {
+      float* px = &image.pixels[t * nc];
+      std::rotate(px + a, px + a + 1, px + nc);
+    }
+  });
+  std::rotate(image.channel_names.begin() + a, image.channel_names.begin() + a + 1, image.channel_names.end());
+  image.alpha_channel = last;
+}
+
+bool is_eight_bit(const OIIO::ImageSpec& spec) {
+  const int bits = spec.get_int_attribute("oiio:BitsPerSample", 0);
+  return (bits > 0 && bits <= 8) || spec.format.size() == 1;
+}
+
+/// How to decode the file's pixels to the working space.
+struct Decoding {
+  std::string colorspace;  // canonical OCIO name, or empty when decoding a bare gamma
+  double gamma = 0.0;      // > 0: pure power-law decode
+  std::string reason;
+};
+
+std::optional<double> parse_gamma_tag(const std::string& tag, const OIIO::ImageSpec& spec) {
+  const std::string t = lower(tag);
+  if (t == "gammacorrected") return spec.get_float_attribute("oiio:Gamma", 2.2f);
+  if (t.rfind("gamma", 0) == 0) {
+    try {
+      const double g = std::stod(t.substr(5));
+      if (g > 0.0 && std::isfinite(g)) return g;
+    } catch (const std::exception&) {
+    }
+  }
+  return std::nullopt;
+}
+
+/// OpenEXR chromaticities (Rx Ry Gx Gy Bx By Wx Wy) of well-known linear spaces.
+std::string colorspace_from_chromaticities(const OIIO::ImageSpec& spec) {
+  const OIIO::ParamValue* p = spec.find_attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8));
+  if (!p) return "";
+  const auto* c = static_cast<const float*>(p->data());
+  struct Known {
+    const char* name;
+    std::array<float, 8> xy;
+  };
+  static const Known known[] = {
+      {"lin_rec709", {0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f}},
+      {"acescg", {0.713f, 0.293f, 0.165f, 0.830f, 0.128f, 0.044f, 0.32168f, 0.33767f}},
+      {"aces2065-1", {0.7347f, 0.2653f, 0.0f, 1.0f, 0.0001f, -0.077f, 0.32168f, 0.33767f}},
+      {"lin_p3d65", {0.680f, 0.320f, 0.265f, 0.690f, 0.150f, 0.060f, 0.3127f, 0.3290f}},
+      {"lin_rec2020", {0.708f, 0.292f, 0.170f, 0.797f, 0.131f, 0.046f, 0.3127f, 0.3290f}},
+  };
+  for (const Known& k : known) {
+    bool match = true;
+    for (int i = 0; i < 8; ++i) match = match && std::abs(c[i] - k.xy[static_cast<std::size_t>(i)]) < 2e-3f;
+    if (match) return k.name;
+  }
+  return "?";
+}
+
+/// Canonical name of `name` in the active config, or "" (never throws for unknown names).
+std::string known_colorspace(const std::string& name) {
+  try {
+    return canonical_colorspace(name);
+  } catch (const Error&) {
+    return "";
+  }
+}
+
+/// True if a colour-space tag names a transfer-encoded (non-linear) space.
+bool tag_is_encoded(const std::string& tag, const OIIO::ImageSpec& spec) {
+  if (parse_gamma_tag(tag, spec)) return true;
+  const std::string cs = known_colorspace(tag);
+  return !cs.empty() && (cs == known_colorspace("srgb") || cs == known_colorspace("rec709"));
+}
+
+Decoding decide_decoding(const OIIO::ImageSpec& spec, const std::string& format, const ReadOptions& options,
+                         ReadReport& report) {
+  if (!options.colorspace.empty()) return {canonical_colorspace(options.colorspace), 0.0, "option"};
+  const bool integer = !spec.format.is_floating_point();
+  const bool eight_bit = integer && is_eight_bit(spec);
+  if (integer && format == "openexr") {
+    // OpenEXR's UINT channels hold ids and counts, not encoded colour.
+    if (std::string raw = known_colorspace("raw"); !raw.empty()) return {raw, 0.0, "OpenEXR integer channels are data"};
+  }
+  std::string tag = spec.get_string_attribute("oiio:ColorSpace");
+  static const std::set<std::string> linear_tags = {"linear", "lin_srgb", "lin_rec709", "scene_linear", "scene-linear"};
+  const bool tag_is_linear = linear_tags.count(lower(tag)) > 0;
+
+  if (!integer && !tag.empty() && !tag_is_linear && tag_is_encoded(tag, spec)) {
+    // Float formats hold linear light. OIIO tags every PNM file (PFM included) "Rec709" by default.
+    if (format != "pnm") report.notes.push_back("float data tagged " + tag + ": taken as linear");
+    tag.clear();
+  }
+  const std::string why_tag = "file tag oiio:ColorSpace=" + tag;
+  if (!tag.empty() && !tag_is_linear) {
+    if (auto g = parse_gamma_tag(tag, spec)) return {"", *g, why_tag};
+    if (std::string cs = known_colorspace(tag); !cs.empty()) return {cs, 0.0, why_tag};
+    report.notes.push_back("unknown colour-space tag '" + tag + "' ignored");
+  }
+  if (eight_bit) {
+    if (tag_is_linear) report.notes.push_back("8-bit data tagged " + tag + ": decoded as sRGB (8 bits cannot hold linear light)");
+    return {canonical_colorspace("srgb"), 0.0, "default for 8-bit data"};
+  }
+  if (!integer) {
+    const std::string chroma = colorspace_from_chromaticities(spec);
+    if (chroma == "?") {
+      report.notes.push_back("unrecognised chromaticities attribute ignored: working-space primaries assumed");
+    } else if (!chroma.empty()) {
+      if (std::string cs = known_colorspace(chroma); !cs.empty()) return {cs, 0.0, "file chromaticities"};
+      report.notes.push_back("chromaticities match " + chroma + ", which the OCIO config lacks: working space assumed");
+    }
+  }
+  if (tag_is_linear) return {working_space(), 0.0, why_tag};
+  if (integer) return {canonical_colorspace("srgb"), 0.0, "default for integer data"};
+  return {working_space(), 0.0, "default for float data"};
+}
+
+/// Scalar string/int/float attributes as strings, plus "envmap" for OpenEXR environment maps.
+void collect_metadata(const OIIO::ImageSpec& spec, const std::string& format, Image& image) {
+  for (const OIIO::ParamValue& p : spec.extra_attribs) {
+    const OIIO::TypeDesc t = p.type();
+    if (t.arraylen != 0 || t.aggregate != OIIO::TypeDesc::SCALAR || p.nvalues() != 1) continue;
+    const bool wanted = t.basetype == OIIO::TypeDesc::STRING || t.is_floating_point() ||
+                        (t.basetype >= OIIO::TypeDesc::UINT8 && t.basetype <= OIIO::TypeDesc::INT64);
+    if (wanted) image.metadata[p.name().string()] = p.get_string(1 << 16);
+  }
+  if (format == "openexr") {
+    // OIIO maps OpenEXR's typed envmap attribute to this textureformat string.
+    const std::string tf = spec.get_string_attribute("textureformat");
+    if (tf == "LatLong Environment") image.metadata["envmap"] = "latlong";
+    else if (tf == "CubeFace Environment") image.metadata["envmap"] = "cube";
+  }
+}
+
+std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st)) fail(path, "no such file");
+  if (fs::is_directory(st)) fail(path, "is a directory");
+  // Keep unassociated alpha as stored: premultiplying must happen in linear light, after decoding.
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(path, &config);
+  if (!in) {
+    const std::string err = OIIO::geterror();
+    if (err.find("could not find a format reader") != std::string::npos)
+      fail(path, "unknown image format (no OpenImageIO reader recognises it)");
+    fail(path, "cannot read: " + condense(err));
+  }
+  return in;
+}
+
+// ---- writing --------------------------------------------------------------------------------------------------
+
+struct Target {
+  std::string format;  // OIIO format name, or "pfm" (envkit's own writer)
+  bool alpha = true;   // the format stores alpha
+  bool float_ok = false;
+  bool half_ok = false;
+  bool uint16_ok = false;
+  bool rgb_only = false;  // HDR: exactly 3 channels
+};
+
+Target describe_target(const std::string& path) {
+  const std::string ext = lower(fs::path(path).extension().string());
+  if (ext == ".pfm") return {"pfm", false, true, false, false, false};
+  if (ext.empty()) fail(path, "no file extension: cannot tell which image format to write");
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) {
+    (void)OIIO::geterror();  // clear OIIO's pending message
+    fail(path, "unknown image format '" + ext + "' (no OpenImageIO writer for it)");
+  }
+  Target t;
+  t.format = out->format_name();
+  t.alpha = out->supports("alpha");
+  t.float_ok = t.format == "openexr" || t.format == "tiff" || t.format == "hdr";
+  t.half_ok = t.format == "openexr";
+  t.uint16_ok = t.format == "png" || t.format == "tiff" || t.format == "pnm";
+  t.rgb_only = t.format == "hdr";
+  return t;
+}
+
+/// Resolves PixelType::Auto and rejects combinations the format cannot store.
+PixelType choose_pixel_type(const std::string& path, const Target& t, PixelType requested) {
+  if (requested == PixelType::Auto) return t.float_ok ? PixelType::Float : PixelType::UInt8;
+  const bool ok = (requested == PixelType::Float && t.float_ok) || (requested == PixelType::Half && t.half_ok) ||
+                  (requested == PixelType::UInt8 && !t.float_ok) ||
+                  (requested == PixelType::UInt8 && t.format == "tiff") ||
+                  (requested == PixelType::UInt16 && t.uint16_ok);
+  if (!ok) {
+    static const char* names[] = {"auto", "half", "float", "uint8", "uint16"};
+    fail(path, std::string("the ") + t.format + " format cannot store " + names[static_cast<int>(requested)] + " pixels");
+  }
+  return requested;
+}
+
+void check_writable_image(const std::string& path, const Image& image) {
+  if (image.empty()) fail(path, "cannot write an empty image");
+  if (image.channels > 4) fail(path, "cannot write " + std::to_string(image.channels) + " channels (envkit writes 1 to 4)");
+  if (image.pixels.size() != image.texel_count() * static_cast<std::size_t>(image.channels))
+    fail(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                   "x" + std::to_string(image.channels));
+  const NonFiniteCounts bad = count_nonfinite(image.pixels);
+  if (const std::size_t n = bad.nan + bad.posinf + bad.neginf; n > 0)
+    fail(path, "image has " + std::to_string(n) + " non-finite values (" + std::to_string(bad.nan) + " NaN, " +
+                   std::to_string(bad.posinf + bad.neginf) + " Inf); refusing to write");
+}
+
+/// The image reduced/expanded to what the format stores: colour channels (Y replicated to RGB when the
+/// format needs RGB), then alpha if the format keeps it.
+Image select_channels(const Image& image, const Target& t) {
+  std::vector<int> colour;
+  for (int c = 0; c < image.channels; ++c)
+    if (c != image.alpha_channel) colour.push_back(c);
+  const bool expand = t.rgb_only && colour.size() == 1;
+  const bool keep_alpha = image.alpha_channel >= 0 && t.alpha && !t.rgb_only;
+  std::vector<int> src = expand ? std::vector<int>{colour[0], colour[0], colour[0]} : colour;
+  if (keep_alpha) src.push_back(image.alpha_channel);
+
+  Image out;
+  out.width = image.width;
+  out.height = image.height;
+  out.channels = static_cast<int>(src.size());
+  out.alpha_channel = keep_alpha ? out.channels - 1 : -1;
+  const bool names_ok = image.channel_names.size() == static_cast<std::size_t>(image.channels);
+  if (expand) {
+    out.channel_names = {"R", "G", "B"};
+  } else {
+    for (int c : src) out.channel_names.push_back(names_ok ? image.channel_names[static_cast<std::size_t>(c)] : "");
+    const auto defaults = default_channel_names(out.channels);
+    for (std::size_t c = 0; c < out.channel_names.size(); ++c)
+      if (out.channel_names[c].empty()) out.channel_names[c] = defaults[c];
+  }
+  out.pixels.resize(out.texel_count() * src.size());
+  const auto in_nc = static_cast<std::size_t>(image.channels);
+  const std::size_t out_nc = src.size();
+  tbb::parallel_for(Range(0, out.texel_count(), kGrain / 4), [&](const Range& r) {
+    for (std::size_t t2 = r.begin(); t2 != r.end(); ++t2)
+      for (std::size_t c = 0; c < out_nc; ++c)
+        out.pixels[t2 * out_nc + c] = image.pixels[t2 * in_nc + static_cast<std::size_t>(src[c])];
+  });
+  return out;
+}
+
+/// Associated <-> unassociated alpha, in linear light. Unpremultiplying a zero-alpha texel gives colour 0.
+void multiply_alpha(Image& image, bool divide) {
+  const int a = image.alpha_channel;
+  if (a < 0) return;
+  const auto nc = static_cast<std::size_t>(image.channels);
+  tbb::parallel_for(Range(0, image.texel_count(), kGrain / 4), [&](const Range& r) {
+    for (std::size_t t = r.begin(); t != r.end(); ++t) {
+      float* px = &image.pixels[t * nc];
+      const float alpha = px[a];
+      for (std::size_t c = 0; c < nc; ++c) {
+        if (static_cast<int>(c) == a) continue;
+        px[c] = divide ? (alpha > 0.0f ? px[c] / alpha : 0.0f) : px[c] * alpha;
+      }
+    }
+  });
+}
+
+void clamp_all(Image& image, float lo, float hi) {
+  tbb::parallel_for(Range(0, image.pixels.size(), kGrain), [&](const Range& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) image.pixels[i] = std::clamp(image.pixels[i], lo, hi);
+  });
+}
+
+bool carried_metadata_key(const std::string& key) {
+  static const std::set<std::string> descriptive = {"ImageDescription", "Copyright", "Artist", "DateTime",
+                                                    "owner", "comments", "capDate"};
+  return key.rfind("envkit:", 0) == 0 || descriptive.count(key) > 0;
+}
+
+/// The colour space integer pixels are encoded to: the option, else sRGB, or Rec.709 for Netpbm files
+/// (the transfer that format specifies, and what OIIO tags them with on reading).
+std::string encode_colorspace_for(const Target& t, const WriteOptions& options) {
+  if (!options.encode_colorspace.empty()) return options.encode_colorspace;
+  return t.format == "pnm" ? "rec709" : "srgb";
+}
+
+OIIO::ImageSpec make_spec(const Image& data, const Target& t, PixelType type, const Image& source,
+                          const WriteOptions& options) {
+  OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+  if (type == PixelType::Half) format = OIIO::TypeDesc::HALF;
+  if (type == PixelType::UInt8) format = OIIO::TypeDesc::UINT8;
+  if (type == PixelType::UInt16) format = OIIO::TypeDesc::UINT16;
+  OIIO::ImageSpec spec(data.width, data.height, data.channels, format);
+  spec.channelnames = data.channel_names;
+  spec.alpha_channel = data.alpha_channel;
+
+  std::string compression = options.compression;
+  if (compression.empty() && (t.format == "openexr" || t.format == "tiff")) compression = "zip";
+  if (compression.empty() && t.format == "jpeg") compression = "jpeg:95";
+  if (!compression.empty()) spec.attribute("compression", compression);
+
+  if (options.envmap_attribute == "latlong") spec.attribute("textureformat", "LatLong Environment");
+  if (options.envmap_attribute == "cube") spec.attribute("textureformat", "CubeFace Environment");
+
+  const bool encoded = type == PixelType::UInt8 || type == PixelType::UInt16;
+  if (encoded && canonical_colorspace(encode_colorspace_for(t, options)) == canonical_colorspace("srgb"))
+    spec.attribute("oiio:ColorSpace", "sRGB");  // PNG writes its sRGB chunk, TIFF/JPEG readers decode right
+  if (encoded && data.alpha_channel >= 0) spec.attribute("oiio:UnassociatedAlpha", 1);  // already divided
+
+  for (const auto& [key, value] : source.metadata)
+    if (carried_metadata_key(key)) spec.attribute(key, value);
+  for (const auto& [key, value] : options.metadata) spec.attribute(key, value);
+  if (!spec.find_attribute("Software")) spec.attribute("Software", "envkit");
+  return spec;
+}
+
+void check_envmap_option(const std::string& path, const Image& image, const Target& t, const std::string& envmap) {
+  if (envmap.empty()) return;
+  if (envmap != "latlong" && envmap != "cube")
+    fail(path, "unknown envmap attribute '" + envmap + "' (use latlong or cube)");
+  if (t.format != "openexr") fail(path, "the envmap attribute needs an OpenEXR (.exr) file");
+  if (envmap == "cube" && image.height != 6 * image.width)
+    fail(path, "an OpenEXR cube map is one N x 6N image; got " + std::to_string(image.width) + "x" +
+                   std::to_string(image.height));
+}
+
+/// PFM: "PF" (RGB) or "Pf" (grey), "W H", scale (negative = little-endian), then rows bottom to top.
+void write_pfm(const std::string& path, const std::string& file, const Image& data) {
+  static_assert(std::endian::native == std::endian::little, "the PFM writer assumes a little-endian host");
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  if (!out) fail(path, "cannot write: cannot create the temporary file");
+  out << (data.channels == 3 ? "PF" : "Pf") << '\n' << data.width << ' ' << data.height << "\n-1.0\n";
+  const std::size_t row = static_cast<std::size_t>(data.width) * static_cast<std::size_t>(data.channels);
+  for (int y = data.height - 1; y >= 0; --y)
+    out.write(reinterpret_cast<const char*>(data.at(0, y)), static_cast<std::streamsize>(row * sizeof(float)));
+  out.flush();
+  if (!out) fail(path, "cannot write: write error (disk full?)");
+}
+
+void write_with_oiio(const std::string& path, const std::string& file, const OIIO::ImageSpec& spec, const Image& data) {
+  {
+    auto out = OIIO::ImageOutput::create(file);
+    if (!out) fail(path, "cannot write: " + condense(OIIO::geterror(), file, path));
+    if (!out->open(file, spec)) fail(path, "cannot write: " + condense(out->geterror(), file, path));
+    if (!out->write_image(OIIO::TypeDesc::FLOAT, data.pixels.data()))
+      fail(path, "cannot write: " + condense(out->geterror(), file, path));
+    if (!out->close()) fail(path, "cannot write: " + condense(out->geterror(), file, path));
+    // Destroying the writer matters: with "textureformat" set, OIIO's OpenEXR writer treats the file as a
+    // MIP-mapped texture and only finishes it in its destructor, not in close().
+  }
+  // Cheap sanity check that a complete header landed on disk before the file replaces the target.
+  auto in = OIIO::ImageInput::open(file);
+  if (!in || in->spec().width != spec.width || in->spec().height != spec.height)
+    fail(path, "cannot write: the written file does not read back (" + condense(OIIO::geterror(), file, path) + ")");
+}
+
+}  // namespace
+
+NonFinitePolicy parse_nonfinite_policy(const std::string& name) {
+  const std::string n = lower(name);
+  if (n == "error") return NonFinitePolicy::Error;
+  if (n == "zero") return NonFinitePolicy::Zero;
+  if (n == "clamp") return NonFinitePolicy::Clamp;
+  throw Error("unknown non-finite policy '" + name + "' (use error, zero or clamp)");
+}
+
+const char* nonfinite_policy_name(NonFinitePolicy policy) {
+  switch (policy) {
+    case NonFinitePolicy::Error: return "error";
+    case NonFinitePolicy::Zero: return "zero";
+    case NonFinitePolicy::Clamp: return "clamp";
+  }
+  return "?";
+}
+
+std::string ReadReport::summary() const {
+  std::string s = format + " " + pixel_type + ", colour space " + file_colorspace + " (" + colorspace_reason + ")";
+  if (converted) s += " -> " + working_space;
+  s += ", " + std::to_string(nonfinite_count()) + " non-finite (" + std::to_string(nan_count) + " NaN, " +
+       std::to_string(posinf_count) + " +Inf, " + std::to_string(neginf_count) + " -Inf)";
+  if (replaced_count > 0) s += std::string(" replaced by policy ") + nonfinite_policy_name(policy);
+  s += ", " + std::to_string(negative_count) + " negative";
+  for (const auto& note : notes) s += "; " + note;
+  return s;
+}
+
+Image read_image(const std::string& path, const ReadOptions& options, ReadReport* report_out) {
+  ReadReport report;
+  report.policy = options.nonfinite;
+  auto in = open_input(path);
+  const OIIO::ImageSpec spec = in->spec(0, 0);  // subimage 0, MIP level 0
+  check_header(path, spec, options);
+  report.format = in->format_name();
+  report.pixel_type = spec.format.c_str();
+
+  Image image;
+  image.width = spec.width;
+  image.height = spec.height;
+  image.channels = spec.nchannels;
+  for (int c = 0; c < spec.nchannels; ++c) image.channel_names.push_back(spec.channel_name(c));
+  image.alpha_channel = find_alpha(spec);
+  image.pixels.resize(image.texel_count() * static_cast<std::size_t>(image.channels));
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
+    fail(path, "cannot read pixels (truncated or corrupt file?): " + condense(in->geterror()));
+  in.reset();
+  move_alpha_last(image);
+  collect_metadata(spec, report.format, image);
+  if (spec.x != spec.full_x || spec.y != spec.full_y || spec.width != spec.full_width ||
+      spec.height != spec.full_height)
+    report.notes.push_back("data window differs from the display window: the data window was read");
+
+  // Non-finite values: counted in the file's values, handled before colour conversion (OCIO would spread them).
+  const NonFiniteCounts bad = count_nonfinite(image.pixels);
+  report.nan_count = bad.nan;
+  report.posinf_count = bad.posinf;
+  report.neginf_count = bad.neginf;
+  if (const std::size_t n = report.nonfinite_count(); n > 0) {
+    if (options.nonfinite == NonFinitePolicy::Error)
+      fail(path, std::to_string(n) + " non-finite values (" + std::to_string(bad.nan) + " NaN, " +
+                     std::to_string(bad.posinf + bad.neginf) + " Inf); pass --fix-nonfinite zero|clamp");
+    apply_nonfinite_policy(image, options.nonfinite);
+    report.replaced_count = n;
+  }
+
+  try {
+    const Decoding decoding = decide_decoding(spec, report.format, options, report);
+    report.colorspace_reason = decoding.reason;
+    report.working_space = working_space();
+    if (decoding.gamma > 0.0) {
+      report.file_colorspace = "gamma " + OIIO::Strutil::fmt::format("{:g}", decoding.gamma);
+      decode_gamma(image, decoding.gamma);
+      report.converted = decoding.gamma != 1.0;
+    } else {
+      report.file_colorspace = decoding.colorspace;
+      if (decoding.colorspace != report.working_space && !is_data_colorspace(decoding.colorspace)) {
+        convert_colorspace(image, decoding.colorspace, report.working_space);
+        report.converted = true;
+      }
+    }
+  } catch (const Error& e) {
+    fail(path, e.what());
+  }
+  if (spec.get_int_attribute("oiio:UnassociatedAlpha", 0) != 0) multiply_alpha(image, false);
+  report.negative_count = count_negative(image.pixels);
+  if (report_out) *report_out = std::move(report);
+  return image;
+}
+
+void write_image(const std::string& path, const Image& image, const WriteOptions& options) {
+  if (path.empty()) fail("", "empty output path");
+  check_writable_image(path, image);
+  const Target target = describe_target(path);
+  check_envmap_option(path, image, target, options.envmap_attribute);
+  const PixelType type = choose_pixel_type(path, target, options.pixel_type);
+
+  Image data = select_channels(image, target);
+  try {
+    if (type == PixelType::UInt8 || type == PixelType::UInt16) {
+      // Integer files hold display-encoded values (never linear light in 8 or 16 bits) with unassociated
+      // alpha (PNG's convention; TIFF is told so): un-premultiply in linear light, then encode.
+      multiply_alpha(data, true);
+      convert_colorspace(data, working_space(), encode_colorspace_for(target, options));
+      clamp_all(data, 0.0f, 1.0f);
+    } else if (type == PixelType::Half) {
+      clamp_all(data, -65504.0f, 65504.0f);  // half's largest finite value; beyond it OIIO would write Inf
+    }
+  } catch (const Error& e) {
+    fail(path, e.what());
+  }
+
+  AtomicOutput output(path);
+  if (target.format == "pfm") {
+    write_pfm(path, output.temp_path(), data);
+  } else {
+    OIIO::ImageSpec spec;
+    try {
+      spec = make_spec(data, target, type, image, options);
+    } catch (const Error& e) {
+      fail(path, e.what());
+    }
+    write_with_oiio(path, output.temp_path(), spec, data);
+  }
+  output.commit();
+}
+
+}  // namespace envkit
