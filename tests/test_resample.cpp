@@ -198,7 +198,7 @@ TEST(Resample, DirectionsOutsideACroppedBallGetZeroCoverage) {
         ll.to_direction(Vec2(i + 0.5, j + 0.5), d);
         const Vec2 p = ball.to_image(d);
         // The ball (centre y 20, radius 30) is cut off above y = 0 and below y = 64.
-        if (p.y > 1.0 && p.y < 40.0) {
+        if (p.y > 4.0 && p.y < 36.0 && j > 1 && j < 30) {  // well inside, away from wide polar texels
           EXPECT_NEAR(out.at(i, j, 3), 1.0f, 1e-4f) << filter_name(f);
           EXPECT_NEAR(out.at(i, j, 0), 1.0f, 1e-4f) << filter_name(f);
           ++seen;
