@@ -23,4 +23,10 @@ double AngularMap::cap_density(double r) const {
   return 2.0 * s * s;
 }
 
+// pi sin(pi r) / r, which tends to pi^2 at the centre and to 0 at the rim.
+double AngularMap::area_density(double r) const {
+  if (r < 1e-6) return kPi * kPi;
+  return kPi * std::sin(kPi * std::min(r, 1.0)) / r;
+}
+
 }  // namespace envkit

@@ -110,6 +110,13 @@ CubeMap::CubeMap(int face_size, CubeLayout layout, CubeBasis basis, TexelGrid gr
       faces_[f] = CubeFace{f, cell.axis, cell.right, cell.down, cell.cx * n_, cell.cy * n_};
     }
   }
+  cells_x_ = width_ / n_;
+  slot_face_.fill(-1);
+  for (const CubeFace& cf : faces_) {
+    slot_face_[(cf.origin_y / n_) * cells_x_ + cf.origin_x / n_] = cf.face;
+    max_x_[cf.face] = std::nextafter(static_cast<double>(cf.origin_x + n_), 0.0);
+    max_y_[cf.face] = std::nextafter(static_cast<double>(cf.origin_y + n_), 0.0);
+  }
 }
 
 std::string CubeMap::describe() const {
@@ -120,11 +127,7 @@ std::string CubeMap::describe() const {
 
 int CubeMap::face_at(int i, int j) const {
   if (i < 0 || j < 0 || i >= width_ || j >= height_) return -1;
-  for (int f = 0; f < 6; ++f) {
-    const CubeFace& cf = faces_[f];
-    if (i >= cf.origin_x && i < cf.origin_x + n_ && j >= cf.origin_y && j < cf.origin_y + n_) return f;
-  }
-  return -1;
+  return slot_face_[(j / n_) * cells_x_ + i / n_];
 }
 
 // A one-texel face (N = 1) has no spacing to divide by in the corner grid; like OpenEXR it looks at the
@@ -162,8 +165,8 @@ Vec2 CubeMap::to_image(const Vec3& d) const {
   const double b = std::clamp((d ^ cf.down) / major, -1.0, 1.0);
   // Clamp the final coordinates (not the face-local ones): origin + (n - ulp) can round up onto the next cell.
   const double x0 = cf.origin_x, y0 = cf.origin_y;
-  const double x = std::clamp(x0 + local_coord(a), x0, std::nextafter(x0 + n_, x0));
-  const double y = std::clamp(y0 + local_coord(b), y0, std::nextafter(y0 + n_, y0));
+  const double x = std::clamp(x0 + local_coord(a), x0, max_x_[f]);
+  const double y = std::clamp(y0 + local_coord(b), y0, max_y_[f]);
   return Vec2(x, y);
 }
 
@@ -186,6 +189,17 @@ double CubeMap::solid_angle(double x0, double y0, double x1, double y1) const {
     if (a1 > a0 && b1 > b0) total += face_rect_solid_angle(a0, b0, a1, b1);
   }
   return total;
+}
+
+// d(omega)/dA on the plane at unit distance is 1 / |v|^3 with v = axis + a right + b down; times (da/dx)^2.
+double CubeMap::solid_angle_density(Vec2 pos) const {
+  const int f = face_at(static_cast<int>(std::floor(pos.x)), static_cast<int>(std::floor(pos.y)));
+  if (f < 0) return 0.0;
+  const CubeFace& cf = faces_[f];
+  const double a = face_coord(pos.x - cf.origin_x), b = face_coord(pos.y - cf.origin_y);
+  const double scale = 2.0 / ((grid_ == TexelGrid::Corner && n_ > 1) ? n_ - 1 : n_);
+  const double len2 = 1.0 + a * a + b * b;
+  return scale * scale / (len2 * std::sqrt(len2));
 }
 
 bool CubeMap::resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cfloat>
+#include <cmath>
 
 namespace envkit {
 
@@ -15,6 +16,17 @@ using sampling::clamp_offset;
 using sampling::sanitize_weight;
 
 constexpr std::size_t kParallelTexels = std::size_t(1) << 16;
+
+/// Two-sided storage of a keep probability q (see AliasBin::keep): +q for q <= 1/2, -(1 - q) above, so that both
+/// q and the donation 1 - q keep float relative precision. -0 means "always keep", +0 "never keep".
+/// `donation` must be 1 - q computed exactly (it is, in double, for q >= 1/2).
+float encode_keep(double q, double donation) {
+  return q <= 0.5 ? static_cast<float>(q) : -static_cast<float>(donation);
+}
+double keep_share(float stored) { return std::signbit(stored) ? 1.0 + double(stored) : double(stored); }
+double donated_share(float stored) { return std::signbit(stored) ? -double(stored) : 1.0 - double(stored); }
+constexpr float kAlwaysKeep = -0.0f;
+constexpr float kNeverKeep = 0.0f;
 
 /// Vose's alias method in double. weight(i) >= 0 with sum `sum` > 0 (the caller handles the uniform case).
 /// Writes keep/alias of bins[0..n). scaled and work are scratch arrays of n entries.
@@ -37,12 +49,13 @@ void build_vose(int n, const WeightFn& weight, double sum, Bin* bins, double* sc
   while (n_small > 0 && n_large > 0) {
     const std::uint32_t s = work[--n_small];
     const std::uint32_t l = work[n - n_large];
-    // q of a positive bin must not round to 0 (it would become unreachable while pdf says otherwise).
-    float keep = static_cast<float>(std::clamp(scaled[s], 0.0, 1.0));
-    if (keep == 0.0f && weight(int(s)) > 0.0) keep = FLT_TRUE_MIN;
+    const double q = std::clamp(scaled[s], 0.0, 1.0), donation = 1.0 - q;
+    float keep = encode_keep(q, donation);
+    // A positive bin must not round to "never keep" (unreachable while pdf says otherwise).
+    if (keep == 0.0f && !std::signbit(keep) && weight(int(s)) > 0.0) keep = FLT_TRUE_MIN;
     bins[s].keep = keep;
     bins[s].alias = l;
-    scaled[l] = (scaled[l] + scaled[s]) - 1.0;  // Vose's form: the donation 1 - scaled[s] in one rounding
+    scaled[l] -= donation;
     if (scaled[l] < 1.0) {
       --n_large;
       work[n_small++] = l;
@@ -50,14 +63,14 @@ void build_vose(int n, const WeightFn& weight, double sum, Bin* bins, double* sc
   }
   while (n_large > 0) {
     const std::uint32_t l = work[n - n_large--];
-    bins[l].keep = 1.0f;
+    bins[l].keep = kAlwaysKeep;
     bins[l].alias = l;
   }
   // Leftover small items are ~1 up to rounding, except that a zero-weight bin must never be kept.
   while (n_small > 0) {
     const std::uint32_t s = work[--n_small];
     const bool positive = weight(int(s)) > 0.0;
-    bins[s].keep = positive ? 1.0f : 0.0f;
+    bins[s].keep = positive ? kAlwaysKeep : kNeverKeep;
     bins[s].alias = positive ? s : some_positive;
   }
 }
@@ -65,7 +78,7 @@ void build_vose(int n, const WeightFn& weight, double sum, Bin* bins, double* sc
 template <class Bin>
 void make_uniform(int n, Bin* bins) {
   for (int i = 0; i < n; ++i) {
-    bins[i].keep = 1.0f;
+    bins[i].keep = kAlwaysKeep;
     bins[i].alias = std::uint32_t(i);
   }
 }
@@ -77,21 +90,32 @@ int alias_pick(const Bin* bins, int n, double u, double& offset) {
   const double s = clamp_decision(u) * n;
   const int candidate = std::min(static_cast<int>(s), n - 1);
   const double coin = clamp_decision(s - candidate);
-  const double keep = bins[candidate].keep;
-  if (coin < keep) {  // keep == 0 never keeps; keep == 1 always does (coin < 1)
-    offset = clamp_offset(coin / keep);
-    return candidate;
+  const float stored = bins[candidate].keep;
+  if (!std::signbit(stored)) {  // q = stored <= 1/2 (q = +0: never keep)
+    const double q = stored;
+    if (coin < q) {
+      offset = clamp_offset(coin / q);
+      return candidate;
+    }
+    offset = clamp_offset((coin - q) / (1.0 - q));
+  } else {  // r = 1 - q = -stored < 1/2 (r = 0: always keep). coin < 1 - r <=> 1 - coin > r, and 1 - coin is
+            // exact whenever it matters (coin >= 1/2), so tiny donations r are resolved exactly.
+    const double r = -double(stored), rest = 1.0 - coin;
+    if (rest > r) {
+      offset = clamp_offset(coin / (1.0 - r));
+      return candidate;
+    }
+    offset = clamp_offset((r - rest) / r);
   }
-  offset = clamp_offset((coin - keep) / (1.0 - keep));
   return static_cast<int>(bins[candidate].alias);
 }
 
 /// Probability alias_pick() returns bin i: its own keep share plus every donation aimed at it, over n. O(n).
 template <class Bin>
 double alias_probability(const Bin* bins, int n, int i) {
-  double p = bins[i].keep;
+  double p = keep_share(bins[i].keep);
   for (int j = 0; j < n; ++j)
-    if (bins[j].alias == std::uint32_t(i)) p += 1.0 - double(bins[j].keep);
+    if (bins[j].alias == std::uint32_t(i)) p += donated_share(bins[j].keep);
   return p / n;
 }
 

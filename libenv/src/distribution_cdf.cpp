@@ -43,6 +43,7 @@ struct TwoSidedCdf {
     const double r = 1.0 - u;
     if (u < 0.5 || double(t[split]) < r) {
       // Bin in the forward part: the last entry <= u among t[0..split) (t[0] = 0 <= u).
+      // (std::upper_bound measured faster than a branch-free search: speculation prefetches the next probe.)
       const float* p = std::upper_bound(t, t + split, u, [](double v, float e) { return v < double(e); });
       i = static_cast<int>(p - t) - 1;
       bin_step = step(i);
@@ -84,14 +85,14 @@ CdfBuild build_two_sided(int n, const WeightFn& weight, float* t) {
   b.uniform = !(b.sum > 0.0);
   const auto w_at = [&](int i) { return b.uniform ? 1.0 : weight(i); };
   const double total = b.uniform ? double(n) : b.sum;
-  const double half = 0.5 * total;
+  const double half = 0.5 * total, inv_total = 1.0 / total;  // a multiply is monotone too, and cheaper
 
   // Forward part: cumulative mass while it stays <= half of the total.
   double prefix = 0.0;
   int i = 0;
   for (; i <= n; ++i) {
     if (prefix > half) break;
-    t[i] = static_cast<float>(prefix / total);
+    t[i] = static_cast<float>(prefix * inv_total);
     if (i < n) prefix += w_at(i);
   }
   b.split = i;  // >= 1 since t[0] = 0; <= n since the full prefix exceeds half of a positive total
@@ -100,7 +101,7 @@ CdfBuild build_two_sided(int n, const WeightFn& weight, float* t) {
   t[n] = 0.0f;
   for (int j = n - 1; j >= b.split; --j) {
     suffix += w_at(j);
-    t[j] = static_cast<float>(suffix / total);
+    t[j] = static_cast<float>(suffix * inv_total);
   }
   // Keep the junction monotone (lower(split) >= lower(split - 1)) if both halves rounded towards each other.
   // (Only possible when the junction bin is at the rounding level; the loop keeps later entries monotone too.)

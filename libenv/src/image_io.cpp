@@ -3,6 +3,15 @@
 #include <envkit/error.h>
 #include <envkit/image_io.h>
 
+#include <Imath/half.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfChromaticitiesAttribute.h>
+#include <OpenEXR/ImfEnvmapAttribute.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
 #include <OpenImageIO/imageio.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -17,9 +26,11 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
+#include <thread>
 
 namespace envkit {
 namespace fs = std::filesystem;
@@ -270,8 +281,8 @@ Decoding decide_decoding(const OIIO::ImageSpec& spec, const std::string& format,
   return {working_space(), 0.0, "default for float data"};
 }
 
-/// Scalar string/int/float attributes as strings, plus "envmap" for OpenEXR environment maps.
-void collect_metadata(const OIIO::ImageSpec& spec, const std::string& format, Image& image) {
+/// Scalar string/int/float attributes as strings.
+void collect_metadata(const OIIO::ImageSpec& spec, Image& image) {
   for (const OIIO::ParamValue& p : spec.extra_attribs) {
     const OIIO::TypeDesc t = p.type();
     if (t.arraylen != 0 || t.aggregate != OIIO::TypeDesc::SCALAR || p.nvalues() != 1) continue;
@@ -279,12 +290,20 @@ void collect_metadata(const OIIO::ImageSpec& spec, const std::string& format, Im
                         (t.basetype >= OIIO::TypeDesc::UINT8 && t.basetype <= OIIO::TypeDesc::INT64);
     if (wanted) image.metadata[p.name().string()] = p.get_string(1 << 16);
   }
-  if (format == "openexr") {
-    // OIIO maps OpenEXR's typed envmap attribute to this textureformat string.
-    const std::string tf = spec.get_string_attribute("textureformat");
-    if (tf == "LatLong Environment") image.metadata["envmap"] = "latlong";
-    else if (tf == "CubeFace Environment") image.metadata["envmap"] = "cube";
+}
+
+/// "latlong" / "cube" from OpenEXR's typed envmap attribute of part 0, or "".
+/// Read with OpenEXR itself: OIIO reports it as a "textureformat" string, which a stale string attribute of
+/// the same name (OIIO writes one; exrenvmap copies it into its outputs) can contradict.
+std::string exr_envmap(const std::string& path) {
+  try {
+    Imf::MultiPartInputFile file(path.c_str());
+    if (const auto* a = file.header(0).findTypedAttribute<Imf::EnvmapAttribute>("envmap"))
+      return a->value() == Imf::ENVMAP_CUBE ? "cube" : "latlong";
+  } catch (const std::exception&) {
+    // The pixels were read already; an unreadable header here only means "no envmap".
   }
+  return "";
 }
 
 std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
@@ -444,12 +463,9 @@ OIIO::ImageSpec make_spec(const Image& data, const Target& t, PixelType type, co
   spec.alpha_channel = data.alpha_channel;
 
   std::string compression = options.compression;
-  if (compression.empty() && (t.format == "openexr" || t.format == "tiff")) compression = "zip";
+  if (compression.empty() && t.format == "tiff") compression = "zip";
   if (compression.empty() && t.format == "jpeg") compression = "jpeg:95";
   if (!compression.empty()) spec.attribute("compression", compression);
-
-  if (options.envmap_attribute == "latlong") spec.attribute("textureformat", "LatLong Environment");
-  if (options.envmap_attribute == "cube") spec.attribute("textureformat", "CubeFace Environment");
 
   const bool encoded = type == PixelType::UInt8 || type == PixelType::UInt16;
   if (encoded && canonical_colorspace(encode_colorspace_for(t, options)) == canonical_colorspace("srgb"))
@@ -486,6 +502,88 @@ void write_pfm(const std::string& path, const std::string& file, const Image& da
   if (!out) fail(path, "cannot write: write error (disk full?)");
 }
 
+Imf::Compression exr_compression(const std::string& path, const std::string& name, float& dwa_level) {
+  static const std::map<std::string, Imf::Compression> names = {
+      {"none", Imf::NO_COMPRESSION}, {"rle", Imf::RLE_COMPRESSION},     {"zips", Imf::ZIPS_COMPRESSION},
+      {"zip", Imf::ZIP_COMPRESSION}, {"piz", Imf::PIZ_COMPRESSION},     {"pxr24", Imf::PXR24_COMPRESSION},
+      {"b44", Imf::B44_COMPRESSION}, {"b44a", Imf::B44A_COMPRESSION},   {"dwaa", Imf::DWAA_COMPRESSION},
+      {"dwab", Imf::DWAB_COMPRESSION}};
+  const std::string base = lower(name.substr(0, name.find(':')));
+  const auto it = names.find(base.empty() ? "zip" : base);
+  if (it == names.end())
+    fail(path, "unknown OpenEXR compression '" + name + "' (none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)");
+  if (const auto colon = name.find(':'); colon != std::string::npos && (base == "dwaa" || base == "dwab")) {
+    try {
+      dwa_level = std::stof(name.substr(colon + 1));
+    } catch (const std::exception&) {
+      fail(path, "bad DWA compression level in '" + name + "'");
+    }
+  }
+  return it->second;
+}
+
+/// OIIO's names for the standard descriptive attributes, and OpenEXR's (what OIIO maps them to on reading).
+std::string exr_attribute_name(const std::string& key) {
+  if (key == "ImageDescription") return "comments";
+  if (key == "Copyright") return "owner";
+  if (key == "DateTime") return "capDate";
+  return key;
+}
+
+/// OpenEXR files are written with the OpenEXR library itself: the envmap attribute must be OpenEXR's typed
+/// attribute. OIIO 2.4 can produce it (textureformat hint) but also stores a "textureformat" string that
+/// tools copying attributes (exrenvmap) carry into files where it contradicts the typed one.
+void write_exr(const std::string& path, const std::string& file, const Image& data, PixelType type,
+               const Image& source, const WriteOptions& options) {
+  Imf::Header header(data.width, data.height);
+  float dwa_level = header.dwaCompressionLevel();
+  header.compression() = exr_compression(path, options.compression, dwa_level);
+  header.dwaCompressionLevel() = dwa_level;
+  const Imf::PixelType pixel = type == PixelType::Half ? Imf::HALF : Imf::FLOAT;
+  for (const std::string& name : data.channel_names) header.channels().insert(name, Imf::Channel(pixel));
+  if (!options.envmap_attribute.empty())
+    header.insert("envmap", Imf::EnvmapAttribute(options.envmap_attribute == "cube" ? Imf::ENVMAP_CUBE : Imf::ENVMAP_LATLONG));
+  // Tag the primaries when the working space is envkit's (Imf::Chromaticities() is Rec.709 / D65).
+  if (working_space() == known_colorspace("lin_rec709"))
+    header.insert("chromaticities", Imf::ChromaticitiesAttribute(Imf::Chromaticities()));
+
+  std::map<std::string, std::string> strings;
+  for (const auto& [key, value] : source.metadata)
+    if (carried_metadata_key(key)) strings[exr_attribute_name(key)] = value;
+  for (const auto& [key, value] : options.metadata) strings[exr_attribute_name(key)] = value;
+  if (!strings.count("Software")) strings["Software"] = "envkit";
+  for (const auto& [key, value] : strings) {
+    if (header.find(key) != header.end()) {
+      if (!header.findTypedAttribute<Imf::StringAttribute>(key))
+        fail(path, "metadata key '" + key + "' is a reserved OpenEXR attribute");
+    }
+    header.insert(key, Imf::StringAttribute(value));
+  }
+
+  // Half data is converted up front; float data is written straight from the interleaved buffer.
+  std::vector<half> halves;
+  const char* base = reinterpret_cast<const char*>(data.pixels.data());
+  std::size_t element = sizeof(float);
+  if (pixel == Imf::HALF) {
+    halves.assign(data.pixels.begin(), data.pixels.end());
+    base = reinterpret_cast<const char*>(halves.data());
+    element = sizeof(half);
+  }
+  const auto nc = static_cast<std::size_t>(data.channels);
+  const std::size_t xstride = element * nc;
+  const std::size_t ystride = xstride * static_cast<std::size_t>(data.width);
+  Imf::FrameBuffer frame;
+  for (std::size_t c = 0; c < nc; ++c)
+    frame.insert(data.channel_names[c], Imf::Slice(pixel, const_cast<char*>(base + c * element), xstride, ystride));
+  try {
+    Imf::OutputFile out(file.c_str(), header, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    out.setFrameBuffer(frame);
+    out.writePixels(data.height);
+  } catch (const std::exception& e) {
+    fail(path, "cannot write: " + condense(e.what(), file, path));
+  }
+}
+
 void write_with_oiio(const std::string& path, const std::string& file, const OIIO::ImageSpec& spec, const Image& data) {
   {
     auto out = OIIO::ImageOutput::create(file);
@@ -494,13 +592,62 @@ void write_with_oiio(const std::string& path, const std::string& file, const OII
     if (!out->write_image(OIIO::TypeDesc::FLOAT, data.pixels.data()))
       fail(path, "cannot write: " + condense(out->geterror(), file, path));
     if (!out->close()) fail(path, "cannot write: " + condense(out->geterror(), file, path));
-    // Destroying the writer matters: with "textureformat" set, OIIO's OpenEXR writer treats the file as a
-    // MIP-mapped texture and only finishes it in its destructor, not in close().
-  }
+  }  // destroyed before the check below: some OIIO writers finish the file in their destructor
   // Cheap sanity check that a complete header landed on disk before the file replaces the target.
   auto in = OIIO::ImageInput::open(file);
   if (!in || in->spec().width != spec.width || in->spec().height != spec.height)
     fail(path, "cannot write: the written file does not read back (" + condense(OIIO::geterror(), file, path) + ")");
+}
+
+}  // namespace
+
+namespace {
+
+/// All channels of subimage 0, MIP level 0 as float, alpha moved last.
+Image read_pixels(const std::string& path, OIIO::ImageInput& in, const OIIO::ImageSpec& spec) {
+  Image image;
+  image.width = spec.width;
+  image.height = spec.height;
+  image.channels = spec.nchannels;
+  for (int c = 0; c < spec.nchannels; ++c) image.channel_names.push_back(spec.channel_name(c));
+  image.alpha_channel = find_alpha(spec);
+  image.pixels.resize(image.texel_count() * static_cast<std::size_t>(image.channels));
+  if (!in.read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
+    fail(path, "cannot read pixels (truncated or corrupt file?): " + condense(in.geterror()));
+  move_alpha_last(image);
+  return image;
+}
+
+/// Counts NaN/Inf in the file's values and applies the policy. Done before colour conversion, which
+/// would spread a non-finite value to the other channels of its texel.
+void handle_nonfinite(const std::string& path, Image& image, NonFinitePolicy policy, ReadReport& report) {
+  const NonFiniteCounts bad = count_nonfinite(image.pixels);
+  report.nan_count = bad.nan;
+  report.posinf_count = bad.posinf;
+  report.neginf_count = bad.neginf;
+  const std::size_t n = report.nonfinite_count();
+  if (n == 0) return;
+  if (policy == NonFinitePolicy::Error)
+    fail(path, std::to_string(n) + " non-finite values (" + std::to_string(bad.nan) + " NaN, " +
+                   std::to_string(bad.posinf + bad.neginf) + " Inf); pass --fix-nonfinite zero|clamp");
+  apply_nonfinite_policy(image, policy);
+  report.replaced_count = n;
+}
+
+void decode_to_working_space(Image& image, const Decoding& decoding, ReadReport& report) {
+  report.colorspace_reason = decoding.reason;
+  report.working_space = working_space();
+  if (decoding.gamma > 0.0) {
+    report.file_colorspace = "gamma " + OIIO::Strutil::fmt::format("{:g}", decoding.gamma);
+    decode_gamma(image, decoding.gamma);
+    report.converted = decoding.gamma != 1.0;
+    return;
+  }
+  report.file_colorspace = decoding.colorspace;
+  if (decoding.colorspace != report.working_space && !is_data_colorspace(decoding.colorspace)) {
+    convert_colorspace(image, decoding.colorspace, report.working_space);
+    report.converted = true;
+  }
 }
 
 }  // namespace
@@ -541,51 +688,18 @@ Image read_image(const std::string& path, const ReadOptions& options, ReadReport
   check_header(path, spec, options);
   report.format = in->format_name();
   report.pixel_type = spec.format.c_str();
-
-  Image image;
-  image.width = spec.width;
-  image.height = spec.height;
-  image.channels = spec.nchannels;
-  for (int c = 0; c < spec.nchannels; ++c) image.channel_names.push_back(spec.channel_name(c));
-  image.alpha_channel = find_alpha(spec);
-  image.pixels.resize(image.texel_count() * static_cast<std::size_t>(image.channels));
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
-    fail(path, "cannot read pixels (truncated or corrupt file?): " + condense(in->geterror()));
+  Image image = read_pixels(path, *in, spec);
   in.reset();
-  move_alpha_last(image);
-  collect_metadata(spec, report.format, image);
+  collect_metadata(spec, image);
+  if (report.format == "openexr")
+    if (std::string envmap = exr_envmap(path); !envmap.empty()) image.metadata["envmap"] = envmap;
   if (spec.x != spec.full_x || spec.y != spec.full_y || spec.width != spec.full_width ||
       spec.height != spec.full_height)
     report.notes.push_back("data window differs from the display window: the data window was read");
 
-  // Non-finite values: counted in the file's values, handled before colour conversion (OCIO would spread them).
-  const NonFiniteCounts bad = count_nonfinite(image.pixels);
-  report.nan_count = bad.nan;
-  report.posinf_count = bad.posinf;
-  report.neginf_count = bad.neginf;
-  if (const std::size_t n = report.nonfinite_count(); n > 0) {
-    if (options.nonfinite == NonFinitePolicy::Error)
-      fail(path, std::to_string(n) + " non-finite values (" + std::to_string(bad.nan) + " NaN, " +
-                     std::to_string(bad.posinf + bad.neginf) + " Inf); pass --fix-nonfinite zero|clamp");
-    apply_nonfinite_policy(image, options.nonfinite);
-    report.replaced_count = n;
-  }
-
+  handle_nonfinite(path, image, options.nonfinite, report);
   try {
-    const Decoding decoding = decide_decoding(spec, report.format, options, report);
-    report.colorspace_reason = decoding.reason;
-    report.working_space = working_space();
-    if (decoding.gamma > 0.0) {
-      report.file_colorspace = "gamma " + OIIO::Strutil::fmt::format("{:g}", decoding.gamma);
-      decode_gamma(image, decoding.gamma);
-      report.converted = decoding.gamma != 1.0;
-    } else {
-      report.file_colorspace = decoding.colorspace;
-      if (decoding.colorspace != report.working_space && !is_data_colorspace(decoding.colorspace)) {
-        convert_colorspace(image, decoding.colorspace, report.working_space);
-        report.converted = true;
-      }
-    }
+    decode_to_working_space(image, decide_decoding(spec, report.format, options, report), report);
   } catch (const Error& e) {
     fail(path, e.what());
   }
@@ -611,7 +725,7 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
       convert_colorspace(data, working_space(), encode_colorspace_for(target, options));
       clamp_all(data, 0.0f, 1.0f);
     } else if (type == PixelType::Half) {
-      clamp_all(data, -65504.0f, 65504.0f);  // half's largest finite value; beyond it OIIO would write Inf
+      clamp_all(data, -65504.0f, 65504.0f);  // half's largest finite value; beyond it half() gives Inf
     }
   } catch (const Error& e) {
     fail(path, e.what());
@@ -620,6 +734,8 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
   AtomicOutput output(path);
   if (target.format == "pfm") {
     write_pfm(path, output.temp_path(), data);
+  } else if (target.format == "openexr") {
+    write_exr(path, output.temp_path(), data, type, image, options);
   } else {
     OIIO::ImageSpec spec;
     try {

@@ -5,7 +5,18 @@
 
 namespace envkit {
 
-LatLongMap::LatLongMap(int width, int height, TexelGrid grid) : Parameterization(width, height), grid_(grid) {}
+LatLongMap::LatLongMap(int width, int height, TexelGrid grid) : Parameterization(width, height), grid_(grid) {
+  const bool corner = grid == TexelGrid::Corner;
+  du_dx_ = 1.0 / (corner && width > 1 ? width - 1 : width);
+  dv_dy_ = 1.0 / (corner && height > 1 ? height - 1 : height);
+  max_x_ = std::nextafter(static_cast<double>(width), 0.0);
+  max_y_ = std::nextafter(static_cast<double>(height), 0.0);
+}
+
+double LatLongMap::solid_angle_density(Vec2 pos) const {
+  const double v = std::clamp(domain_from_image(pos).y, 0.0, 1.0);
+  return kTwoPi * du_dx_ * kPi * dv_dy_ * std::sin(kPi * v);
+}
 
 std::string LatLongMap::describe() const {
   return "latlong " + std::to_string(width_) + "x" + std::to_string(height_) +
@@ -54,8 +65,8 @@ bool LatLongMap::to_direction(Vec2 pos, Vec3& dir) const {
 Vec2 LatLongMap::to_image(const Vec3& dir) const {
   Vec2 p = image_from_domain(uv_from_direction(dir));
   // Keep the result inside the image: u = 1 - epsilon may round up to x = W.
-  p.x = std::min(p.x, std::nextafter(static_cast<double>(width_), 0.0));
-  p.y = std::clamp(p.y, 0.0, std::nextafter(static_cast<double>(height_), 0.0));
+  p.x = std::min(p.x, max_x_);
+  p.y = std::clamp(p.y, 0.0, max_y_);
   return p;
 }
 

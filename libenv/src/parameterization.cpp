@@ -38,6 +38,11 @@ bool Parameterization::clamp_tap(int& i, int& j) const {
   return true;
 }
 
+double Parameterization::solid_angle_density(Vec2 pos) const {
+  const double h = 1e-3;
+  return solid_angle(pos.x - h, pos.y - h, pos.x + h, pos.y + h) / (4.0 * h * h);
+}
+
 bool Parameterization::covered_point(int i, int j, Vec2& pos) const {
   Vec3 dir;
   pos = Vec2(i + 0.5, j + 0.5);

@@ -42,6 +42,14 @@ bool RadialMap::covered_point(int i, int j, Vec2& pos) const {
   return false;
 }
 
+double RadialMap::solid_angle_density(Vec2 pos) const {
+  const int k = disk_at(pos);
+  if (k < 0) return 0.0;
+  const Disk& d = disks_[k];
+  const double x = (pos.x - d.cx) / d.radius, y = (d.cy - pos.y) / d.radius;
+  return area_density(std::sqrt(x * x + y * y)) / (d.radius * d.radius);
+}
+
 bool RadialMap::to_direction(Vec2 pos, Vec3& dir) const {
   const int k = disk_at(pos);
   if (k < 0) return false;

@@ -180,7 +180,8 @@ Image resample_area(const MapRef& s, const TexelSource& full_source, const Param
       for (int b = 0; b < n; ++b) {
         for (int a = 0; a < n; ++a) {
           const double x0 = i + double(a) / n, y0 = j + double(b) / n;
-          const double w = n == 1 ? omega_t : dst.solid_angle(x0, y0, x0 + 1.0 / n, y0 + 1.0 / n);
+          // Weights need only be proportional to each sub-cell's solid angle: the result is normalised below.
+          const double w = n == 1 ? omega_t : dst.solid_angle_density(Vec2(x0 + 0.5 / n, y0 + 0.5 / n));
           if (w <= 0.0) continue;
           total_weight += w;
           if (!dst.to_direction(Vec2(x0 + 0.5 / n, y0 + 0.5 / n), dir) || !source_position(sp, dst_to_src, dir, p))
@@ -197,14 +198,14 @@ Image resample_area(const MapRef& s, const TexelSource& full_source, const Param
       }
       // A sliver of data (a rim texel whose sub-samples all fell outside the disk): sample its covered point.
       Vec2 q;
-      if (covered_weight == 0.0 && total_weight > 0.0 && dst.covered_point(i, j, q) && dst.to_direction(q, dir) &&
+      if (covered_weight == 0.0 && dst.covered_point(i, j, q) && dst.to_direction(q, dir) &&
           source_position(sp, dst_to_src, dir, p)) {
         const int k = source.taps(p, Filter::Bilinear, taps);
         for (int t = 0; t < k; ++t) {
           const float* px = cold->pixels.data() + taps[t].index * C;
-          for (int c = 0; c < C; ++c) sum[c] += total_weight * taps[t].weight * px[c];
+          for (int c = 0; c < C; ++c) sum[c] += taps[t].weight * px[c];
         }
-        if (k > 0) covered_weight = total_weight;
+        if (k > 0) covered_weight = total_weight = 1.0;
       }
       float* px = out.at(i, j);
       if (covered_weight > 0.0)

@@ -27,6 +27,7 @@ class AngularMap final : public RadialMap {
 
  protected:
   double cap_density(double r) const override;
+  double area_density(double r) const override;
 };
 
 }  // namespace envkit

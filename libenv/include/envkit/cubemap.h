@@ -69,6 +69,7 @@ class CubeMap final : public Parameterization {
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
+  double solid_angle_density(Vec2 pos) const override;
   bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
 
   /// Exact solid angle of the face-coordinate rectangle [a0, a1] x [b0, b1] (within [-1, 1]^2) of any face.
@@ -82,6 +83,9 @@ class CubeMap final : public Parameterization {
   CubeBasis basis_;
   TexelGrid grid_;
   std::array<CubeFace, 6> faces_;
+  std::array<int, 16> slot_face_;       // face in each N x N cell of the layout (up to 4 x 4 cells), or -1
+  int cells_x_ = 1;
+  std::array<double, 6> max_x_, max_y_;  // largest positions inside each face
 };
 
 }  // namespace envkit

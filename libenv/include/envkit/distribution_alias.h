@@ -3,11 +3,14 @@
 /// Walker/Vose alias tables: O(1) sampling of a discrete distribution, in 1D and in 2D (a marginal table over
 /// rows plus one table per row).
 ///
-/// Tables are built with Vose's algorithm in double and store, per bin, the float probability q of keeping the
-/// candidate bin and the index of its alias. pdf() is w / integral (the weights are kept, as floats, for that);
-/// what sample() draws differs from it only by the rounding of q to float: a bin that is nobody's alias gets
-/// exactly q / n (relative error 2^-24), others also receive (1 - q_j) / n from each donor j, each rounded to
-/// an absolute 2^-25 / n. texel_probability() recomputes the drawn probability from the tables.
+/// Tables are built with Vose's algorithm in double and store, per bin, the probability q of keeping the
+/// candidate bin and the index of its alias. q is stored two-sided in one float: +q when q <= 1/2, -(1 - q) when
+/// q > 1/2. A bin's drawn probability is its own q plus the donations 1 - q_j of the bins that alias to it; a
+/// plain float q near 1 would carry each donation with an absolute error of 2^-25, and a bright bin collecting
+/// thousands of small donations (a slightly brighter texel in a near-uniform row) would be off by up to ~1e-3
+/// relative. Two-sided, every keep share and every donation has float relative precision, so the drawn
+/// probability is w / sum to ~1e-7 relative. pdf() is w / integral (the weights are kept, as floats, for that);
+/// texel_probability() recomputes the drawn probability from the tables.
 ///
 /// How the two uniforms are split (four decisions plus a position from two numbers):
 ///   u.y * H = row candidate (integer part) + f (fraction). Coin: keep the candidate if f < q_row, else take
@@ -28,7 +31,7 @@ namespace envkit {
 
 /// One bin of an alias table.
 struct AliasBin {
-  float keep = 1.0f;        ///< probability of keeping this bin when it is the candidate
+  float keep = -0.0f;       ///< keep probability q, two-sided: +q (q <= 1/2) or -(1 - q); -0 = always keep
   std::uint32_t alias = 0;  ///< the bin taken otherwise
   float weight = 0.0f;      ///< the sanitised weight (1 under the uniform fallback), for pdf()
 };
@@ -82,7 +85,7 @@ class AliasDistribution2D final : public Distribution2D {
 
  private:
   struct RowBin {
-    float keep = 1.0f;
+    float keep = -0.0f;  // as AliasBin::keep
     std::uint32_t alias = 0;
   };
   std::vector<AliasBin> texels_;  // H rows of W bins

@@ -16,8 +16,12 @@
 /// row) can still round to a zero step; unreachable_texels() counts those. The pyramid has no such limit.
 ///
 /// pdf() is computed from the stored steps (not from the weights), so pdf() is exactly the density sample()
-/// draws: consistent for MIS and chi-square even where rounding moved a bin's probability. For ordinary maps it
-/// equals w / integral to ~1e-7 relative; texel_probability() gives the step product for diagnostics.
+/// draws: consistent for MIS and chi-square even where rounding moved a bin's probability. Each stored entry is
+/// at most 1/2, so each step is within 2^-24 of its ideal value (less near the ends): a texel of marginal m and
+/// conditional c is drawn within (m + c) 2^-24 of m c. That is ~1e-7 relative on small maps but up to ~5e-4 for
+/// texels in the middle of a 16k row (n/2 equal bins of 2/n each share the rounding), and more for texels far
+/// dimmer than their row. texel_probability() gives the step product for diagnostics. Where per-texel relative
+/// accuracy matters, use the pyramid.
 ///
 /// Sampling uses u.y for the row (marginal) and u.x for the column (conditional of that row); inside the chosen
 /// bin the position is linear in u (continuous inversion), so invert() is exact.

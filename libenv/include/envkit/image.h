@@ -1,6 +1,7 @@
 #pragma once
 /// @file image.h
 /// A float image in linear light, interleaved channels, row-major with row 0 at the top.
+/// Colour is associated with alpha (premultiplied), as in OpenEXR and OIIO.
 /// Texel (x, y) occupies [x, x+1) x [y, y+1) in continuous image coordinates; its centre is (x+0.5, y+0.5).
 #include <cstddef>
 #include <map>

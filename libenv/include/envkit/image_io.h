@@ -27,9 +27,12 @@
 /// (default 2^30, i.e. 32768 x 32768, 12 GiB of float RGB). More than 4 channels is refused.
 ///
 /// Writing: the format follows the extension. Files are written atomically (atomic_file.h).
-///  - .exr: float (default) or half, "zip" compression by default; WriteOptions::envmap_attribute writes the
-///    typed OpenEXR "envmap" attribute (Imf::EnvmapAttribute) that exrenvmap and renderers read (OIIO's
-///    "textureformat" = "LatLong Environment"/"CubeFace Environment" hint; OIIO also stores that string).
+///  - .exr: written with the OpenEXR library: float (default) or half, "zip" compression by default,
+///    Rec.709/D65 chromaticities when the working space is lin_rec709. WriteOptions::envmap_attribute writes
+///    OpenEXR's typed "envmap" attribute (Imf::EnvmapAttribute) that exrenvmap and renderers read. (OIIO 2.4
+///    could write it through its "textureformat" hint, but it also stores a "textureformat" string attribute
+///    that exrenvmap copies into its outputs, where it contradicts the typed attribute for OIIO readers.)
+///    Reading takes "envmap" from the typed attribute too.
 ///  - .hdr (RGBE): always RGB; Y is replicated, alpha dropped. Precision ~1% (8-bit shared exponent).
 ///  - .pfm: float, Y or RGB (alpha dropped), little-endian, bottom-to-top rows per the PFM convention.
 ///    OIIO 2.4 cannot write PFM (its pnm writer emits 8-bit P6 data into a .pfm), so envkit writes this

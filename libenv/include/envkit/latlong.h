@@ -30,6 +30,7 @@ class LatLongMap final : public Parameterization {
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
+  double solid_angle_density(Vec2 pos) const override;
   bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
 
   /// Exact solid angle of one texel of row j (all texels of a row have the same solid angle, except the
@@ -46,6 +47,8 @@ class LatLongMap final : public Parameterization {
   Vec2 domain_from_image(Vec2 pos) const;
   Vec2 image_from_domain(Vec2 uv) const;
   TexelGrid grid_;
+  double du_dx_, dv_dy_;    // domain units per pixel
+  double max_x_, max_y_;    // largest positions inside the image
 };
 
 }  // namespace envkit

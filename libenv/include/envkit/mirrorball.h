@@ -29,6 +29,7 @@ class MirrorBallMap final : public RadialMap {
 
  protected:
   double cap_density(double r) const override;
+  double area_density(double) const override { return 4.0; }
 };
 
 }  // namespace envkit

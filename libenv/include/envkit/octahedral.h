@@ -22,6 +22,7 @@ class OctahedralMap final : public Parameterization {
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
+  double solid_angle_density(Vec2) const override { return kFourPi / (double(width_) * height_); }
   bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
 
   /// Unit square [0,1]^2 -> unit direction in octahedron coordinates (pole +z_o).

@@ -27,6 +27,7 @@ class DualParaboloidMap final : public RadialMap {
 
  protected:
   double cap_density(double r) const override;
+  double area_density(double r) const override { return 4.0 / ((1.0 + r * r) * (1.0 + r * r)); }
 };
 
 }  // namespace envkit

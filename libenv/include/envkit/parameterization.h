@@ -61,6 +61,10 @@ class Parameterization {
   /// (minus whatever a cropped photograph does not see).
   virtual double solid_angle(double x0, double y0, double x1, double y1) const = 0;
 
+  /// Solid angle per unit image area (steradians per square pixel) at pos: the Jacobian of the map, used to weight
+  /// sub-samples. 0 where there is no data. The default differentiates solid_angle numerically.
+  virtual double solid_angle_density(Vec2 pos) const;
+
   /// Exact solid angle of texel (i, j); 0 for texels that hold no data.
   double texel_solid_angle(int i, int j) const { return solid_angle(i, j, i + 1.0, j + 1.0); }
 

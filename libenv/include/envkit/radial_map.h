@@ -31,6 +31,7 @@ class RadialMap : public Parameterization {
   Vec2 to_image(const Vec3& dir) const override;
   bool covered_point(int i, int j, Vec2& pos) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
+  double solid_angle_density(Vec2 pos) const override;
 
   const std::vector<Disk>& disks() const { return disks_; }
 
@@ -43,6 +44,8 @@ class RadialMap : public Parameterization {
   RadialMap(int width, int height) : Parameterization(width, height) {}
   /// (1 - cos polar_angle(r)) / r^2 for r in [0, 1]; smooth, finite at r = 0.
   virtual double cap_density(double r) const = 0;
+  /// d(omega)/dA on the unit disk at normalized radius r: polar_angle'(r) sin(polar_angle(r)) / r.
+  virtual double area_density(double r) const = 0;
   /// Which disk shows `dir` (for two disks: the hemisphere it lies in).
   virtual int disk_for_direction(const Vec3& dir) const;
   /// Index of the disk containing image position pos (r <= 1), or -1.

@@ -1,0 +1,274 @@
+// Tests for atomic_file.h: temp + rename writes, cleanup on failure and on signals, output-path checks.
+#include <envkit/atomic_file.h>
+#include <envkit/error.h>
+
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using envkit::AtomicOutput;
+using envkit::Error;
+
+namespace {
+
+class AtomicFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() / ("envkit_atomic_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::permissions(dir_, fs::perms::owner_all, fs::perm_options::add, ec);
+    fs::remove_all(dir_, ec);
+  }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::vector<std::string> listing() const {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename().string());
+    return names;
+  }
+  fs::path dir_;
+};
+
+void write_text(const std::string& file, const std::string& text) {
+  std::ofstream out(file, std::ios::binary);
+  out << text;
+  ASSERT_TRUE(out.good()) << file;
+}
+
+std::string read_text(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// Runs `body` in a child process that has dropped root privileges (root ignores directory permissions),
+/// returning its exit status. `body` returns the exit code.
+int run_unprivileged(const std::function<int()>& body) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    if (::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(90);
+    ::_exit(body());
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 100 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+}
+
+bool starts_with(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
+
+}  // namespace
+
+TEST_F(AtomicFileTest, TempNameSitsNextToTargetAndKeepsExtension) {
+  AtomicOutput out(path("probe.exr"));
+  const fs::path temp(out.temp_path());
+  EXPECT_EQ(temp.parent_path(), dir_);
+  EXPECT_TRUE(starts_with(temp.filename().string(), ".probe.exr.tmp-" + std::to_string(::getpid()) + "-"))
+      << temp;
+  EXPECT_EQ(temp.extension(), ".exr");
+  AtomicOutput other(path("probe.exr"));
+  EXPECT_NE(other.temp_path(), out.temp_path());
+  EXPECT_FALSE(fs::exists(temp)) << "nothing is created before the caller writes";
+}
+
+TEST_F(AtomicFileTest, CommitRenamesTempOverTarget) {
+  const std::string target = path("out.txt");
+  write_text(target, "old");
+  {
+    AtomicOutput out(target);
+    write_text(out.temp_path(), "new contents");
+    EXPECT_EQ(read_text(target), "old") << "target untouched until commit";
+    out.commit();
+    EXPECT_TRUE(out.committed());
+    EXPECT_FALSE(fs::exists(out.temp_path()));
+  }
+  EXPECT_EQ(read_text(target), "new contents");
+  EXPECT_EQ(listing(), std::vector<std::string>{"out.txt"});
+}
+
+TEST_F(AtomicFileTest, ThrowingWriteLeavesNeitherTargetNorTemp) {
+  const std::string target = path("result.exr");
+  std::string temp;
+  EXPECT_THROW(
+      {
+        AtomicOutput out(target);
+        temp = out.temp_path();
+        write_text(temp, "partial");
+        throw std::runtime_error("writer failed");
+      },
+      std::runtime_error);
+  EXPECT_FALSE(fs::exists(target));
+  EXPECT_FALSE(fs::exists(temp));
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(AtomicFileTest, FailedWriteKeepsExistingTarget) {
+  const std::string target = path("keep.txt");
+  write_text(target, "precious");
+  {
+    AtomicOutput out(target);
+    write_text(out.temp_path(), "half-writ");
+  }  // no commit
+  EXPECT_EQ(read_text(target), "precious");
+  EXPECT_EQ(listing(), std::vector<std::string>{"keep.txt"});
+}
+
+TEST_F(AtomicFileTest, CommitWithoutTempFileFailsWithTargetInMessage) {
+  const std::string target = path("never.txt");
+  AtomicOutput out(target);
+  try {
+    out.commit();
+    FAIL() << "commit without a temp file must throw";
+  } catch (const Error& e) {
+    EXPECT_TRUE(starts_with(e.what(), target + ": cannot write: ")) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(target));
+}
+
+TEST_F(AtomicFileTest, SymlinkTargetReplacesThePointee) {
+  const std::string real = path("real.txt");
+  const std::string link = path("link.txt");
+  write_text(real, "old");
+  fs::create_symlink(real, link);
+  AtomicOutput out(link);
+  write_text(out.temp_path(), "new");
+  out.commit();
+  EXPECT_TRUE(fs::is_symlink(link));
+  EXPECT_EQ(read_text(real), "new");
+}
+
+TEST_F(AtomicFileTest, MissingDirectoryIsReported) {
+  const std::string target = path("no/such/dir/out.exr");
+  try {
+    AtomicOutput out(target);
+    FAIL() << "expected an Error";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_TRUE(starts_with(msg, target + ": directory '")) << msg;
+    EXPECT_NE(msg.find("does not exist"), std::string::npos) << msg;
+  }
+}
+
+TEST_F(AtomicFileTest, CheckOutputPathDetectsSameFileUnderOtherSpellings) {
+  const std::string input = path("in.exr");
+  write_text(input, "x");
+  const std::string expected = input + ": output path is the same as input " + input + "; pass --force to overwrite it";
+  try {
+    envkit::check_output_path(input, {input}, false);
+    FAIL() << "same path must be refused";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), expected);
+  }
+  // Other spellings of the same file: dot-dot, ./, a relative path, a hard link.
+  fs::create_directories(dir_ / "sub");
+  const std::string dotdot = (dir_ / "sub" / ".." / "." / "in.exr").string();
+  const std::string relative = fs::relative(fs::path(input), fs::current_path()).string();
+  fs::create_hard_link(input, dir_ / "hard.exr");
+  for (const std::string& spelling : {dotdot, relative, path("hard.exr")}) {
+    EXPECT_THROW(envkit::check_output_path(spelling, {input}, false), Error) << spelling;
+    EXPECT_NO_THROW(envkit::check_output_path(spelling, {input}, true)) << "--force allows it: " << spelling;
+  }
+  EXPECT_NO_THROW(envkit::check_output_path(path("other.exr"), {input}, false));
+  EXPECT_NO_THROW(envkit::check_output_path(path("new.exr"), {path("missing-input.exr")}, false));
+}
+
+TEST_F(AtomicFileTest, CheckOutputPathRejectsMissingAndDirectoryTargets) {
+  EXPECT_THROW(envkit::check_output_path(path("nope/out.exr"), {}, false), Error);
+  try {
+    envkit::check_output_path(dir_.string(), {}, false);
+    FAIL() << "a directory is not an output file";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), dir_.string() + ": is a directory");
+  }
+}
+
+TEST_F(AtomicFileTest, UnwritableDirectoryIsReported) {
+  fs::create_directories(dir_ / "ro");
+  fs::permissions(dir_ / "ro", fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                                    fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+  const std::string target = (dir_ / "ro" / "out.exr").string();
+  const std::string expected = target + ": cannot write: Permission denied";
+  const auto check = [&]() -> int {
+    try {
+      envkit::check_output_path(target, {}, false);
+      return 1;
+    } catch (const Error& e) {
+      if (std::string(e.what()) != expected) return 2;
+    }
+    try {
+      AtomicOutput out(target);
+      return 3;
+    } catch (const Error& e) {
+      if (std::string(e.what()) != expected) return 4;
+    }
+    return 0;
+  };
+  if (::geteuid() == 0) {
+    // Root bypasses permission bits: check as an unprivileged user in a child process.
+    fs::permissions(dir_, fs::perms::others_exec | fs::perms::others_read, fs::perm_options::add);
+    EXPECT_EQ(run_unprivileged(check), 0) << "1/3: no error, 2/4: wrong message; expected \"" << expected << "\"";
+  } else {
+    EXPECT_EQ(check(), 0) << "1/3: no error, 2/4: wrong message; expected \"" << expected << "\"";
+  }
+}
+
+TEST_F(AtomicFileTest, SignalRemovesLiveTempFiles) {
+  const std::string target = path("interrupted.exr");
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::close(fds[0]);
+    envkit::install_temp_cleanup_on_signal();
+    AtomicOutput out(target);
+    { std::ofstream(out.temp_path()) << "long write in progress"; }
+    const std::string msg = out.temp_path() + "\n";
+    if (::write(fds[1], msg.data(), msg.size()) != static_cast<ssize_t>(msg.size())) ::_exit(3);
+    for (;;) ::pause();  // "still writing" until the signal arrives
+  }
+  ::close(fds[1]);
+  std::string temp;
+  char c;
+  while (::read(fds[0], &c, 1) == 1 && c != '\n') temp += c;
+  ::close(fds[0]);
+  ASSERT_FALSE(temp.empty());
+  EXPECT_TRUE(fs::exists(temp)) << "the child wrote its temp file";
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << "re-raised with the default action";
+  EXPECT_FALSE(fs::exists(temp)) << "temp file removed by the handler";
+  EXPECT_FALSE(fs::exists(target));
+}
+
+TEST_F(AtomicFileTest, IgnoredSignalStaysIgnored) {
+  // nohup: SIGHUP ignored. Installing the cleanup must not turn it into "delete my output and die".
+  const std::string target = path("nohup.exr");
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::signal(SIGHUP, SIG_IGN);
+    envkit::install_temp_cleanup_on_signal();
+    AtomicOutput out(target);
+    { std::ofstream(out.temp_path()) << "data"; }
+    ::raise(SIGHUP);
+    if (!fs::exists(out.temp_path())) ::_exit(1);
+    out.commit();
+    ::_exit(fs::exists(target) ? 0 : 2);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << "the child was killed by the ignored signal";
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}

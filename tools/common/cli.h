@@ -1,0 +1,64 @@
+#pragma once
+/// @file cli.h
+/// What every envkit command-line tool shares: exit codes, one-line messages prefixed by the program name,
+/// CLI11 validators backed by libenv's own parsers (so the error text is libenv's), and the thread limit.
+#include <envkit/vec.h>
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace envkit::tools {
+
+/// Exit codes shared by the tools (documented in each --help).
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitError = 1;      ///< bad input, unreadable/unwritable file: one line on stderr
+inline constexpr int kExitUsage = 2;      ///< command-line mistake (CLI11's message)
+inline constexpr int kExitThreshold = 3;  ///< envdiff: the metric exceeds --fail-above
+
+/// Parses the command line and runs `body`. --help prints and returns 0; CLI11 usage errors (also those thrown
+/// by `body` as CLI::ParseError) print CLI11's message and return kExitUsage; envkit::Error and any other
+/// exception print ONE line "<program>: <message>" and return kExitError. Messages below use the app's name.
+int run_cli(CLI::App& app, int argc, char** argv, const std::function<int()>& body);
+
+/// "<program>: <message>" on stderr: information the user can silence with --quiet (callers decide).
+void info(const std::string& message);
+/// "<program>: warning: <message>" on stderr.
+void warn(const std::string& message);
+
+/// Validators that accept exactly what libenv's parsers accept and fail with their message.
+CLI::Validator kind_validator();        ///< parse_kind
+CLI::Validator layout_validator();      ///< parse_layout
+CLI::Validator convention_validator();  ///< convention()
+CLI::Validator filter_validator();      ///< parse_filter
+CLI::Validator rotation_validator();    ///< parse_rotation
+CLI::Validator colorspace_validator();  ///< canonical_colorspace (the active OCIO config)
+
+/// "a|b|c" lists for help texts.
+std::string kind_choices();
+std::string layout_choices();
+std::string convention_choices();
+inline constexpr const char* kFilterChoices = "nearest|bilinear|bicubic|area";
+
+/// Parses "X,Y" (two finite numbers); throws CLI::ValidationError naming `option` otherwise.
+std::pair<double, double> parse_number_pair(const std::string& option, const std::string& text);
+
+/// Adds --threads N to `app` (0 = all cores).
+CLI::Option* add_threads_option(CLI::App& app, int& threads);
+/// Limits oneTBB to `threads` workers while the returned object lives (nothing for 0).
+std::unique_ptr<tbb::global_control> limit_threads(int threads);
+
+/// Number formatting for tables: %.*g, and fixed-width columns.
+std::string fmt(double value, int precision = 6);
+std::string pad(const std::string& text, std::size_t width);   ///< left-aligned
+std::string rpad(const std::string& text, std::size_t width);  ///< right-aligned
+/// "R, G, B"
+std::string join(const std::vector<std::string>& items, const std::string& separator = ", ");
+std::string vec_text(const Vec3& v, int precision = 4);
+
+}  // namespace envkit::tools

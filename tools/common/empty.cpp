@@ -1,1 +1,0 @@
-// Keeps envkit_toolcommon non-empty before any shared tool code exists.

@@ -1,0 +1,226 @@
+// envconvert: converts an environment map between parameterizations, conventions and orientations.
+// A thin shell over libenv: load_envmap -> resample -> save_envmap, with checks up front and one-line errors.
+#include "common/cli.h"
+#include "common/input.h"
+#include "common/progress.h"
+
+#include <envkit/atomic_file.h>
+#include <envkit/envmap.h>
+#include <envkit/error.h>
+#include <envkit/filter.h>
+#include <envkit/image_io.h>
+#include <envkit/param_factory.h>
+#include <envkit/resample.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace tools = envkit::tools;
+using envkit::Kind;
+
+const char* kFooter = R"(KIND and size for --size N: latlong 2N x N, cube faces N x N, mirrorball N x N,
+angular N x N, octahedral N x N, paraboloid 2N x N.
+Cube layouts L: vstrip (N x 6N, faces +X -X +Y -Y +Z -Z top to bottom), hstrip (6N x N), hcross (4N x 3N),
+vcross (3N x 4N). A '%' in OUT writes six face files, '%' replaced by +X, -X, +Y, -Y, +Z, -Z (as exrenvmap
+does); a '%' in IN reads six faces.
+Without --from the input's parameterization comes from envkit or OpenEXR metadata, else from the aspect
+ratio (2:1 latlong, 1:1 angular or octahedral, 1:6 6:1 4:3 3:4 cube), and the guess is printed.
+Conventions (--convention, --from-convention): envkit (default), openexr (exrenvmap: corner-sampled,
+N x 6N cube; writes the envmap attribute), hdrshop, angmap-cal, blender, gl (GL/KTX cube faces).
+--rotate R: the output shows the input environment rotated by R = Ry(yaw) Rx(pitch) Rz(roll): what the
+input shows in direction d, the output shows in direction R d (yaw about +Y, the up axis).
+--filter area integrates over each output texel and conserves power; nearest/bilinear/bicubic sample at
+texel centres (faster; they alias and lose or gain power when shrinking).
+
+Examples:
+  envconvert sky.hdr -o sky_cube.exr --to cube
+      lat-long -> vertical-strip cube with about the same texel density
+  envconvert sky.exr -o exr_cube.exr --to cube --convention openexr --size 256 --half
+      an N x 6N cube that exrenvmap and OpenEXR-based renderers read
+  envconvert sky.exr -o 'face_%.png' --to cube --convention gl --size 512
+      six GL/KTX faces face_+X.png ... face_-Z.png
+  envconvert 'face_%.png' -o sky.exr --to latlong --size 1024
+      six faces back to a 2048 x 1024 lat-long
+  envconvert probe.hdr -o sky.exr --to latlong --from angular --from-convention hdrshop
+  envconvert ball.jpg -o sky.exr --to latlong --from mirrorball --ball-centre 1012,998 --ball-radius 880
+  envconvert sky.exr -o blender.exr --to latlong --convention blender --rotate 90,0,0
+  envconvert sky.exr -o fixed.exr --to latlong --fix-nonfinite zero
+
+Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 usage error.)";
+
+struct Options {
+  tools::InputSpec in;
+  std::string out, to, layout, filter = "area", convention, rotate, fix_nonfinite, ball_centre;
+  int size = 0, threads = 0;
+  bool half = false, force = false, quiet = false, progress = false;
+};
+
+void add_options(CLI::App& app, Options& o) {
+  app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces)")->required()->type_name("FILE");
+  app.add_option("-o,--output", o.out, "output map (a '%' writes six cube faces)")->required()->type_name("OUT");
+  app.add_option("--to", o.to, "output parameterization: " + tools::kind_choices())
+      ->required()
+      ->type_name("KIND")
+      ->check(tools::kind_validator());
+  app.add_option("--from", o.in.from, "input parameterization (default: detected)")
+      ->type_name("KIND")
+      ->check(tools::kind_validator());
+  app.add_option("--layout", o.layout, "cube layout: " + tools::layout_choices() + " (default: the convention's)")
+      ->type_name("L")
+      ->check(tools::layout_validator());
+  app.add_option("--size", o.size,
+                 "natural size N (default: about the input's texel density, a multiple of 8 from 64 up)")
+      ->type_name("N")
+      ->check(CLI::Range(1, 1 << 17));
+  app.add_option("--filter", o.filter, std::string("resampling filter: ") + tools::kFilterChoices)
+      ->type_name("F")
+      ->check(tools::filter_validator())
+      ->capture_default_str();
+  app.add_option("--convention", o.convention,
+                 "output convention: " + tools::convention_choices() +
+                     " (default: the input's when its metadata names one, else envkit)")
+      ->type_name("C")
+      ->check(tools::convention_validator());
+  app.add_option("--from-convention", o.in.convention, "convention of the input (default: from metadata, else envkit)")
+      ->type_name("C")
+      ->check(tools::convention_validator());
+  app.add_option("--rotate", o.rotate, "rotate the environment: yaw,pitch,roll in degrees or 9 matrix entries")
+      ->type_name("R")
+      ->check(tools::rotation_validator());
+  app.add_option("--colorspace", o.in.colorspace, "colour space of the input pixels (default: from the file)")
+      ->type_name("CS")
+      ->check(tools::colorspace_validator());
+  tools::add_threads_option(app, o.threads);
+  app.add_option("--fix-nonfinite", o.fix_nonfinite, "replace NaN/Inf input values instead of failing")
+      ->type_name("zero|clamp")
+      ->check(CLI::IsMember({"zero", "clamp"}));
+  app.add_flag("--half", o.half, "write half floats (OpenEXR output only)");
+  app.add_option("--ball-centre,--ball-center", o.ball_centre, "mirror-ball photograph: ball centre in pixels")
+      ->type_name("X,Y");
+  app.add_option("--ball-radius", o.in.ball_radius, "mirror-ball photograph: ball radius in pixels")
+      ->type_name("R")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("-f,--force", o.force, "allow OUT to overwrite IN");
+  app.add_flag("-q,--quiet", o.quiet, "print only warnings and errors (no description, no progress)");
+  app.add_flag("--progress", o.progress, "always show a progress bar (default: on a terminal, for large maps)");
+  app.footer(kFooter);
+}
+
+bool has_extension(const std::string& path, const std::string& ext) {
+  std::string e = fs::path(path).extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return e == ext;
+}
+
+// Combinations CLI11 cannot express, reported as usage errors (exit 2) before any file is touched.
+void check_combinations(Options& o) {
+  const Kind to = envkit::parse_kind(o.to);
+  if (!o.layout.empty() && to != Kind::CubeMap) throw CLI::ValidationError("--layout", "applies to --to cube only");
+  if (envkit::is_face_pattern(o.out)) {
+    if (to != Kind::CubeMap)
+      throw CLI::ValidationError("--output", "a '%' pattern writes six cube faces: it needs --to cube");
+    if (!o.layout.empty() && envkit::parse_layout(o.layout) != envkit::CubeLayout::VerticalStrip)
+      throw CLI::ValidationError("--layout", "does not apply to six face files ('%' in the output)");
+  }
+  if (o.half && !has_extension(o.out, ".exr"))
+    throw CLI::ValidationError("--half", "half floats need an OpenEXR (.exr) output");
+  if (!o.ball_centre.empty()) {
+    const auto [x, y] = tools::parse_number_pair("--ball-centre", o.ball_centre);
+    o.in.ball_cx = x;
+    o.in.ball_cy = y;
+  }
+  const bool ball = o.in.ball_cx || o.in.ball_radius;
+  if (ball && (o.in.from.empty() || envkit::parse_kind(o.in.from) != Kind::MirrorBall))
+    throw CLI::ValidationError("--ball-centre/--ball-radius",
+                               "describe a mirror-ball photograph: add --from mirrorball");
+  if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
+}
+
+// Texels that hold data: all but those outside a ball's disk or in the blank cells of a cross.
+std::size_t data_texels(const envkit::Image& image, const envkit::Parameterization& param) {
+  const envkit::TexelSource source(image, param);
+  if (source.fully_covered()) return image.texel_count();
+  std::size_t n = 0;
+  for (std::size_t t = 0; t < image.texel_count(); ++t) n += source.covered(t) ? 1 : 0;
+  return n;
+}
+
+// Natural size whose map holds about `texels` texels with data: the input's texel density.
+int matching_size(std::size_t texels, const envkit::ParamSpec& probe_spec, int probe_n) {
+  const auto probe = envkit::make_parameterization(probe_spec);
+  const envkit::Image blank(probe->width(), probe->height(), 1);
+  const double per_n2 = double(data_texels(blank, *probe)) / (double(probe_n) * probe_n);
+  const double n = std::sqrt(double(texels) / per_n2);
+  const long rounded = n >= 64.0 ? 8 * std::lround(n / 8.0) : std::lround(n);  // 1182.4 -> 1184, 9.4 -> 9
+  return static_cast<int>(std::clamp(rounded, 1L, long(1) << 17));
+}
+
+int convert(Options& o) {
+  check_combinations(o);
+  // Nothing is read before the paths are known to be sane: no surprises after a long conversion.
+  envkit::install_temp_cleanup_on_signal();
+  const std::vector<std::string> inputs = tools::input_paths(o.in.path);
+  for (const std::string& out : envkit::face_paths(o.out)) envkit::check_output_path(out, inputs, o.force);
+  const auto thread_limit = tools::limit_threads(o.threads);
+
+  tools::LoadedInput in = tools::load_input(o.in);
+  tools::report_input(in, o.quiet);
+  if (!o.rotate.empty()) in.map.rotation = envkit::parse_rotation(o.rotate);
+
+  // Output frame: a convention read from the file's metadata carries over unless told otherwise.
+  const std::string conv_name =
+      !o.convention.empty() ? o.convention : (o.in.convention.empty() ? in.map.convention : "envkit");
+  const envkit::Convention& conv = envkit::convention(conv_name);
+  const Kind kind = envkit::parse_kind(o.to);
+  std::optional<envkit::CubeLayout> layout;
+  if (envkit::is_face_pattern(o.out)) layout = envkit::CubeLayout::VerticalStrip;
+  else if (!o.layout.empty()) layout = envkit::parse_layout(o.layout);
+  const int n = o.size > 0 ? o.size
+                           : matching_size(data_texels(in.map.image, *in.map.param),
+                                           envkit::spec_for(kind, 64, conv, layout), 64);
+
+  envkit::EnvMap out;
+  out.param = envkit::make_parameterization(envkit::spec_for(kind, n, conv, layout));
+  out.convention = conv.name;
+
+  envkit::ResampleOptions ro;
+  ro.filter = envkit::parse_filter(o.filter);
+  const std::size_t work = static_cast<std::size_t>(out.param->width()) * out.param->height();
+  tools::ProgressBar bar("envconvert: resampling", tools::want_progress(o.progress, o.quiet, work));
+  ro.progress = bar.callback();
+  out.image = envkit::resample(in.map.ref(), *out.param, out.to_world(), ro);
+  bar.finish();
+
+  // save_envmap writes the envkit:* keys that describe the new map; the input's (its layout, face, rotation,
+  // source, ...) would describe the wrong file.
+  std::erase_if(out.image.metadata, [](const auto& kv) { return kv.first.rfind("envkit:", 0) == 0; });
+  envkit::SaveOptions so;
+  so.write.pixel_type = o.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
+  so.filter = envkit::filter_name(ro.filter);
+  so.source = fs::path(o.in.path).filename().string();
+  envkit::save_envmap(o.out, out, so);
+
+  if (!o.quiet)
+    tools::info(std::string("wrote ") + (envkit::is_face_pattern(o.out) ? "six faces " : "") + o.out + ": " +
+                out.param->describe() + ", convention " + out.convention + ", filter " + so.filter +
+                (o.rotate.empty() ? "" : ", rotated by " + o.rotate));
+  return tools::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Converts an environment map between parameterizations (lat-long, cube, mirror ball, angular,\n"
+               "octahedral, dual paraboloid), conventions and orientations.",
+               "envconvert");
+  Options options;
+  add_options(app, options);
+  return tools::run_cli(app, argc, argv, [&] { return convert(options); });
+}
