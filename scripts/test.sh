@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The README's second command: install dependencies, build, and run every test (CTest). Tests labelled
+# "long" run only when ENVKIT_LONG_TESTS=1 (they are listed in the README).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+"$root/scripts/install-deps.sh"
+"$root/scripts/build.sh"
+build="${ENVKIT_BUILD_DIR:-$root/build}"
+exclude=(-LE long)
+[ "${ENVKIT_LONG_TESTS:-0}" = 1 ] && exclude=()
+cd "$build"
+ctest --output-on-failure -j "$(nproc)" --timeout 1200 "${exclude[@]}"
