@@ -152,9 +152,12 @@ std::size_t data_texels(const envkit::Image& image, const envkit::Parameterizati
   return n;
 }
 
-// Natural size whose map holds about `texels` texels with data: the input's texel density.
-int matching_size(std::size_t texels, const envkit::ParamSpec& probe_spec, int probe_n) {
-  const auto probe = envkit::make_parameterization(probe_spec);
+// Natural size whose map holds about `texels` texels with data: the input's texel density. The share of
+// texels with data per N^2 is measured on a small map of the output kind (6 for a cube, ~pi/4 for a ball).
+int matching_size(std::size_t texels, Kind kind, const envkit::Convention& conv,
+                  std::optional<envkit::CubeLayout> layout) {
+  constexpr int probe_n = 64;
+  const auto probe = envkit::make_parameterization(envkit::spec_for(kind, probe_n, conv, layout));
   const envkit::Image blank(probe->width(), probe->height(), 1);
   const double per_n2 = double(data_texels(blank, *probe)) / (double(probe_n) * probe_n);
   const double n = std::sqrt(double(texels) / per_n2);
@@ -182,9 +185,7 @@ int convert(Options& o) {
   std::optional<envkit::CubeLayout> layout;
   if (envkit::is_face_pattern(o.out)) layout = envkit::CubeLayout::VerticalStrip;
   else if (!o.layout.empty()) layout = envkit::parse_layout(o.layout);
-  const int n = o.size > 0 ? o.size
-                           : matching_size(data_texels(in.map.image, *in.map.param),
-                                           envkit::spec_for(kind, 64, conv, layout), 64);
+  const int n = o.size > 0 ? o.size : matching_size(data_texels(in.map.image, *in.map.param), kind, conv, layout);
 
   envkit::EnvMap out;
   out.param = envkit::make_parameterization(envkit::spec_for(kind, n, conv, layout));

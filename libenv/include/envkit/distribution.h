@@ -33,8 +33,7 @@
 ///   product sampling with a BSDF quadtree descends (Clarberg 2008). O(log max(W,H)) per sample, O(1) pdf,
 ///   invertible, ~5.3 bytes/texel. Every node stores its own sum, so probabilities keep float RELATIVE precision
 ///   even for texels a billion times dimmer than the sun next to them.
-/// Mitsuba 3's distr_2d.h makes the same call: hierarchical warping when sample quality matters, marginal
-/// inversion as the compact fallback.
+/// (Mitsuba 3's distr_2d.h documents the same trade-off between its hierarchical and marginal warps.)
 ///
 /// Random numbers
 /// --------------
