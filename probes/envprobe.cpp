@@ -1,5 +1,6 @@
 // envprobe: writes analytic environments (closed-form power) and the built-in default probe.
 #include <envkit/convention.h>
+#include <envkit/envmap.h>
 #include <envkit/error.h>
 #include <envkit/image_io.h>
 #include <envkit/param_factory.h>
@@ -229,16 +230,20 @@ int run(const Args& a, const CLI::App& app) {
   const Vec3 power = probe->total_power();
   const Vec3 map_power = probes::image_power(image, *map);
 
-  envkit::WriteOptions wo;
-  wo.pixel_type = a.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
-  wo.metadata["envkit:parameterization"] = envkit::kind_name(spec.kind);
-  wo.metadata["envkit:convention"] = a.convention;
-  wo.metadata["envkit:probe"] = probe->describe();
-  wo.metadata["envkit:probe_power"] = rgb_text(power);
-  if (spec.kind == envkit::Kind::CubeMap) wo.metadata["envkit:cube_layout"] = envkit::layout_name(spec.layout);
-  envkit::write_image(a.output, image, wo);
+  // save_envmap writes the same envkit:* metadata as envconvert and, for the openexr convention, the typed
+  // OpenEXR envmap attribute that exrenvmap needs.
+  envkit::EnvMap env;
+  env.image = std::move(image);
+  env.param = map->clone();
+  env.convention = envkit::convention(a.convention).name;
+  envkit::SaveOptions so;
+  so.write.pixel_type = a.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
+  so.write.metadata["envkit:probe"] = probe->describe();
+  so.write.metadata["envkit:probe_power"] = rgb_text(power);
+  envkit::save_envmap(a.output, env, so);
+  const envkit::Image& image_out = env.image;
   if (!a.preview.empty()) {
-    envkit::Image preview = image;
+    envkit::Image preview = image_out;
     const double scale = std::exp2(a.exposure);
     for (int j = 0; j < preview.height; ++j)
       for (int i = 0; i < preview.width; ++i)

@@ -32,7 +32,7 @@ using ProgressFn = std::function<void(double)>;
 struct ResampleOptions {
   Filter filter = Filter::Area;
   /// area: sub-samples per source texel along each axis of an output texel's footprint.
-  double supersampling = 2.0;
+  double supersampling = 1.0;
   /// area: cap on the sub-samples per axis of one output texel.
   int max_subsamples = 16;
   /// area: texels carrying more than this fraction of a channel's total power, and brighter than `hot_contrast`
