@@ -192,13 +192,22 @@ EnvMap load_envmap(const std::string& path, const LoadOptions& opt, Detection* d
       strip.channel_names = face.channel_names;
       strip.alpha_channel = face.alpha_channel;
       strip.metadata = face.metadata;
-      if (report) *report = face_report;
     } else if (face.width != n) {
       fail(paths[f], "cube face is " + size_text(face.width, face.height) + " but " + paths[0] + " is " +
                          size_text(n, n) + ": all six faces must have the same size");
     } else if (face.channels != strip.channels) {
       fail(paths[f], "cube face has " + std::to_string(face.channels) + " channels but " + paths[0] + " has " +
                          std::to_string(strip.channels));
+    }
+    if (report && f == 0) {
+      *report = face_report;
+    } else if (report) {  // counts cover all six faces, not just the first
+      report->nan_count += face_report.nan_count;
+      report->posinf_count += face_report.posinf_count;
+      report->neginf_count += face_report.neginf_count;
+      report->negative_count += face_report.negative_count;
+      report->replaced_count += face_report.replaced_count;
+      report->notes.insert(report->notes.end(), face_report.notes.begin(), face_report.notes.end());
     }
     std::copy(face.pixels.begin(), face.pixels.end(),
               strip.pixels.begin() + static_cast<std::ptrdiff_t>(f) * n * n * strip.channels);
