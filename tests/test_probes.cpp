@@ -523,7 +523,7 @@ const std::string kEnvprobe = std::string(ENVKIT_BIN_DIR) + "/envprobe";
 class EnvprobeCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (!std::filesystem::exists(kEnvprobe)) GTEST_SKIP() << kEnvprobe << " not built";
+    ASSERT_TRUE(std::filesystem::exists(kEnvprobe)) << kEnvprobe << " not built (it is part of the default build)";
     dir_ = std::filesystem::temp_directory_path() / ("envkit_test_probes_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir_);
   }
