@@ -15,6 +15,7 @@ PACKAGES=(
   libbenchmark-dev                          # micro-benchmarks
   nlohmann-json3-dev                        # JSON scene files and metadata
   libtinyobjloader-dev                      # OBJ meshes
+  libxxhash-dev                             # XXH3 checksums and content hashes of table files
   python3 python3-matplotlib python3-numpy  # report plots
   clang libclang-rt-14-dev                  # sanitizer and fuzzer builds
   valgrind                                  # callgrind instruction counts in benchmarks

@@ -169,6 +169,26 @@ double AliasTable1D::bin_probability(int i) const {
 // ---------------------------------------------------------------------------------------------------------------
 // AliasDistribution2D
 
+AliasDistribution2D::AliasDistribution2D(BlobReader& in) : Distribution2D(in) {
+  const std::size_t W = std::size_t(width_), H = std::size_t(height_);
+  texels_ = in.array<AliasBin>(W * H);
+  rows_ = in.array<RowBin>(H);
+  pdf_scale_ = in.scalar<double>();
+  in.finish();
+  // One pass over the aliases: a corrupt index would read outside the table.
+  const bool texels_ok =
+      std::all_of(texels_.begin(), texels_.end(), [W](const AliasBin& b) { return b.alias < W; });
+  const bool rows_ok = std::all_of(rows_.begin(), rows_.end(), [H](const RowBin& b) { return b.alias < H; });
+  if (!texels_ok || !rows_ok || !(pdf_scale_ >= 0.0)) throw Error(in.context() + ": alias index out of range");
+}
+
+void AliasDistribution2D::save(BlobWriter& out) const {
+  save_base(out);
+  out.array(texels_);
+  out.array(rows_);
+  out.scalar<double>(pdf_scale_);
+}
+
 AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int height)
     : Distribution2D(weights, width, height) {
   const std::size_t W = std::size_t(width), H = std::size_t(height);

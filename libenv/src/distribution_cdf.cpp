@@ -203,6 +203,27 @@ CdfDistribution2D::CdfDistribution2D(const float* weights, int width, int height
   }
 }
 
+CdfDistribution2D::CdfDistribution2D(BlobReader& in) : Distribution2D(in) {
+  const std::size_t W = std::size_t(width_), H = std::size_t(height_);
+  conditional_ = in.array<float>((W + 1) * H);
+  row_split_ = in.array<std::int32_t>(H);
+  marginal_ = in.array<float>(H + 1);
+  marginal_split_ = in.scalar<std::int32_t>();
+  in.finish();
+  const auto valid_split = [](std::int32_t split, std::size_t n) { return split >= 0 && std::size_t(split) <= n; };
+  if (!valid_split(marginal_split_, H) ||
+      !std::all_of(row_split_.begin(), row_split_.end(), [&](std::int32_t s) { return valid_split(s, W); }))
+    throw Error(in.context() + ": CDF split index out of range");
+}
+
+void CdfDistribution2D::save(BlobWriter& out) const {
+  save_base(out);
+  out.array(conditional_);
+  out.array(row_split_);
+  out.array(marginal_);
+  out.scalar<std::int32_t>(marginal_split_);
+}
+
 DistributionSample CdfDistribution2D::sample(Vec2 u) const {
   const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
   double fy, step_y;

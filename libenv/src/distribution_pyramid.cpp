@@ -42,19 +42,39 @@ inline double top_share(const float* c, int dx) {
 
 }  // namespace
 
-PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, int height)
-    : Distribution2D(weights, width, height) {
+std::size_t PyramidDistribution2D::layout_levels() {
   // Level sizes: ceil-halving down to 1 x 1, with at least one level above the weights.
-  levels_.push_back({width, height, 0});
+  levels_.assign(1, {width_, height_, 0});
   while (levels_.size() == 1 || levels_.back().width > 1 || levels_.back().height > 1)
     levels_.push_back({(levels_.back().width + 1) / 2, (levels_.back().height + 1) / 2, 0});
-  const int top = levels();
   std::size_t size = 0;
-  for (int k = 0; k < top; ++k) {
+  for (int k = 0; k < levels(); ++k) {
     levels_[k].offset = size;
     size += 4 * std::size_t(levels_[k + 1].width) * std::size_t(levels_[k + 1].height);
   }
-  nodes_.assign(size, 0.0f);
+  return size;
+}
+
+PyramidDistribution2D::PyramidDistribution2D(BlobReader& in) : Distribution2D(in) {
+  const std::size_t size = layout_levels();
+  nodes_ = in.array<float>(size);
+  root_ = in.scalar<double>();
+  pdf_scale_ = in.scalar<double>();
+  in.finish();
+  if (!(root_ > 0.0) || !(pdf_scale_ > 0.0)) throw Error(in.context() + ": invalid pyramid root");
+}
+
+void PyramidDistribution2D::save(BlobWriter& out) const {
+  save_base(out);
+  out.array(nodes_);
+  out.scalar<double>(root_);
+  out.scalar<double>(pdf_scale_);
+}
+
+PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, int height)
+    : Distribution2D(weights, width, height) {
+  nodes_.assign(layout_levels(), 0.0f);
+  const int top = levels();
 
   const std::size_t W = std::size_t(width);
   const int w1 = levels_[1].width, h1 = levels_[1].height;
@@ -120,6 +140,7 @@ PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, in
     });
     root = build_upper();
   }
+  root_ = root;
   pdf_scale_ = (double(width) * double(height)) / root;
 }
 

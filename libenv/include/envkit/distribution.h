@@ -50,6 +50,7 @@
 /// never sampled although their weight says otherwise (and a long tail of such texels vanishes together). Double
 /// accumulation keeps every partial sum exact to ~1e-16; each stored float is then rounded once, on its own.
 #include <envkit/error.h>
+#include <envkit/table_blob.h>
 #include <envkit/vec.h>
 
 #include <algorithm>
@@ -116,6 +117,10 @@ class Distribution2D {
   /// Memory held by the tables, in bytes.
   virtual std::size_t bytes() const = 0;
 
+  /// Writes the tables as a flat blob (table_blob.h) for table files. Each class restores it with its
+  /// BlobReader constructor; a restored distribution samples bit-identically to the saved one.
+  virtual void save(BlobWriter& out) const = 0;
+
   int width() const { return width_; }
   int height() const { return height_; }
 
@@ -144,6 +149,27 @@ class Distribution2D {
       throw Error("distribution: invalid size " + std::to_string(width) + "x" + std::to_string(height) +
                   " (each side must be in 1.." + std::to_string(kMaxDistributionSize) + ")");
     if (weights == nullptr) throw Error("distribution: null weights");
+  }
+
+  /// Restores the fields of this base class written by save_base(); validates the size like the constructor.
+  explicit Distribution2D(BlobReader& in) {
+    width_ = in.scalar<std::int32_t>();
+    height_ = in.scalar<std::int32_t>();
+    integral_ = in.scalar<double>();
+    uniform_fallback_ = in.scalar<std::int32_t>() != 0;
+    fallback_rows_ = in.scalar<std::int32_t>();
+    unreachable_texels_ = static_cast<std::size_t>(in.scalar<std::uint64_t>());
+    if (width_ < 1 || height_ < 1 || width_ > kMaxDistributionSize || height_ > kMaxDistributionSize ||
+        !(integral_ >= 0.0) || fallback_rows_ < 0 || fallback_rows_ > height_)
+      throw Error(in.context() + ": invalid distribution header");
+  }
+  void save_base(BlobWriter& out) const {
+    out.scalar<std::int32_t>(width_);
+    out.scalar<std::int32_t>(height_);
+    out.scalar<double>(integral_);
+    out.scalar<std::int32_t>(uniform_fallback_ ? 1 : 0);
+    out.scalar<std::int32_t>(fallback_rows_);
+    out.scalar<std::uint64_t>(unreachable_texels_);
   }
 
   int width_ = 0;

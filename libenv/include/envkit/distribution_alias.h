@@ -76,6 +76,9 @@ class AliasDistribution2D final : public Distribution2D {
  public:
   /// weights: W x H floats, row-major, row 0 first. Throws Error for a bad size or null weights.
   AliasDistribution2D(const float* weights, int width, int height);
+  /// Restores a distribution written by save(); throws Error (naming in.context()) for inconsistent tables.
+  explicit AliasDistribution2D(BlobReader& in);
+  void save(BlobWriter& out) const override;
 
   const char* method() const override { return "alias"; }
   DistributionSample sample(Vec2 u) const override;

@@ -75,6 +75,9 @@ class CdfDistribution2D final : public Distribution2D {
   /// weights: W x H floats, row-major, row 0 first. Rows are built in parallel with TBB for large grids; the
   /// result does not depend on the thread count. Throws Error for a bad size or null weights.
   CdfDistribution2D(const float* weights, int width, int height);
+  /// Restores a distribution written by save(); throws Error (naming in.context()) for inconsistent sizes.
+  explicit CdfDistribution2D(BlobReader& in);
+  void save(BlobWriter& out) const override;
 
   const char* method() const override { return "cdf"; }
   DistributionSample sample(Vec2 u) const override;

@@ -42,6 +42,9 @@ class PyramidDistribution2D final : public Distribution2D {
   /// weights: W x H floats, row-major, row 0 first. Large levels are built in parallel with TBB; results do not
   /// depend on the thread count. Throws Error for a bad size or null weights.
   PyramidDistribution2D(const float* weights, int width, int height);
+  /// Restores a distribution written by save(); throws Error (naming in.context()) for inconsistent sizes.
+  explicit PyramidDistribution2D(BlobReader& in);
+  void save(BlobWriter& out) const override;
 
   const char* method() const override { return "pyramid"; }
   DistributionSample sample(Vec2 u) const override;
@@ -54,12 +57,26 @@ class PyramidDistribution2D final : public Distribution2D {
   /// Number of levels above the weights (the depth of a sample's descent): ceil(log2(max(W, H))), at least 1.
   int levels() const { return static_cast<int>(levels_.size()) - 1; }
 
+  /// Read access for warps that descend the pyramid themselves (product sampling, Clarberg 2008).
+  /// Level k has level_width(k) x level_height(k) nodes; level 0 are the (sanitised, possibly power-of-two
+  /// scaled) weights, level levels() is the 1 x 1 root. node(k, i, j) is the stored float sum of node (i, j);
+  /// nodes outside the level are 0. Children of node (i, j) at level k are (2i + dx, 2j + dy) at level k - 1.
+  int level_width(int k) const { return levels_[k].width; }
+  int level_height(int k) const { return levels_[k].height; }
+  double node(int k, int i, int j) const {
+    if (i < 0 || j < 0 || i >= levels_[k].width || j >= levels_[k].height) return 0.0;
+    if (k == levels()) return root_;
+    return children(k, i >> 1, j >> 1)[(j & 1) * 2 + (i & 1)];
+  }
+
  private:
   struct Level {
     int width = 0;            // nodes in this level
     int height = 0;
     std::size_t offset = 0;   // start of this level's blocked children array in nodes_ (levels below the top)
   };
+  /// Fills levels_ from width_ x height_; returns the number of floats nodes_ needs.
+  std::size_t layout_levels();
   /// The four children of node (i, j) of level k + 1, stored in level k: {(0,0), (1,0), (0,1), (1,1)}.
   const float* children(int k, int i, int j) const {
     return nodes_.data() + levels_[k].offset +
@@ -70,6 +87,7 @@ class PyramidDistribution2D final : public Distribution2D {
   std::vector<float> nodes_;   // levels 0 .. top-1, each blocked by parent
   std::vector<Level> levels_;  // levels 0 .. top (top is 1 x 1, its value is the root sum)
   double pdf_scale_ = 0.0;     // pdf = leaf * pdf_scale_ = leaf * W H / (sum of stored leaves)
+  double root_ = 0.0;          // the root sum (double)
 };
 
 }  // namespace envkit

@@ -1,0 +1,86 @@
+#pragma once
+/// @file env_sampling.h
+/// Sampling directions on the sphere from a 2D distribution baked over a lat-long or equal-area octahedral grid.
+///
+/// One interface for every method (cdf, alias, hierarchical): sample(u) -> {direction, pdf per steradian, texel},
+/// pdf(direction), invert(direction) -> u (cdf and hierarchical).
+///
+/// Frame: directions are unit vectors in the frame the tables were baked in (envkit's canonical world frame,
+/// +Y up, see latlong.h / octahedral.h; the bake has already applied the source map's convention and rotation).
+///
+/// Density inside a texel. The 2D distribution picks texel (x, y) with probability P(x, y) = w / sum(w), where
+/// w = importance x exact texel solid angle Omega(x, y). The position inside the texel is then drawn UNIFORMLY IN
+/// SOLID ANGLE (lat-long: longitude linear in the offset, z = cos theta linear in the offset between the row's
+/// bounds; octahedral: the map is equal-area, so uniform in the square is uniform in solid angle). The density is
+/// therefore constant per texel:
+///     pdf(direction) = P(x, y) / Omega(x, y)  = importance(x, y) / sum(importance x Omega)
+/// This is the seed's pdf_uv / (2 pi^2 sin theta) done right: the sin theta is integrated over the texel, so the
+/// pdf is finite at the poles (sin theta = 0) instead of infinite, and it is never NaN. It is 0 exactly where the
+/// importance is 0. Radiance looked up with the nearest texel of the bake grid makes L / pdf constant inside a
+/// texel.
+///
+/// u: any value is accepted and clamped to [0, 1) at every level (see distribution.h). Thread-safe, immutable.
+#include <envkit/distribution.h>
+#include <envkit/parameterization.h>
+#include <envkit/vec.h>
+
+#include <memory>
+#include <string>
+
+namespace envkit {
+
+/// The three warps of distribution.h under their user-facing names.
+enum class SamplingMethod { Cdf, Alias, Hierarchical };
+
+/// "cdf", "alias", "hierarchical".
+const char* method_name(SamplingMethod method);
+/// Accepts "cdf", "alias", "hierarchical" (or "pyramid"); throws Error otherwise.
+SamplingMethod parse_method(const std::string& name);
+
+/// One direction drawn from a SphericalDistribution.
+struct DirectionSample {
+  Vec3 direction{0.0, 1.0, 0.0};  ///< unit vector, table frame
+  double pdf = 0.0;               ///< density per steradian; equals pdf(direction); > 0 for a drawn sample
+  int x = 0;                      ///< texel column of the bake grid
+  int y = 0;                      ///< texel row of the bake grid (row 0 = top, +Y for lat-long)
+};
+
+/// A Distribution2D over a lat-long (2:1 or any W x H) or equal-area octahedral (square) grid, seen as a density
+/// over directions.
+class SphericalDistribution {
+ public:
+  /// grid: Kind::LatLong (envkit canonical, centre-sampled) or Kind::Octahedral; the distribution's size is the
+  /// grid's. Its weights must be importance x texel solid angle (see the file comment). Throws Error for another
+  /// kind or a non-square octahedral grid.
+  SphericalDistribution(Kind grid, std::shared_ptr<const Distribution2D> distribution);
+
+  /// Warp u in [0,1)^2 to a direction.
+  DirectionSample sample(Vec2 u) const;
+  /// Density per steradian at direction (need not be normalised; 0 for a zero or NaN vector).
+  double pdf(const Vec3& direction) const;
+  bool can_invert() const { return distribution_->can_invert(); }
+  /// The u that sample() maps to direction (within rounding). Throws Error for alias.
+  Vec2 invert(const Vec3& direction) const;
+
+  /// Texel of the bake grid containing direction (lat-long row from theta, column from longitude).
+  void texel_of(const Vec3& direction, int& x, int& y) const;
+  /// Exact solid angle of texel (x, y), steradians.
+  double texel_solid_angle(int x, int y) const;
+
+  Kind grid() const { return grid_; }
+  int width() const { return distribution_->width(); }
+  int height() const { return distribution_->height(); }
+  const Distribution2D& distribution() const { return *distribution_; }
+  std::shared_ptr<const Distribution2D> distribution_ptr() const { return distribution_; }
+
+ private:
+  /// Direction of fractional position (fx, fy) in [0,1)^2 inside texel (x, y), uniform in solid angle.
+  Vec3 direction_in_texel(int x, int y, double fx, double fy) const;
+  /// Inverse of direction_in_texel: texel and fractional position of direction.
+  void locate(const Vec3& direction, int& x, int& y, double& fx, double& fy) const;
+
+  Kind grid_;
+  std::shared_ptr<const Distribution2D> distribution_;
+};
+
+}  // namespace envkit

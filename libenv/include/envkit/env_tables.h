@@ -1,0 +1,121 @@
+#pragma once
+/// @file env_tables.h
+/// Baked sampling tables of an environment map: the scalar importance map and the distributions built from it
+/// (cdf, alias, hierarchical, and optionally their MIS-compensated twins), in memory and in versioned files.
+///
+/// Baking (EnvTables::bake):
+///  1. The map is brought onto the bake grid: an envkit-canonical lat-long (centre-sampled, +Y up) or equal-area
+///     octahedral map of the requested size. A map already on that grid with an identity map->world transform is
+///     used as is; anything else (other parameterizations, conventions, rotations, sizes) is resampled with the
+///     flux-conserving `area` filter. Directions in the tables are therefore in the map's WORLD frame.
+///  2. importance(x, y) = luminance (weights from the map's colour space through OCIO, Rec.709 when unknown),
+///     average or max of the colour channels, negative and NaN treated as 0. Optional --resolution: the scalar
+///     importance is area-filtered down to W x H (solid-angle weighted). Optional conservative mode: each texel
+///     takes the max of its 3x3 neighbourhood (its bilinear lookup footprint; longitude wraps, edges fold).
+///  3. Weights = importance x exact texel solid angle (lat-long: (2 pi / W)(cos theta0 - cos theta1)).
+///  4. Compensated (Karlik et al. 2019): importance' = max(importance - mean, 0), mean = the solid-angle mean over
+///     the sphere. When that is zero everywhere (a constant map) the compensated table falls back to the plain
+///     importance, and says so in warnings().
+///
+/// File format ("ENVKTBL", see docs/TABLE_FORMAT.md): a fixed header (magic, version, section count), a JSON
+/// descriptor section (parameterization, sizes, importance mode, bake settings, source path and content hash),
+/// then binary sections (importance map, each distribution's arrays) at 64-byte aligned offsets, each with its
+/// size and XXH3-64 checksum in the directory. Loading maps the file (mmap), verifies every checksum, and copies
+/// each array once (memcpy, no per-element parsing). Loaded and freshly baked tables give bit-identical samples.
+#include <envkit/env_sampling.h>
+#include <envkit/image.h>
+#include <envkit/parameterization.h>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace envkit {
+
+struct EnvMap;
+
+/// How a texel's colour becomes one scalar.
+enum class ImportanceMode { Luminance, Average, Max };
+const char* importance_name(ImportanceMode mode);
+ImportanceMode parse_importance(const std::string& name);  ///< throws Error for an unknown name
+
+/// Format version written by this build; files with another version are refused.
+inline constexpr std::uint32_t kTableFormatVersion = 1;
+
+struct BakeOptions {
+  ImportanceMode importance = ImportanceMode::Luminance;
+  Kind grid = Kind::LatLong;  ///< LatLong or Octahedral
+  /// Bake grid size. 0 = natural: the source's size when it is already on the grid, else a grid with about as
+  /// many texels as the source (lat-long 2N x N, octahedral N x N).
+  int width = 0;
+  int height = 0;
+  /// Importance resolution (--resolution); 0 = the bake grid size. Must not exceed it.
+  int importance_width = 0;
+  int importance_height = 0;
+  bool cdf = true;
+  bool alias = true;
+  bool hierarchical = true;
+  bool compensated = false;  ///< also build the compensated twin of every requested method
+  bool conservative = false;
+  std::function<void(double fraction, const char* stage)> progress;  ///< optional, from the calling thread
+};
+
+/// Content hash of an image (size, channel names and pixel bytes): XXH3-128 as 32 hex digits.
+std::string image_content_hash(const Image& image);
+
+class EnvTables {
+ public:
+  /// Bakes tables from an environment map. source_path and source_hash are recorded (hash computed when empty).
+  static EnvTables bake(const EnvMap& map, const BakeOptions& options, const std::string& source_path = "",
+                        std::string source_hash = "");
+  /// Loads a table file. Throws Error naming the file and the problem: not a table file, wrong version, truncated,
+  /// checksum mismatch, or (when expected_source_hash is not empty) a stale table whose source hash differs.
+  static EnvTables load(const std::string& path, const std::string& expected_source_hash = "");
+  /// Writes atomically (temporary file + rename).
+  void save(const std::string& path) const;
+
+  /// The distribution of a method, or nullptr when it was not baked.
+  const SphericalDistribution* distribution(SamplingMethod method, bool compensated = false) const;
+
+  Kind grid() const { return grid_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  ImportanceMode importance_mode() const { return mode_; }
+  bool conservative() const { return conservative_; }
+  /// Scalar importance per texel of the distribution grid (radiance-like, per steradian), row-major.
+  const std::vector<float>& importance() const { return importance_; }
+  /// Total power of the importance: sum(importance x Omega), in double.
+  double total_importance() const { return total_importance_; }
+  const std::string& source_path() const { return source_path_; }
+  const std::string& source_hash() const { return source_hash_; }
+  /// The descriptor as stored (JSON text): bake settings, sizes, methods, warnings.
+  const std::string& descriptor() const { return descriptor_; }
+  /// Warnings of the bake (all-zero map, zero rows, unreachable texels, compensated fallback).
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  /// Bytes held by each table kind, by name ("importance", "cdf", "alias", "hierarchical", "cdf-compensated", ...).
+  std::vector<std::pair<std::string, std::size_t>> table_bytes() const;
+
+ private:
+  EnvTables() = default;
+  void build_distributions(const BakeOptions& options);
+  std::string make_descriptor(const BakeOptions* options) const;
+
+  Kind grid_ = Kind::LatLong;
+  int width_ = 0;
+  int height_ = 0;
+  ImportanceMode mode_ = ImportanceMode::Luminance;
+  bool conservative_ = false;
+  std::vector<float> importance_;
+  double total_importance_ = 0.0;
+  std::string source_path_;
+  std::string source_hash_;
+  std::string descriptor_;
+  std::vector<std::string> warnings_;
+  // [compensated][method]
+  std::array<std::array<std::unique_ptr<SphericalDistribution>, 3>, 2> distributions_;
+};
+
+}  // namespace envkit

@@ -1,0 +1,344 @@
+// Baking importance tables from an environment map (see env_tables.h). The file format lives in
+// env_tables_file.cpp.
+#include <envkit/color.h>
+#include <envkit/distribution_alias.h>
+#include <envkit/distribution_cdf.h>
+#include <envkit/distribution_pyramid.h>
+#include <envkit/env_tables.h>
+#include <envkit/envmap.h>
+#include <envkit/latlong.h>
+#include <envkit/octahedral.h>
+#include <envkit/resample.h>
+
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+#define XXH_INLINE_ALL
+#include <xxhash.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace envkit {
+
+const char* importance_name(ImportanceMode mode) {
+  switch (mode) {
+    case ImportanceMode::Luminance: return "luminance";
+    case ImportanceMode::Average: return "average";
+    case ImportanceMode::Max: return "max";
+  }
+  return "?";
+}
+
+ImportanceMode parse_importance(const std::string& name) {
+  if (name == "luminance") return ImportanceMode::Luminance;
+  if (name == "average") return ImportanceMode::Average;
+  if (name == "max") return ImportanceMode::Max;
+  throw Error("unknown importance '" + name + "' (expected luminance, average or max)");
+}
+
+std::string image_content_hash(const Image& image) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  const std::int32_t dims[3] = {image.width, image.height, image.channels};
+  XXH3_128bits_update(state, dims, sizeof(dims));
+  for (const std::string& name : image.channel_names) XXH3_128bits_update(state, name.c_str(), name.size() + 1);
+  XXH3_128bits_update(state, image.pixels.data(), image.pixels.size() * sizeof(float));
+  const XXH128_hash_t h = XXH3_128bits_digest(state);
+  XXH3_freeState(state);
+  char text[33];
+  std::snprintf(text, sizeof(text), "%016llx%016llx", static_cast<unsigned long long>(h.high64),
+                static_cast<unsigned long long>(h.low64));
+  return text;
+}
+
+namespace {
+
+std::unique_ptr<Parameterization> make_grid(Kind grid, int width, int height) {
+  if (grid == Kind::Octahedral) return std::make_unique<OctahedralMap>(width);
+  return std::make_unique<LatLongMap>(width, height, TexelGrid::Centre);
+}
+
+bool is_identity(const Mat3& m) {
+  const Mat3 id = identity3();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      if (m[r][c] != id[r][c]) return false;
+  return true;
+}
+
+/// True when the map's texels are already the bake grid's texels (same kind, centre grid, no transform).
+bool on_bake_grid(const EnvMap& map, Kind grid) {
+  if (map.param->kind() != grid || !is_identity(map.to_world())) return false;
+  if (grid == Kind::Octahedral) return map.image.width == map.image.height;
+  const auto* latlong = dynamic_cast<const LatLongMap*>(map.param.get());
+  return latlong != nullptr && latlong->grid() == TexelGrid::Centre;
+}
+
+/// Scalar importance of one texel from its colour channels (alpha is coverage, not light).
+struct ImportanceFunction {
+  ImportanceMode mode;
+  Vec3 weights;           // luminance weights of the working space
+  std::vector<int> color; // indices of the colour channels
+
+  float operator()(const float* texel) const {
+    double value = 0.0;
+    if (color.size() >= 3 && mode == ImportanceMode::Luminance) {
+      value = weights.x * positive(texel[color[0]]) + weights.y * positive(texel[color[1]]) +
+              weights.z * positive(texel[color[2]]);
+    } else if (mode == ImportanceMode::Max) {
+      for (int c : color) value = std::max(value, positive(texel[c]));
+    } else {  // average, or luminance of a one/two-channel image (its channels are already grey)
+      for (int c : color) value += positive(texel[c]);
+      value /= double(std::max<std::size_t>(1, color.size()));
+    }
+    return static_cast<float>(std::min(value, double(FLT_MAX)));
+  }
+  static double positive(float v) { return v > 0.0f ? double(std::min(v, FLT_MAX)) : 0.0; }
+};
+
+ImportanceFunction importance_function(const Image& image, ImportanceMode mode) {
+  ImportanceFunction f{mode, luminance_weights("scene_linear"), {}};
+  for (int c = 0; c < image.channels; ++c)
+    if (c != image.alpha_channel) f.color.push_back(c);
+  return f;
+}
+
+/// Max over each texel's 3x3 neighbourhood: the texels a bilinear lookup anywhere inside it may touch.
+std::vector<float> dilate_3x3(const std::vector<float>& values, const Parameterization& grid, int W, int H) {
+  std::vector<float> out(values.size());
+  tbb::parallel_for(0, H, [&](int y) {
+    for (int x = 0; x < W; ++x) {
+      float m = values[std::size_t(y) * W + x];
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          int i = x + dx, j = y + dy;
+          if ((dx || dy) && grid.resolve_tap(x, y, i, j)) m = std::max(m, values[std::size_t(j) * W + i]);
+        }
+      out[std::size_t(y) * W + x] = m;
+    }
+  });
+  return out;
+}
+
+}  // namespace
+
+EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const std::string& source_path,
+                          std::string source_hash) {
+  if (options.grid != Kind::LatLong && options.grid != Kind::Octahedral)
+    throw Error(std::string("bake: unsupported grid '") + kind_name(options.grid) +
+                "' (expected latlong or octahedral)");
+  if (map.image.empty()) throw Error(source_path + ": empty image");
+  const auto progress = [&](double f, const char* stage) {
+    if (options.progress) options.progress(f, stage);
+  };
+
+  EnvTables t;
+  t.mode_ = options.importance;
+  t.conservative_ = options.conservative;
+  t.grid_ = options.grid;
+  t.source_path_ = source_path;
+  t.source_hash_ = source_hash.empty() ? image_content_hash(map.image) : std::move(source_hash);
+
+  // 1. The bake grid.
+  const bool native = on_bake_grid(map, options.grid);
+  int W = options.width, H = options.height;
+  if (W <= 0 || H <= 0) {
+    if (native) {
+      W = map.image.width;
+      H = map.image.height;
+    } else {
+      const double texels = double(map.image.texel_count());
+      if (options.grid == Kind::Octahedral) {
+        W = H = std::max(1, int(std::lround(std::sqrt(texels))));
+      } else {
+        H = std::max(1, int(std::lround(std::sqrt(texels / 2.0))));
+        W = 2 * H;
+      }
+    }
+  }
+  if (options.grid == Kind::Octahedral && W != H)
+    throw Error("bake: an octahedral grid must be square, got " + std::to_string(W) + "x" + std::to_string(H));
+  if (W > kMaxDistributionSize || H > kMaxDistributionSize)
+    throw Error("bake: grid " + std::to_string(W) + "x" + std::to_string(H) + " is too large");
+  const std::unique_ptr<Parameterization> grid = make_grid(options.grid, W, H);
+  std::string resampled_from;
+  const bool use_source = native && W == map.image.width && H == map.image.height;
+  Image resampled;
+  if (!use_source) {
+    progress(0.0, "resampling onto the bake grid");
+    ResampleOptions ro;
+    ro.filter = Filter::Area;
+    resampled = resample(map.ref(), *grid, identity3(), ro);
+    resampled_from = map.param->describe();
+  }
+  const Image& radiance = use_source ? map.image : resampled;
+
+  // 2. Scalar importance on the grid.
+  progress(0.2, "importance");
+  const ImportanceFunction importance_of = importance_function(radiance, options.importance);
+  std::vector<float> importance(std::size_t(W) * std::size_t(H));
+  tbb::parallel_for(0, H, [&](int y) {
+    for (int x = 0; x < W; ++x) importance[std::size_t(y) * W + x] = importance_of(radiance.at(x, y));
+  });
+
+  // Optional lower importance resolution: area-filter the scalar map (solid-angle weighted).
+  int TW = W, TH = H;
+  if (options.importance_width > 0 && options.importance_height > 0 &&
+      (options.importance_width != W || options.importance_height != H)) {
+    TW = options.importance_width;
+    TH = options.importance_height;
+    if (TW > W || TH > H)
+      throw Error("bake: --resolution " + std::to_string(TW) + "x" + std::to_string(TH) +
+                  " exceeds the bake grid " + std::to_string(W) + "x" + std::to_string(H));
+    if (options.grid == Kind::Octahedral && TW != TH)
+      throw Error("bake: an octahedral resolution must be square, got " + std::to_string(TW) + "x" +
+                  std::to_string(TH));
+    Image scalar(W, H, 1);
+    scalar.pixels = importance;
+    const std::unique_ptr<Parameterization> coarse = make_grid(options.grid, TW, TH);
+    ResampleOptions ro;
+    ro.filter = Filter::Area;
+    importance = resample(MapRef{scalar, *grid, identity3()}, *coarse, identity3(), ro).pixels;
+  }
+  t.width_ = TW;
+  t.height_ = TH;
+  const std::unique_ptr<Parameterization> table_grid = make_grid(options.grid, TW, TH);
+  if (options.conservative) importance = dilate_3x3(importance, *table_grid, TW, TH);
+  for (float& v : importance) v = static_cast<float>(ImportanceFunction::positive(v));  // resampling may leave -0 or tiny negatives
+  t.importance_ = std::move(importance);
+
+  t.build_distributions(options);
+  t.descriptor_ = t.make_descriptor(&options);
+  if (!resampled_from.empty()) {
+    auto d = nlohmann::json::parse(t.descriptor_);
+    d["bake"]["resampled_from"] = resampled_from;
+    t.descriptor_ = d.dump(2);
+  }
+  progress(1.0, "done");
+  return t;
+}
+
+void EnvTables::build_distributions(const BakeOptions& options) {
+  const int W = width_, H = height_;
+  const std::size_t n = std::size_t(W) * std::size_t(H);
+  const std::unique_ptr<Parameterization> grid = make_grid(grid_, W, H);
+  // Exact texel solid angles: per row for lat-long, constant for the equal-area octahedral map.
+  std::vector<double> row_omega(H);
+  for (int y = 0; y < H; ++y) row_omega[y] = grid->solid_angle(0.0, y, 1.0, y + 1.0);
+
+  double total = 0.0;
+  for (int y = 0; y < H; ++y) {
+    double row = 0.0;
+    for (int x = 0; x < W; ++x) row += importance_[std::size_t(y) * W + x];
+    total += row * row_omega[y];
+  }
+  total_importance_ = total;
+
+  const auto weights_of = [&](const auto& value) {
+    std::vector<float> w(n);
+    tbb::parallel_for(0, H, [&](int y) {
+      for (int x = 0; x < W; ++x) {
+        const std::size_t i = std::size_t(y) * W + x;
+        w[i] = static_cast<float>(double(value(i)) * row_omega[y]);
+      }
+    });
+    return w;
+  };
+
+  const bool wanted[3] = {options.cdf, options.alias, options.hierarchical};
+  const auto build_set = [&](const std::vector<float>& weights, int set) {
+    for (int m = 0; m < 3; ++m) {
+      if (!wanted[m]) continue;
+      if (options.progress)
+        options.progress(0.3 + 0.35 * set + 0.1 * m,
+                         m == 0 ? "cdf tables" : m == 1 ? "alias tables" : "sum pyramid");
+      std::shared_ptr<const Distribution2D> d;
+      if (m == 0) d = std::make_shared<CdfDistribution2D>(weights.data(), W, H);
+      if (m == 1) d = std::make_shared<AliasDistribution2D>(weights.data(), W, H);
+      if (m == 2) d = std::make_shared<PyramidDistribution2D>(weights.data(), W, H);
+      distributions_[set][m] = std::make_unique<SphericalDistribution>(grid_, d);
+    }
+  };
+
+  const std::vector<float> weights = weights_of([&](std::size_t i) { return importance_[i]; });
+  build_set(weights, 0);
+  if (!(total > 0.0)) {
+    warnings_.push_back("the map carries no light (all importance is zero): the tables sample uniformly");
+  } else {
+    int zero_rows = 0;
+    for (int y = 0; y < H; ++y)
+      zero_rows += std::all_of(importance_.begin() + std::ptrdiff_t(y) * W,
+                               importance_.begin() + std::ptrdiff_t(y + 1) * W, [](float v) { return !(v > 0.0f); });
+    if (zero_rows > 0)
+      warnings_.push_back(std::to_string(zero_rows) +
+                          " all-zero rows: never sampled (pdf 0 there); their conditional tables are uniform");
+    const SphericalDistribution* cdf = distributions_[0][0].get();
+    if (cdf && cdf->distribution().unreachable_texels() > 0)
+      warnings_.push_back(std::to_string(cdf->distribution().unreachable_texels()) +
+                          " lit texels are below the float resolution of their CDF (cdf gives them pdf 0; "
+                          "hierarchical and alias sample them)");
+  }
+
+  if (options.compensated) {
+    const double mean = total / kFourPi;  // solid-angle mean of the importance
+    bool any = false;
+    for (float v : importance_) any = any || double(v) > mean;
+    if (any) {
+      build_set(weights_of([&](std::size_t i) { return std::max(0.0, double(importance_[i]) - mean); }), 1);
+    } else {
+      warnings_.push_back(
+          "compensated importance max(f - mean, 0) is zero everywhere (a constant map): the compensated tables are "
+          "the plain ones");
+      for (int m = 0; m < 3; ++m)
+        if (distributions_[0][m])
+          distributions_[1][m] =
+              std::make_unique<SphericalDistribution>(grid_, distributions_[0][m]->distribution_ptr());
+    }
+  }
+}
+
+const SphericalDistribution* EnvTables::distribution(SamplingMethod method, bool compensated) const {
+  return distributions_[compensated ? 1 : 0][static_cast<int>(method)].get();
+}
+
+std::vector<std::pair<std::string, std::size_t>> EnvTables::table_bytes() const {
+  std::vector<std::pair<std::string, std::size_t>> out;
+  out.emplace_back("importance", importance_.size() * sizeof(float));
+  for (int set = 0; set < 2; ++set)
+    for (int m = 0; m < 3; ++m)
+      if (distributions_[set][m])
+        out.emplace_back(std::string(method_name(SamplingMethod(m))) + (set ? "-compensated" : ""),
+                         distributions_[set][m]->distribution().bytes());
+  return out;
+}
+
+std::string EnvTables::make_descriptor(const BakeOptions* options) const {
+  nlohmann::json d;
+  d["format"] = "envkit sampling tables";
+  d["version"] = kTableFormatVersion;
+  d["grid"] = kind_name(grid_);
+  d["width"] = width_;
+  d["height"] = height_;
+  d["importance"] = importance_name(mode_);
+  d["conservative"] = conservative_;
+  d["total_importance"] = total_importance_;
+  d["source"] = {{"path", source_path_}, {"hash", source_hash_}};
+  nlohmann::json methods = nlohmann::json::array(), compensated = nlohmann::json::array();
+  for (int m = 0; m < 3; ++m) {
+    if (distributions_[0][m]) methods.push_back(method_name(SamplingMethod(m)));
+    if (distributions_[1][m]) compensated.push_back(method_name(SamplingMethod(m)));
+  }
+  d["methods"] = methods;
+  d["compensated_methods"] = compensated;
+  d["warnings"] = warnings_;
+  if (options) {
+    d["bake"] = {{"importance_resolution", {width_, height_}},
+                 {"requested_grid", {options->width, options->height}},
+                 {"conservative", options->conservative},
+                 {"compensated", options->compensated}};
+  }
+  return d.dump(2);
+}
+
+}  // namespace envkit

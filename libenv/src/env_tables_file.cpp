@@ -1,0 +1,261 @@
+// The table file format (docs/TABLE_FORMAT.md): save and load of EnvTables.
+//
+//   offset 0   FileHeader (64 bytes): magic "ENVKTBL\0", version, byte-order mark, section count, header checksum
+//   offset 64  section_count x SectionEntry (64 bytes each): name, offset, size, XXH3-64 checksum
+//   then       sections, each starting at a multiple of 64 bytes
+// Sections: "descriptor" (JSON text), "importance" (blob: float array W x H), then one blob per distribution:
+// "cdf", "alias", "hierarchical" and their "-compensated" twins.
+#include <envkit/atomic_file.h>
+#include <envkit/distribution_alias.h>
+#include <envkit/distribution_cdf.h>
+#include <envkit/distribution_pyramid.h>
+#include <envkit/env_tables.h>
+
+#include <nlohmann/json.hpp>
+#define XXH_INLINE_ALL
+#include <xxhash.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fcntl.h>
+#include <fstream>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace envkit {
+
+namespace {
+
+constexpr char kMagic[8] = {'E', 'N', 'V', 'K', 'T', 'B', 'L', '\0'};
+constexpr std::uint32_t kByteOrderMark = 0x01020304u;
+constexpr std::uint32_t kMaxSections = 64;
+
+struct FileHeader {
+  char magic[8];
+  std::uint32_t version;
+  std::uint32_t byte_order;
+  std::uint32_t section_count;
+  std::uint32_t reserved0;
+  std::uint64_t directory_checksum;  // XXH3-64 of the section entries
+  std::uint64_t reserved[4];
+};
+static_assert(sizeof(FileHeader) == 64);
+
+struct SectionEntry {
+  char name[32];
+  std::uint64_t offset;
+  std::uint64_t size;
+  std::uint64_t checksum;  // XXH3-64 of the section bytes
+};
+static_assert(sizeof(SectionEntry) == 56);
+constexpr std::size_t kEntryBytes = 64;  // entries are padded to 64 bytes
+
+std::size_t align64(std::size_t n) { return (n + 63) & ~std::size_t(63); }
+
+struct Section {
+  std::string name;
+  std::vector<std::byte> bytes;
+};
+
+/// A read-only memory map of a whole file (or nothing for an empty file).
+class MappedFile {
+ public:
+  explicit MappedFile(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw Error(path + ": cannot open: " + std::strerror(errno));
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+      ::close(fd);
+      throw Error(path + ": not a regular file");
+    }
+    size_ = static_cast<std::size_t>(st.st_size);
+    if (size_ > 0) {
+      void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+      if (p == MAP_FAILED) {
+        ::close(fd);
+        throw Error(path + ": cannot map: " + std::strerror(errno));
+      }
+      data_ = static_cast<const std::byte*>(p);
+    }
+    ::close(fd);
+  }
+  ~MappedFile() {
+    if (data_) ::munmap(const_cast<std::byte*>(data_), size_);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  const std::byte* data() const { return data_; }
+  std::size_t size() const { return size_; }
+
+ private:
+  const std::byte* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+std::string section_name(int method, int set) {
+  return std::string(method_name(SamplingMethod(method))) + (set ? "-compensated" : "");
+}
+
+std::shared_ptr<const Distribution2D> restore_distribution(int method, BlobReader& in) {
+  switch (SamplingMethod(method)) {
+    case SamplingMethod::Cdf: return std::make_shared<CdfDistribution2D>(in);
+    case SamplingMethod::Alias: return std::make_shared<AliasDistribution2D>(in);
+    case SamplingMethod::Hierarchical: return std::make_shared<PyramidDistribution2D>(in);
+  }
+  throw Error(in.context() + ": unknown method");
+}
+
+}  // namespace
+
+void EnvTables::save(const std::string& path) const {
+  std::vector<Section> sections;
+  {
+    Section s{"descriptor", {}};
+    s.bytes.resize(descriptor_.size());
+    std::memcpy(s.bytes.data(), descriptor_.data(), descriptor_.size());
+    sections.push_back(std::move(s));
+  }
+  {
+    BlobWriter w;
+    w.array(importance_);
+    sections.push_back({"importance", w.release()});
+  }
+  for (int set = 0; set < 2; ++set)
+    for (int m = 0; m < 3; ++m)
+      if (distributions_[set][m]) {
+        BlobWriter w;
+        distributions_[set][m]->distribution().save(w);
+        sections.push_back({section_name(m, set), w.release()});
+      }
+
+  FileHeader header{};
+  std::memcpy(header.magic, kMagic, sizeof(kMagic));
+  header.version = kTableFormatVersion;
+  header.byte_order = kByteOrderMark;
+  header.section_count = static_cast<std::uint32_t>(sections.size());
+  std::vector<std::byte> directory(sections.size() * kEntryBytes, std::byte{0});
+  std::size_t offset = align64(sizeof(FileHeader) + directory.size());
+  for (std::size_t i = 0; i < sections.size(); ++i) {
+    SectionEntry e{};
+    std::strncpy(e.name, sections[i].name.c_str(), sizeof(e.name) - 1);
+    e.offset = offset;
+    e.size = sections[i].bytes.size();
+    e.checksum = XXH3_64bits(sections[i].bytes.data(), sections[i].bytes.size());
+    std::memcpy(directory.data() + i * kEntryBytes, &e, sizeof(e));
+    offset = align64(offset + sections[i].bytes.size());
+  }
+  header.directory_checksum = XXH3_64bits(directory.data(), directory.size());
+
+  AtomicOutput out(path);
+  {
+    std::ofstream f(out.temp_path(), std::ios::binary | std::ios::trunc);
+    if (!f) throw Error(path + ": cannot write: " + std::strerror(errno));
+    static const char zeros[64] = {};
+    std::size_t written = 0;
+    const auto put = [&](const void* data, std::size_t n) {
+      f.write(static_cast<const char*>(data), std::streamsize(n));
+      written += n;
+    };
+    const auto pad = [&] { put(zeros, align64(written) - written); };
+    put(&header, sizeof(header));
+    put(directory.data(), directory.size());
+    for (const Section& s : sections) {
+      pad();
+      put(s.bytes.data(), s.bytes.size());
+    }
+    pad();
+    f.flush();
+    if (!f) throw Error(path + ": cannot write: " + std::strerror(errno));
+  }
+  out.commit();
+}
+
+EnvTables EnvTables::load(const std::string& path, const std::string& expected_source_hash) {
+  const MappedFile file(path);
+  const std::byte* data = file.data();
+  const std::size_t size = file.size();
+  const auto fail_with = [&](const std::string& problem) { return Error(path + ": " + problem); };
+
+  if (size < sizeof(FileHeader)) throw fail_with("not an envkit table file (too short)");
+  FileHeader header;
+  std::memcpy(&header, data, sizeof(header));
+  if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0)
+    throw fail_with("not an envkit table file (bad magic)");
+  if (header.byte_order != kByteOrderMark) throw fail_with("written on a machine of the other byte order");
+  if (header.version != kTableFormatVersion)
+    throw fail_with("table format version " + std::to_string(header.version) + " is not supported (this build reads " +
+                    std::to_string(kTableFormatVersion) + "; re-bake with envbake)");
+  if (header.section_count == 0 || header.section_count > kMaxSections)
+    throw fail_with("corrupt header (" + std::to_string(header.section_count) + " sections)");
+  const std::size_t directory_bytes = header.section_count * kEntryBytes;
+  if (size < sizeof(FileHeader) + directory_bytes) throw fail_with("truncated (section directory)");
+  if (XXH3_64bits(data + sizeof(FileHeader), directory_bytes) != header.directory_checksum)
+    throw fail_with("checksum mismatch in the section directory (corrupt file)");
+
+  std::map<std::string, std::pair<const std::byte*, std::size_t>> sections;
+  for (std::uint32_t i = 0; i < header.section_count; ++i) {
+    SectionEntry e;
+    std::memcpy(&e, data + sizeof(FileHeader) + i * kEntryBytes, sizeof(e));
+    e.name[sizeof(e.name) - 1] = '\0';
+    const std::string name = e.name;
+    if (e.offset > size || e.size > size - e.offset)
+      throw fail_with("truncated (section '" + name + "' runs past the end of the file)");
+    if (XXH3_64bits(data + e.offset, e.size) != e.checksum)
+      throw fail_with("checksum mismatch in section '" + name + "' (corrupt file)");
+    sections[name] = {data + e.offset, static_cast<std::size_t>(e.size)};
+  }
+  const auto section = [&](const std::string& name) {
+    const auto it = sections.find(name);
+    if (it == sections.end()) throw fail_with("missing section '" + name + "'");
+    return it->second;
+  };
+
+  EnvTables t;
+  const auto [descriptor_data, descriptor_size] = section("descriptor");
+  t.descriptor_.assign(reinterpret_cast<const char*>(descriptor_data), descriptor_size);
+  try {
+    const nlohmann::json d = nlohmann::json::parse(t.descriptor_);
+    t.grid_ = parse_kind(d.at("grid").get<std::string>());
+    t.width_ = d.at("width").get<int>();
+    t.height_ = d.at("height").get<int>();
+    t.mode_ = parse_importance(d.at("importance").get<std::string>());
+    t.conservative_ = d.at("conservative").get<bool>();
+    t.total_importance_ = d.at("total_importance").get<double>();
+    t.source_path_ = d.at("source").at("path").get<std::string>();
+    t.source_hash_ = d.at("source").at("hash").get<std::string>();
+    t.warnings_ = d.at("warnings").get<std::vector<std::string>>();
+  } catch (const nlohmann::json::exception& e) {
+    throw fail_with(std::string("corrupt descriptor: ") + e.what());
+  } catch (const Error& e) {
+    throw fail_with(std::string("corrupt descriptor: ") + e.what());
+  }
+  if ((t.grid_ != Kind::LatLong && t.grid_ != Kind::Octahedral) || t.width_ < 1 || t.height_ < 1 ||
+      t.width_ > kMaxDistributionSize || t.height_ > kMaxDistributionSize)
+    throw fail_with("corrupt descriptor (grid or size)");
+  if (!expected_source_hash.empty() && expected_source_hash != t.source_hash_)
+    throw fail_with("stale tables: baked from a different image (source hash " + t.source_hash_ + ", image hash " +
+                    expected_source_hash + "); re-bake with envbake");
+
+  const std::size_t texels = std::size_t(t.width_) * std::size_t(t.height_);
+  {
+    const auto [p, n] = section("importance");
+    BlobReader in(p, n, path + ": section importance");
+    t.importance_ = in.array<float>(texels);
+    in.finish();
+  }
+  for (int set = 0; set < 2; ++set)
+    for (int m = 0; m < 3; ++m) {
+      const std::string name = section_name(m, set);
+      const auto it = sections.find(name);
+      if (it == sections.end()) continue;
+      BlobReader in(it->second.first, it->second.second, path + ": section " + name);
+      std::shared_ptr<const Distribution2D> d = restore_distribution(m, in);
+      if (d->width() != t.width_ || d->height() != t.height_)
+        throw fail_with("section " + name + " does not match the descriptor's size");
+      t.distributions_[set][m] = std::make_unique<SphericalDistribution>(t.grid_, std::move(d));
+    }
+  return t;
+}
+
+}  // namespace envkit
