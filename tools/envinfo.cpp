@@ -3,14 +3,19 @@
 #include "common/cli.h"
 #include "common/input.h"
 
+#include <envkit/distribution_pyramid.h>
+#include <envkit/env_tables.h>
 #include <envkit/error.h>
 #include <envkit/filter.h>
+#include <envkit/image_io.h>
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cstring>
+#include <fstream>
 #include <iostream>
 #include <limits>
 #include <string>
@@ -27,8 +32,15 @@ mean radiance: power / 4 pi, the radiance of a uniform environment with the same
 min, max and texel mean are plain statistics over the texels that hold data (not weighted by solid angle).
 NaN and Inf values are counted and then read as 0, so a broken file can still be inspected.
 
+A table file (from envbake) is described instead: grid, importance mode, bake settings, source and its
+hash, bytes per table, warnings. --export-exr PREFIX writes what the tables hold as EXR images to look at:
+PREFIX_importance.exr (importance per steradian), PREFIX_probability.exr (texel probabilities),
+PREFIX_marginal.exr (1 x H row probabilities), PREFIX_conditional.exr (probabilities within each row) and
+PREFIX_level<k>.exr for every level of the sum pyramid (node probabilities, level 0 = texels).
+
 Examples:
   envinfo sky.exr
+  envinfo sky.envtbl --export-exr out/sky
   envinfo probe.hdr --from angular --convention hdrshop
   envinfo 'face_%.png'                       six cube faces
   envinfo sky.exr --json | jq '.statistics[0].power'
@@ -38,6 +50,7 @@ Exit status: 0 success; 1 error (one line on stderr); 2 usage error.)";
 struct Options {
   tools::InputSpec in;
   bool json = false;
+  std::string export_exr;
 };
 
 struct ChannelStats {
@@ -140,15 +153,115 @@ int describe_envmap(Options& o) {
   return tools::kExitOk;
 }
 
-int run(Options& o) { return describe_envmap(o); }
+// ---------------------------------------------------------------------------------------------------------------
+// Mode: a table file.
+
+bool is_table_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  char magic[8] = {};
+  return f.read(magic, 8) && std::memcmp(magic, "ENVKTBL", 8) == 0;
+}
+
+envkit::Image scalar_image(int w, int h, std::vector<float> values) {
+  envkit::Image image(w, h, 1);
+  image.pixels = std::move(values);
+  return image;
+}
+
+void export_tables(const envkit::EnvTables& t, const std::string& prefix) {
+  const int W = t.width(), H = t.height();
+  const std::size_t n = std::size_t(W) * H;
+  envkit::WriteOptions wo;
+  wo.metadata["envkit:source"] = t.source_path();
+  const auto write = [&](const std::string& name, const envkit::Image& image) {
+    const std::string path = prefix + "_" + name + ".exr";
+    envkit::write_image(path, image, wo);
+    tools::info("wrote " + path);
+  };
+  write("importance", scalar_image(W, H, t.importance()));
+
+  // Texel probabilities as the stored tables draw them (cdf or pyramid), else the ideal ones.
+  const envkit::SphericalDistribution* d = t.distribution(envkit::SamplingMethod::Cdf);
+  if (!d) d = t.distribution(envkit::SamplingMethod::Hierarchical);
+  std::vector<double> p(n);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      p[std::size_t(y) * W + x] = d ? d->distribution().texel_probability(x, y)
+                                    : double(t.importance()[std::size_t(y) * W + x]) *
+                                          t.distribution(envkit::SamplingMethod::Alias)->texel_solid_angle(x, y) /
+                                          std::max(t.total_importance(), 1e-300);
+  std::vector<float> probability(n), marginal(H), conditional(n);
+  for (int y = 0; y < H; ++y) {
+    double row = 0.0;
+    for (int x = 0; x < W; ++x) row += p[std::size_t(y) * W + x];
+    marginal[y] = static_cast<float>(row);
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = std::size_t(y) * W + x;
+      probability[i] = static_cast<float>(p[i]);
+      conditional[i] = row > 0.0 ? static_cast<float>(p[i] / row) : 0.0f;
+    }
+  }
+  write("probability", scalar_image(W, H, probability));
+  write("marginal", scalar_image(1, H, marginal));
+  write("conditional", scalar_image(W, H, conditional));
+
+  if (const envkit::SphericalDistribution* h = t.distribution(envkit::SamplingMethod::Hierarchical)) {
+    const auto& pyramid = dynamic_cast<const envkit::PyramidDistribution2D&>(h->distribution());
+    const double root = pyramid.node(pyramid.levels(), 0, 0);
+    for (int k = 0; k <= pyramid.levels(); ++k) {
+      const int lw = pyramid.level_width(k), lh = pyramid.level_height(k);
+      std::vector<float> level(std::size_t(lw) * lh);
+      for (int j = 0; j < lh; ++j)
+        for (int i = 0; i < lw; ++i) level[std::size_t(j) * lw + i] = static_cast<float>(pyramid.node(k, i, j) / root);
+      write("level" + std::to_string(k), scalar_image(lw, lh, level));
+    }
+  }
+}
+
+int describe_tables(const Options& o) {
+  const envkit::EnvTables t = envkit::EnvTables::load(o.in.path);
+  if (o.json) {
+    json j = json::parse(t.descriptor());
+    j["file"] = o.in.path;
+    for (const auto& [name, bytes] : t.table_bytes()) j["bytes"][name] = bytes;
+    std::cout << j.dump(2) << "\n";
+  } else {
+    const auto row = [](const std::string& key, const std::string& value) {
+      std::cout << tools::pad(key, 28) << value << "\n";
+    };
+    const json d = json::parse(t.descriptor());
+    row("file", o.in.path + " (envkit sampling tables, format version " + std::to_string(envkit::kTableFormatVersion) + ")");
+    row("grid", std::string(envkit::kind_name(t.grid())) + " " + std::to_string(t.width()) + " x " +
+                    std::to_string(t.height()));
+    row("importance", std::string(envkit::importance_name(t.importance_mode())) +
+                          (t.conservative() ? " (conservative)" : "") + ", total " + tools::fmt(t.total_importance()));
+    row("source", t.source_path() + " (content hash " + t.source_hash() + ")");
+    if (d.contains("bake") && d["bake"].contains("resampled_from"))
+      row("resampled from", d["bake"]["resampled_from"].get<std::string>());
+    const double texels = double(t.width()) * t.height();
+    for (const auto& [name, bytes] : t.table_bytes())
+      row("  " + name, tools::fmt(double(bytes) / (1 << 20), 4) + " MiB, " + tools::fmt(double(bytes) / texels, 3) +
+                           " bytes/texel");
+    for (const std::string& w : t.warnings()) row("warning", w);
+  }
+  if (!o.export_exr.empty()) export_tables(t, o.export_exr);
+  return tools::kExitOk;
+}
+
+int run(Options& o) {
+  if (!envkit::is_face_pattern(o.in.path) && is_table_file(o.in.path)) return describe_tables(o);
+  if (!o.export_exr.empty()) throw CLI::ValidationError("--export-exr", "applies to table files (from envbake) only");
+  return describe_envmap(o);
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app("Describes an environment map: pixels, parameterization, power and statistics per channel.",
+  CLI::App app("Describes an environment map (pixels, parameterization, power and statistics per channel) or a "
+               "table file from envbake.",
                "envinfo");
   Options o;
-  app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces)")->required()->type_name("FILE");
+  app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces) or table file")->required()->type_name("FILE");
   app.add_option("--from", o.in.from, "parameterization: " + tools::kind_choices() + " (default: detected)")
       ->type_name("KIND")
       ->check(tools::kind_validator());
@@ -161,6 +274,8 @@ int main(int argc, char** argv) {
       ->type_name("C")
       ->check(tools::convention_validator());
   app.add_flag("--json", o.json, "print one JSON object instead of the table");
+  app.add_option("--export-exr", o.export_exr, "table files: write importance, marginal, conditionals and pyramid "
+                 "levels as PREFIX_*.exr")->type_name("PREFIX");
   app.footer(kFooter);
   return tools::run_cli(app, argc, argv, [&] { return run(o); });
 }

@@ -17,7 +17,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 
 namespace envkit {
 
@@ -37,6 +39,18 @@ ImportanceMode parse_importance(const std::string& name) {
   throw Error("unknown importance '" + name + "' (expected luminance, average or max)");
 }
 
+namespace {
+/// The digest of a hash state as 32 hex digits; frees the state.
+std::string finish_hash(XXH3_state_t* state) {
+  const XXH128_hash_t h = XXH3_128bits_digest(state);
+  XXH3_freeState(state);
+  char text[33];
+  std::snprintf(text, sizeof(text), "%016llx%016llx", static_cast<unsigned long long>(h.high64),
+                static_cast<unsigned long long>(h.low64));
+  return text;
+}
+}  // namespace
+
 std::string image_content_hash(const Image& image) {
   XXH3_state_t* state = XXH3_createState();
   XXH3_128bits_reset(state);
@@ -44,12 +58,29 @@ std::string image_content_hash(const Image& image) {
   XXH3_128bits_update(state, dims, sizeof(dims));
   for (const std::string& name : image.channel_names) XXH3_128bits_update(state, name.c_str(), name.size() + 1);
   XXH3_128bits_update(state, image.pixels.data(), image.pixels.size() * sizeof(float));
-  const XXH128_hash_t h = XXH3_128bits_digest(state);
-  XXH3_freeState(state);
-  char text[33];
-  std::snprintf(text, sizeof(text), "%016llx%016llx", static_cast<unsigned long long>(h.high64),
-                static_cast<unsigned long long>(h.low64));
-  return text;
+  return finish_hash(state);
+}
+
+std::string file_content_hash(const std::vector<std::string>& paths) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_128bits_reset(state);
+  std::vector<char> buffer(std::size_t(1) << 22);
+  for (const std::string& path : paths) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) {
+      XXH3_freeState(state);
+      throw Error(path + ": cannot open: " + std::strerror(errno));
+    }
+    std::size_t n;
+    while ((n = std::fread(buffer.data(), 1, buffer.size(), f)) > 0) XXH3_128bits_update(state, buffer.data(), n);
+    const bool failed = std::ferror(f) != 0;
+    std::fclose(f);
+    if (failed) {
+      XXH3_freeState(state);
+      throw Error(path + ": read error");
+    }
+  }
+  return finish_hash(state);
 }
 
 namespace {

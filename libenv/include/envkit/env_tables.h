@@ -63,8 +63,13 @@ struct BakeOptions {
   std::function<void(double fraction, const char* stage)> progress;  ///< optional, from the calling thread
 };
 
-/// Content hash of an image (size, channel names and pixel bytes): XXH3-128 as 32 hex digits.
+/// Content hash of an image (size, channel names and pixel bytes): XXH3-128 as 32 hex digits. Used for maps
+/// that exist only in memory.
 std::string image_content_hash(const Image& image);
+/// Content hash of source files (their bytes, in order; six faces for a cube pattern): XXH3-128 as 32 hex
+/// digits. This is the hash tools record and check: independent of how the file is decoded.
+/// Throws Error naming a file that cannot be read.
+std::string file_content_hash(const std::vector<std::string>& paths);
 
 class EnvTables {
  public:

@@ -1,0 +1,174 @@
+// envbake: bakes importance-sampling tables (cdf, alias, sum pyramid, MIS-compensated) of an environment map
+// into a versioned table file that envsample, envinfo and envrender load.
+#include "common/cli.h"
+#include "common/input.h"
+#include "common/progress.h"
+
+#include <envkit/atomic_file.h>
+#include <envkit/env_tables.h>
+#include <envkit/error.h>
+
+#include <chrono>
+#include <iostream>
+#include <sstream>
+#include <string>
+
+namespace {
+
+namespace tools = envkit::tools;
+using envkit::Kind;
+
+const char* kFooter = R"(What is baked: importance = luminance (the working space's weights, Rec.709 primaries
+by default), average or max of the colour channels, times the exact solid angle of each texel. Maps that
+are not an envkit lat-long (or octahedral with --param octahedral) are first resampled onto one with the
+flux-conserving area filter, applying their convention and rotation: the tables live in world directions.
+--size N: bake grid N (lat-long 2N x N, octahedral N x N); default: the input's grid, or as many texels.
+--resolution WxH: bake the importance at a lower resolution (area-filtered): smaller, faster tables,
+  less exact importance (a speed/memory vs accuracy knob; rendering stays unbiased).
+--conservative: each texel's importance is the max over its 3x3 neighbourhood, so radiance looked up
+  with a bilinear filter is never non-zero where the pdf is zero.
+--tables: any of cdf, alias, hierarchical (or pyramid), compensated. compensated adds the MIS-compensated
+  twin max(f - mean, 0) (Karlik et al. 2019) of every other requested table.
+The file records the source's content hash: envrender refuses tables whose source image changed.
+
+Examples:
+  envbake sky.exr -o sky.envtbl
+  envbake sky.exr -o sky_small.envtbl --resolution 512x256 --tables hierarchical
+  envbake sky.exr -o sky.envtbl --tables cdf,alias,hierarchical,compensated --importance max
+  envbake cube.exr -o cube.envtbl --param octahedral --size 1024
+
+Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 usage error.)";
+
+struct Options {
+  tools::InputSpec in;
+  std::string out, importance = "luminance", param = "latlong", resolution, tables = "cdf,alias,hierarchical",
+                   fix_nonfinite;
+  int size = 0, threads = 0;
+  bool conservative = false, force = false, quiet = false, progress = false, json = false;
+};
+
+void parse_tables(const std::string& list, envkit::BakeOptions& b) {
+  b.cdf = b.alias = b.hierarchical = b.compensated = false;
+  std::stringstream ss(list);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item == "cdf") b.cdf = true;
+    else if (item == "alias") b.alias = true;
+    else if (item == "hierarchical" || item == "pyramid") b.hierarchical = true;
+    else if (item == "compensated") b.compensated = true;
+    else throw CLI::ValidationError("--tables", "unknown table '" + item + "' (cdf, alias, hierarchical, compensated)");
+  }
+  if (!b.cdf && !b.alias && !b.hierarchical)
+    throw CLI::ValidationError("--tables", "name at least one of cdf, alias, hierarchical");
+}
+
+void parse_resolution(const std::string& text, envkit::BakeOptions& b) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  std::stringstream ss(text);
+  if (!(ss >> w >> x >> h) || (x != 'x' && x != 'X') || (ss >> extra) || w < 1 || h < 1)
+    throw CLI::ValidationError("--resolution", "expected WxH with positive integers, got '" + text + "'");
+  b.importance_width = w;
+  b.importance_height = h;
+}
+
+int run(Options& o) {
+  envkit::BakeOptions b;
+  b.importance = envkit::parse_importance(o.importance);
+  b.grid = envkit::parse_kind(o.param);
+  b.conservative = o.conservative;
+  parse_tables(o.tables, b);
+  if (!o.resolution.empty()) parse_resolution(o.resolution, b);
+  if (o.size > 0) {
+    b.height = o.size;
+    b.width = b.grid == Kind::LatLong ? 2 * o.size : o.size;
+  }
+  if (b.grid == Kind::Octahedral && b.importance_width != b.importance_height)
+    throw CLI::ValidationError("--resolution", "an octahedral importance map is square (WxW)");
+  if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
+
+  const std::vector<std::string> inputs = tools::input_paths(o.in.path);
+  envkit::check_output_path(o.out, inputs, o.force);
+  envkit::install_temp_cleanup_on_signal();
+  const auto limit = tools::limit_threads(o.threads);
+
+  const auto start = std::chrono::steady_clock::now();
+  const tools::LoadedInput in = tools::load_input(o.in);
+  tools::report_input(in, o.quiet);
+  const std::string hash = envkit::file_content_hash(inputs);
+
+  tools::ProgressBar bar("baking", tools::want_progress(o.progress, o.quiet, in.map.image.texel_count()));
+  b.progress = [&bar](double f, const char*) { bar.update(f); };
+  const envkit::EnvTables t = envkit::EnvTables::bake(in.map, b, o.in.path, hash);
+  bar.finish();
+  t.save(o.out);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  for (const std::string& w : t.warnings()) tools::warn(o.in.path + ": " + w);
+  if (o.json) {
+    nlohmann::json j = nlohmann::json::parse(t.descriptor());
+    j["output"] = o.out;
+    j["seconds"] = seconds;
+    for (const auto& [name, bytes] : t.table_bytes()) j["bytes"][name] = bytes;
+    std::cout << j.dump(2) << "\n";
+  } else if (!o.quiet) {
+    std::cout << o.out << ": " << envkit::kind_name(t.grid()) << " " << t.width() << " x " << t.height() << ", "
+              << envkit::importance_name(t.importance_mode()) << " importance"
+              << (t.conservative() ? " (conservative)" : "") << ", total " << tools::fmt(t.total_importance())
+              << "\n";
+    const double texels = double(t.width()) * t.height();
+    for (const auto& [name, bytes] : t.table_bytes())
+      std::cout << "  " << tools::pad(name, 24) << tools::rpad(tools::fmt(double(bytes) / (1 << 20), 4), 10)
+                << " MiB  " << tools::fmt(double(bytes) / texels, 3) << " bytes/texel\n";
+    std::cout << "  baked in " << tools::fmt(seconds, 3) << " s\n";
+  }
+  return tools::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Bakes importance-sampling tables of an environment map into a table file.", "envbake");
+  Options o;
+  app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces)")->required()->type_name("FILE");
+  app.add_option("-o,--output", o.out, "output table file (.envtbl)")->required()->type_name("TABLES");
+  app.add_option("--importance", o.importance, "scalar importance of a texel: luminance, average or max")
+      ->type_name("MODE")
+      ->check(CLI::IsMember({"luminance", "average", "max"}))
+      ->capture_default_str();
+  app.add_option("--param", o.param, "bake grid: latlong or octahedral")
+      ->type_name("KIND")
+      ->check(CLI::IsMember({"latlong", "octahedral"}))
+      ->capture_default_str();
+  app.add_option("--size", o.size, "bake grid size N (latlong 2N x N, octahedral N x N)")
+      ->type_name("N")
+      ->check(CLI::Range(1, 1 << 16));
+  app.add_option("--resolution", o.resolution, "importance resolution (area-filtered down), e.g. 1024x512")
+      ->type_name("WxH");
+  app.add_option("--tables", o.tables, "tables to bake: cdf,alias,hierarchical,compensated")
+      ->type_name("LIST")
+      ->capture_default_str();
+  app.add_flag("--conservative", o.conservative, "importance = max over each texel's bilinear footprint");
+  app.add_option("--from", o.in.from, "input parameterization (default: detected)")
+      ->type_name("KIND")
+      ->check(tools::kind_validator());
+  app.add_option("--layout", o.in.layout, "cube layout of the input (default: detected)")
+      ->type_name("L")
+      ->check(tools::layout_validator());
+  app.add_option("--from-convention", o.in.convention, "convention of the input (default: from metadata)")
+      ->type_name("C")
+      ->check(tools::convention_validator());
+  app.add_option("--colorspace", o.in.colorspace, "colour space of the input pixels (default: from the file)")
+      ->type_name("CS")
+      ->check(tools::colorspace_validator());
+  app.add_option("--fix-nonfinite", o.fix_nonfinite, "replace NaN/Inf input values instead of failing")
+      ->type_name("zero|clamp")
+      ->check(CLI::IsMember({"zero", "clamp"}));
+  tools::add_threads_option(app, o.threads);
+  app.add_flag("-f,--force", o.force, "allow TABLES to overwrite an input");
+  app.add_flag("-q,--quiet", o.quiet, "print only warnings and errors");
+  app.add_flag("--progress", o.progress, "always show a progress bar");
+  app.add_flag("--json", o.json, "print the table description as JSON");
+  app.footer(kFooter);
+  return tools::run_cli(app, argc, argv, [&] { return run(o); });
+}
