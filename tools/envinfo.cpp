@@ -178,7 +178,7 @@ void export_tables(const envkit::EnvTables& t, const std::string& prefix) {
     envkit::write_image(path, image, wo);
     tools::info("wrote " + path);
   };
-  write("importance", scalar_image(W, H, t.importance()));
+  write("importance", scalar_image(W, H, {t.importance().begin(), t.importance().end()}));
 
   // Texel probabilities as the stored tables draw them (cdf or pyramid), else the ideal ones.
   const envkit::SphericalDistribution* d = t.distribution(envkit::SamplingMethod::Cdf);

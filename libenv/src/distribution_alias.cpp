@@ -171,8 +171,8 @@ double AliasTable1D::bin_probability(int i) const {
 
 AliasDistribution2D::AliasDistribution2D(BlobReader& in) : Distribution2D(in) {
   const std::size_t W = std::size_t(width_), H = std::size_t(height_);
-  texels_ = in.array<AliasBin>(W * H);
-  rows_ = in.array<RowBin>(H);
+  texels_ = in.table<AliasBin>(W * H);
+  rows_ = in.table<RowBin>(H);
   pdf_scale_ = in.scalar<double>();
   in.finish();
   // One pass over the aliases: a corrupt index would read outside the table.
@@ -266,7 +266,7 @@ double AliasDistribution2D::texel_probability(int x, int y) const {
 }
 
 std::size_t AliasDistribution2D::bytes() const {
-  return texels_.capacity() * sizeof(AliasBin) + rows_.capacity() * sizeof(RowBin);
+  return texels_.bytes() + rows_.bytes();
 }
 
 }  // namespace envkit

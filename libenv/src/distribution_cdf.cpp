@@ -205,9 +205,9 @@ CdfDistribution2D::CdfDistribution2D(const float* weights, int width, int height
 
 CdfDistribution2D::CdfDistribution2D(BlobReader& in) : Distribution2D(in) {
   const std::size_t W = std::size_t(width_), H = std::size_t(height_);
-  conditional_ = in.array<float>((W + 1) * H);
-  row_split_ = in.array<std::int32_t>(H);
-  marginal_ = in.array<float>(H + 1);
+  conditional_ = in.table<float>((W + 1) * H);
+  row_split_ = in.table<std::int32_t>(H);
+  marginal_ = in.table<float>(H + 1);
   marginal_split_ = in.scalar<std::int32_t>();
   in.finish();
   const auto valid_split = [](std::int32_t split, std::size_t n) { return split >= 0 && std::size_t(split) <= n; };
@@ -267,8 +267,7 @@ Vec2 CdfDistribution2D::invert(Vec2 uv) const {
 }
 
 std::size_t CdfDistribution2D::bytes() const {
-  return conditional_.capacity() * sizeof(float) + row_split_.capacity() * sizeof(std::int32_t) +
-         marginal_.capacity() * sizeof(float);
+  return conditional_.bytes() + row_split_.bytes() + marginal_.bytes();
 }
 
 }  // namespace envkit

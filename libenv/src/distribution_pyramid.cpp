@@ -57,7 +57,7 @@ std::size_t PyramidDistribution2D::layout_levels() {
 
 PyramidDistribution2D::PyramidDistribution2D(BlobReader& in) : Distribution2D(in) {
   const std::size_t size = layout_levels();
-  nodes_ = in.array<float>(size);
+  nodes_ = in.table<float>(size);
   root_ = in.scalar<double>();
   pdf_scale_ = in.scalar<double>();
   in.finish();
@@ -234,7 +234,7 @@ Vec2 PyramidDistribution2D::invert(Vec2 uv) const {
 }
 
 std::size_t PyramidDistribution2D::bytes() const {
-  return nodes_.capacity() * sizeof(float) + levels_.capacity() * sizeof(Level);
+  return nodes_.bytes() + levels_.capacity() * sizeof(Level);
 }
 
 }  // namespace envkit

@@ -25,16 +25,14 @@ SamplingMethod parse_method(const std::string& name) {
 
 namespace {
 
-// Lat-long rows measured from the nearer pole keep full precision near the poles, where cos theta is within
-// an ulp of +-1: row j covers theta in [pi j / H, pi (j + 1) / H]; for the northern half we work with
-// one_minus_y = 1 - cos theta = 2 sin^2(theta / 2), for the southern half with one_plus_y = 1 + cos theta.
-struct RowBand {
-  bool north = true;
-  double start = 0.0;  // north: 1 - cos theta0; south: 1 + cos theta1 (distance from the nearer pole)
-  double span = 0.0;   // cos theta0 - cos theta1 > 0
-};
+bool finite_nonzero(const Vec3& d) {
+  const double n2 = d.length2();
+  return std::isfinite(n2) && n2 > 0.0;
+}
 
-RowBand row_band(int j, int height) {
+}  // namespace
+
+SphericalDistribution::RowBand SphericalDistribution::row_band(int j, int height) {
   const double theta0 = kPi * double(j) / height, theta1 = kPi * double(j + 1) / height;
   RowBand band;
   band.span = 2.0 * std::sin(0.5 * (theta1 + theta0)) * std::sin(0.5 * (theta1 - theta0));
@@ -49,13 +47,6 @@ RowBand row_band(int j, int height) {
   return band;
 }
 
-bool finite_nonzero(const Vec3& d) {
-  const double n2 = d.length2();
-  return std::isfinite(n2) && n2 > 0.0;
-}
-
-}  // namespace
-
 SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Distribution2D> distribution)
     : grid_(grid), distribution_(std::move(distribution)) {
   if (!distribution_) throw Error("spherical distribution: null distribution");
@@ -65,24 +56,27 @@ SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Di
   if (grid_ == Kind::Octahedral && width() != height())
     throw Error("spherical distribution: an octahedral grid must be square, got " + std::to_string(width()) + "x" +
                 std::to_string(height()));
+  if (grid_ == Kind::LatLong) {
+    rows_.resize(std::size_t(height()));
+    for (int y = 0; y < height(); ++y) rows_[std::size_t(y)] = row_band(y, height());
+  }
 }
 
 double SphericalDistribution::texel_solid_angle(int x, int y) const {
   (void)x;
   const double W = width(), H = height();
   if (grid_ == Kind::Octahedral) return kFourPi / (W * H);
-  return (kTwoPi / W) * row_band(std::clamp(y, 0, height() - 1), height()).span;
+  return (kTwoPi / W) * rows_[std::size_t(std::clamp(y, 0, height() - 1))].span;
 }
 
 Vec3 SphericalDistribution::direction_in_texel(int x, int y, double fx, double fy) const {
   const double W = width();
   if (grid_ == Kind::Octahedral) {
-    Vec3 d;
-    OctahedralMap(width()).to_direction(Vec2(x + fx, y + fy), d);
-    return d;
+    const Vec3 o = OctahedralMap::square_to_sphere(Vec2((x + fx) / W, (y + fy) / W));
+    return Vec3(o.y, o.z, o.x);  // octahedron coordinates (x_o, y_o, z_o) = (Z, X, Y), as OctahedralMap
   }
   const double lon = kPi - kTwoPi * ((x + fx) / W);
-  const RowBand band = row_band(y, height());
+  const RowBand& band = rows_[std::size_t(y)];
   // Uniform in solid angle inside the row: cos theta linear in fy.
   double from_pole = band.north ? band.start + fy * band.span : band.start + (1.0 - fy) * band.span;
   from_pole = std::clamp(from_pole, 0.0, 2.0);
@@ -95,7 +89,8 @@ void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double
   const int W = width(), H = height();
   Vec3 d = finite_nonzero(direction) ? direction.normalized() : Vec3(0.0, 1.0, 0.0);
   if (grid_ == Kind::Octahedral) {
-    const Vec2 p = OctahedralMap(W).to_image(d);
+    const Vec2 q = OctahedralMap::sphere_to_square(Vec3(d.z, d.x, d.y));
+    const Vec2 p(q.x * W, q.y * H);
     x = std::clamp(int(std::floor(p.x)), 0, W - 1);
     y = std::clamp(int(std::floor(p.y)), 0, H - 1);
     fx = std::clamp(p.x - x, 0.0, 1.0);
@@ -108,7 +103,7 @@ void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double
   const double horizontal = std::hypot(d.x, d.z);
   const double theta = std::atan2(horizontal, d.y);
   y = std::clamp(int(theta / kPi * H), 0, H - 1);
-  const RowBand band = row_band(y, H);
+  const RowBand& band = rows_[std::size_t(y)];
   // Distance from the nearer pole, 1 -+ cos theta, without cancellation: h^2 / (1 +- cos theta).
   const double from_pole = band.north ? (d.y > 0.0 ? horizontal * horizontal / (1.0 + d.y) : 1.0 - d.y)
                                       : (d.y < 0.0 ? horizontal * horizontal / (1.0 - d.y) : 1.0 + d.y);

@@ -16,6 +16,7 @@
 #include <xxhash.h>
 
 #include <algorithm>
+#include <utility>
 #include <cmath>
 #include <cerrno>
 #include <cstdio>
@@ -237,7 +238,8 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
   const std::unique_ptr<Parameterization> table_grid = make_grid(options.grid, TW, TH);
   if (options.conservative) importance = dilate_3x3(importance, *table_grid, TW, TH);
   for (float& v : importance) v = static_cast<float>(ImportanceFunction::positive(v));  // resampling may leave -0 or tiny negatives
-  t.importance_ = std::move(importance);
+  t.importance_.resize(importance.size());
+  std::copy(importance.begin(), importance.end(), t.importance_.data());
 
   t.build_distributions(options);
   t.descriptor_ = t.make_descriptor(&options);
@@ -299,8 +301,9 @@ void EnvTables::build_distributions(const BakeOptions& options) {
   } else {
     int zero_rows = 0;
     for (int y = 0; y < H; ++y)
-      zero_rows += std::all_of(importance_.begin() + std::ptrdiff_t(y) * W,
-                               importance_.begin() + std::ptrdiff_t(y + 1) * W, [](float v) { return !(v > 0.0f); });
+      zero_rows += std::all_of(std::as_const(importance_).begin() + std::ptrdiff_t(y) * W,
+                               std::as_const(importance_).begin() + std::ptrdiff_t(y + 1) * W,
+                               [](float v) { return !(v > 0.0f); });
     if (zero_rows > 0)
       warnings_.push_back(std::to_string(zero_rows) +
                           " all-zero rows: never sampled (pdf 0 there); their conditional tables are uniform");
@@ -314,7 +317,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
   if (options.compensated) {
     const double mean = total / kFourPi;  // solid-angle mean of the importance
     bool any = false;
-    for (float v : importance_) any = any || double(v) > mean;
+    for (float v : std::as_const(importance_)) any = any || double(v) > mean;
     if (any) {
       build_set(weights_of([&](std::size_t i) { return std::max(0.0, double(importance_[i]) - mean); }), 1);
     } else {

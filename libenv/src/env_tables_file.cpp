@@ -12,6 +12,7 @@
 #include <envkit/env_tables.h>
 
 #include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
@@ -53,6 +54,18 @@ constexpr std::size_t kEntryBytes = 64;  // entries are padded to 64 bytes
 
 std::size_t align64(std::size_t n) { return (n + 63) & ~std::size_t(63); }
 
+/// Section checksum: XXH3-64 of the XXH3-64 digests of its 16 MiB blocks (blocks hashed in parallel).
+constexpr std::size_t kChecksumBlock = std::size_t(16) << 20;
+std::uint64_t section_checksum(const std::byte* data, std::size_t size) {
+  const std::size_t blocks = std::max<std::size_t>(1, (size + kChecksumBlock - 1) / kChecksumBlock);
+  std::vector<std::uint64_t> digests(blocks);
+  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+    const std::size_t begin = b * kChecksumBlock;
+    digests[b] = XXH3_64bits(data + begin, std::min(kChecksumBlock, size - std::min(size, begin)));
+  });
+  return XXH3_64bits(digests.data(), digests.size() * sizeof(std::uint64_t));
+}
+
 struct Section {
   std::string name;
   std::vector<std::byte> bytes;
@@ -71,7 +84,8 @@ class MappedFile {
     }
     size_ = static_cast<std::size_t>(st.st_size);
     if (size_ > 0) {
-      void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+      // MAP_POPULATE reads the pages in up front (one pass, no page fault per 4 KiB later).
+      void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
       if (p == MAP_FAILED) {
         ::close(fd);
         throw Error(path + ": cannot map: " + std::strerror(errno));
@@ -141,7 +155,7 @@ void EnvTables::save(const std::string& path) const {
     std::strncpy(e.name, sections[i].name.c_str(), sizeof(e.name) - 1);
     e.offset = offset;
     e.size = sections[i].bytes.size();
-    e.checksum = XXH3_64bits(sections[i].bytes.data(), sections[i].bytes.size());
+    e.checksum = section_checksum(sections[i].bytes.data(), sections[i].bytes.size());
     std::memcpy(directory.data() + i * kEntryBytes, &e, sizeof(e));
     offset = align64(offset + sections[i].bytes.size());
   }
@@ -172,9 +186,9 @@ void EnvTables::save(const std::string& path) const {
 }
 
 EnvTables EnvTables::load(const std::string& path, const std::string& expected_source_hash) {
-  const MappedFile file(path);
-  const std::byte* data = file.data();
-  const std::size_t size = file.size();
+  const auto file = std::make_shared<const MappedFile>(path);  // kept alive by the tables that view it
+  const std::byte* data = file->data();
+  const std::size_t size = file->size();
   const auto fail_with = [&](const std::string& problem) { return Error(path + ": " + problem); };
 
   if (size < sizeof(FileHeader)) throw fail_with("not an envkit table file (too short)");
@@ -201,7 +215,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
     const std::string name = e.name;
     if (e.offset > size || e.size > size - e.offset)
       throw fail_with("truncated (section '" + name + "' runs past the end of the file)");
-    if (XXH3_64bits(data + e.offset, e.size) != e.checksum)
+    if (section_checksum(data + e.offset, e.size) != e.checksum)
       throw fail_with("checksum mismatch in section '" + name + "' (corrupt file)");
     sections[name] = {data + e.offset, static_cast<std::size_t>(e.size)};
   }
@@ -240,8 +254,8 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
   const std::size_t texels = std::size_t(t.width_) * std::size_t(t.height_);
   {
     const auto [p, n] = section("importance");
-    BlobReader in(p, n, path + ": section importance");
-    t.importance_ = in.array<float>(texels);
+    BlobReader in(p, n, path + ": section importance", file);
+    t.importance_ = in.table<float>(texels);
     in.finish();
   }
   for (int set = 0; set < 2; ++set)
@@ -249,7 +263,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
       const std::string name = section_name(m, set);
       const auto it = sections.find(name);
       if (it == sections.end()) continue;
-      BlobReader in(it->second.first, it->second.second, path + ": section " + name);
+      BlobReader in(it->second.first, it->second.second, path + ": section " + name, file);
       std::shared_ptr<const Distribution2D> d = restore_distribution(m, in);
       if (d->width() != t.width_ || d->height() != t.height_)
         throw fail_with("section " + name + " does not match the descriptor's size");

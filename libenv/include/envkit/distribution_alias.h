@@ -91,8 +91,8 @@ class AliasDistribution2D final : public Distribution2D {
     float keep = -0.0f;  // as AliasBin::keep
     std::uint32_t alias = 0;
   };
-  std::vector<AliasBin> texels_;  // H rows of W bins
-  std::vector<RowBin> rows_;      // marginal over rows
+  TableArray<AliasBin> texels_;  // H rows of W bins
+  TableArray<RowBin> rows_;      // marginal over rows
   double pdf_scale_ = 0.0;        // pdf = weight * pdf_scale_ = W H / sum(weights)
 };
 

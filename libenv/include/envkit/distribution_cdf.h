@@ -88,9 +88,9 @@ class CdfDistribution2D final : public Distribution2D {
   std::size_t bytes() const override;
 
  private:
-  std::vector<float> conditional_;          // H rows of W + 1 two-sided entries
-  std::vector<std::int32_t> row_split_;     // per row: first entry stored as remaining mass
-  std::vector<float> marginal_;             // H + 1 two-sided entries
+  TableArray<float> conditional_;          // H rows of W + 1 two-sided entries
+  TableArray<std::int32_t> row_split_;     // per row: first entry stored as remaining mass
+  TableArray<float> marginal_;             // H + 1 two-sided entries
   int marginal_split_ = 0;
 };
 

@@ -84,7 +84,7 @@ class PyramidDistribution2D final : public Distribution2D {
   }
   float leaf(int x, int y) const { return children(0, x >> 1, y >> 1)[(y & 1) * 2 + (x & 1)]; }
 
-  std::vector<float> nodes_;   // levels 0 .. top-1, each blocked by parent
+  TableArray<float> nodes_;   // levels 0 .. top-1, each blocked by parent
   std::vector<Level> levels_;  // levels 0 .. top (top is 1 x 1, its value is the root sum)
   double pdf_scale_ = 0.0;     // pdf = leaf * pdf_scale_ = leaf * W H / (sum of stored leaves)
   double root_ = 0.0;          // the root sum (double)

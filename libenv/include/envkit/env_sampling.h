@@ -26,6 +26,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace envkit {
 
@@ -79,8 +80,18 @@ class SphericalDistribution {
   /// Inverse of direction_in_texel: texel and fractional position of direction.
   void locate(const Vec3& direction, int& x, int& y, double& fx, double& fy) const;
 
+  /// A lat-long row measured from its nearer pole (full precision near the poles, where cos theta is within an
+  /// ulp of +-1): start = 1 - cos theta0 (north) or 1 + cos theta1 (south), span = cos theta0 - cos theta1.
+  struct RowBand {
+    double start = 0.0;
+    double span = 0.0;
+    bool north = true;
+  };
+  static RowBand row_band(int y, int height);
+
   Kind grid_;
   std::shared_ptr<const Distribution2D> distribution_;
+  std::vector<RowBand> rows_;  // lat-long: per row, precomputed (no trigonometry per sample but longitude's)
 };
 
 }  // namespace envkit

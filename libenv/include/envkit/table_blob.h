@@ -4,19 +4,85 @@
 ///
 /// A blob is a sequence of fields, each 8-byte aligned: scalars as their raw bytes, arrays as a 64-bit element
 /// count followed by the raw elements. Byte order and float format are the writer's (little-endian IEEE 754 on
-/// every platform envkit builds on; the table file header records it). Reading copies each array with one
-/// memcpy, so loading costs a pass over memory, never per-element parsing. Every read is bounds-checked: a blob
-/// that ends early or claims more elements than it holds is an Error naming the context, never an overread.
+/// every platform envkit builds on; the table file header records it). Arrays are read without per-element
+/// parsing: as views into the blob's memory when the blob has an owner (a memory-mapped table file: zero copy),
+/// else with one memcpy. Every read is bounds-checked: a blob that ends early or claims more elements than it
+/// holds is an Error naming the context, never an overread.
 #include <envkit/error.h>
 
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <vector>
 
 namespace envkit {
+
+/// The storage of a table: either an owned vector (while building; resize/assign/data() write to it) or a
+/// read-only view into memory kept alive by an owner (a mapped file). Reading code sees one const array.
+template <class T>
+class TableArray {
+  static_assert(std::is_trivially_copyable_v<T>);
+
+ public:
+  TableArray() = default;
+  TableArray(const TableArray& other) { *this = other; }
+  TableArray(TableArray&& other) noexcept { *this = std::move(other); }
+  TableArray& operator=(const TableArray& other) {
+    if (this == &other) return *this;
+    owned_ = other.owned_;
+    owner_ = other.owner_;
+    data_ = owner_ ? other.data_ : owned_.data();
+    size_ = other.size_;
+    return *this;
+  }
+  TableArray& operator=(TableArray&& other) noexcept {
+    owned_ = std::move(other.owned_);
+    owner_ = std::move(other.owner_);
+    data_ = owner_ ? other.data_ : owned_.data();
+    size_ = other.size_;
+    other.data_ = nullptr;
+    other.size_ = 0;
+    return *this;
+  }
+  /// A read-only view of n elements at data, valid while owner lives.
+  static TableArray view(std::shared_ptr<const void> owner, const T* data, std::size_t n) {
+    TableArray a;
+    a.owner_ = std::move(owner);
+    a.data_ = data;
+    a.size_ = n;
+    return a;
+  }
+
+  // Building (owned storage only).
+  void resize(std::size_t n) { owned_.resize(n), refresh(); }
+  void assign(std::size_t n, const T& value) { owned_.assign(n, value), refresh(); }
+  T* data() { return owned_.data(); }
+  T& operator[](std::size_t i) { return owned_[i]; }
+  T* begin() { return owned_.data(); }
+  T* end() { return owned_.data() + owned_.size(); }
+
+  // Reading (either storage).
+  const T* data() const { return data_; }
+  const T& operator[](std::size_t i) const { return data_[i]; }
+  const T* begin() const { return data_; }
+  const T* end() const { return data_ + size_; }
+  std::size_t size() const { return size_; }
+  std::size_t bytes() const { return size_ * sizeof(T); }
+
+ private:
+  void refresh() {
+    owner_.reset();
+    data_ = owned_.data();
+    size_ = owned_.size();
+  }
+  std::vector<T> owned_;
+  std::shared_ptr<const void> owner_;
+  const T* data_ = nullptr;
+  std::size_t size_ = 0;
+};
 
 class BlobWriter {
  public:
@@ -30,6 +96,11 @@ class BlobWriter {
     static_assert(std::is_trivially_copyable_v<T>);
     scalar<std::uint64_t>(values.size());
     append(values.data(), values.size() * sizeof(T));
+  }
+  template <class T>
+  void array(const TableArray<T>& values) {
+    scalar<std::uint64_t>(values.size());
+    append(values.data(), values.bytes());
   }
   const std::vector<std::byte>& bytes() const { return bytes_; }
   std::vector<std::byte> release() { return std::move(bytes_); }
@@ -46,8 +117,10 @@ class BlobWriter {
 class BlobReader {
  public:
   /// context names the blob in errors, e.g. "table.envtbl: section cdf".
-  BlobReader(const std::byte* data, std::size_t size, std::string context)
-      : data_(data), size_(size), context_(std::move(context)) {}
+  /// owner (optional) keeps data alive: arrays are then returned as views into it, not copies.
+  BlobReader(const std::byte* data, std::size_t size, std::string context,
+             std::shared_ptr<const void> owner = nullptr)
+      : data_(data), size_(size), context_(std::move(context)), owner_(std::move(owner)) {}
 
   template <class T>
   T scalar() {
@@ -69,6 +142,25 @@ class BlobReader {
     if (count) std::memcpy(values.data(), take(values.size() * sizeof(T)), values.size() * sizeof(T));
     return values;
   }
+  /// An array as table storage: a zero-copy view when the blob has an owner and the data is aligned for T.
+  template <class T>
+  TableArray<T> table(std::size_t expected_count = SIZE_MAX) {
+    if (!owner_) {
+      TableArray<T> a;
+      std::vector<T> v = array<T>(expected_count);
+      a.resize(v.size());
+      if (!v.empty()) std::memcpy(a.data(), v.data(), v.size() * sizeof(T));
+      return a;
+    }
+    const auto count = scalar<std::uint64_t>();
+    if (expected_count != SIZE_MAX && count != expected_count)
+      throw Error(context_ + ": array holds " + std::to_string(count) + " elements, expected " +
+                  std::to_string(expected_count));
+    if (count > (size_ - offset_) / sizeof(T)) throw Error(context_ + ": truncated (array runs past the end)");
+    const std::byte* p = take(static_cast<std::size_t>(count) * sizeof(T));
+    if (reinterpret_cast<std::uintptr_t>(p) % alignof(T) != 0) throw Error(context_ + ": misaligned array");
+    return TableArray<T>::view(owner_, reinterpret_cast<const T*>(p), static_cast<std::size_t>(count));
+  }
   /// Throws unless every byte was consumed (trailing garbage is corruption too).
   void finish() const {
     if (offset_ != size_) throw Error(context_ + ": " + std::to_string(size_ - offset_) + " unexpected trailing bytes");
@@ -87,6 +179,7 @@ class BlobReader {
   std::size_t size_;
   std::size_t offset_ = 0;
   std::string context_;
+  std::shared_ptr<const void> owner_;
 };
 
 }  // namespace envkit
