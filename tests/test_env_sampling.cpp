@@ -325,6 +325,8 @@ TEST(EnvTablesBake, ResolutionConservesPowerAndKeepsSupport) {
   const EnvTables low = EnvTables::bake(envmap_of(m), o);
   EXPECT_EQ(low.width(), 16);
   EXPECT_EQ(low.height(), 8);
+  EXPECT_EQ(low.grid_width(), 64);  // radiance stays on the full grid
+  EXPECT_EQ(low.grid_height(), 32);
   EXPECT_NEAR(low.total_importance() / full.total_importance(), 1.0, 1e-3);
   // The coarse pdf is positive wherever there is light.
   const LatLongMap fine(64, 32);

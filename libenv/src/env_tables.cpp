@@ -233,6 +233,8 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
     ro.filter = Filter::Area;
     importance = resample(MapRef{scalar, *grid, identity3()}, *coarse, identity3(), ro).pixels;
   }
+  t.grid_width_ = W;
+  t.grid_height_ = H;
   t.width_ = TW;
   t.height_ = TH;
   const std::unique_ptr<Parameterization> table_grid = make_grid(options.grid, TW, TH);
@@ -354,6 +356,8 @@ std::string EnvTables::make_descriptor(const BakeOptions* options) const {
   d["grid"] = kind_name(grid_);
   d["width"] = width_;
   d["height"] = height_;
+  d["grid_width"] = grid_width_;
+  d["grid_height"] = grid_height_;
   d["importance"] = importance_name(mode_);
   d["conservative"] = conservative_;
   d["total_importance"] = total_importance_;

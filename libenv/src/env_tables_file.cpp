@@ -233,6 +233,8 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
     t.grid_ = parse_kind(d.at("grid").get<std::string>());
     t.width_ = d.at("width").get<int>();
     t.height_ = d.at("height").get<int>();
+    t.grid_width_ = d.at("grid_width").get<int>();
+    t.grid_height_ = d.at("grid_height").get<int>();
     t.mode_ = parse_importance(d.at("importance").get<std::string>());
     t.conservative_ = d.at("conservative").get<bool>();
     t.total_importance_ = d.at("total_importance").get<double>();
@@ -245,7 +247,8 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
     throw fail_with(std::string("corrupt descriptor: ") + e.what());
   }
   if ((t.grid_ != Kind::LatLong && t.grid_ != Kind::Octahedral) || t.width_ < 1 || t.height_ < 1 ||
-      t.width_ > kMaxDistributionSize || t.height_ > kMaxDistributionSize)
+      t.width_ > kMaxDistributionSize || t.height_ > kMaxDistributionSize || t.grid_width_ < t.width_ ||
+      t.grid_height_ < t.height_ || t.grid_width_ > kMaxDistributionSize || t.grid_height_ > kMaxDistributionSize)
     throw fail_with("corrupt descriptor (grid or size)");
   if (!expected_source_hash.empty() && expected_source_hash != t.source_hash_)
     throw fail_with("stale tables: baked from a different image (source hash " + t.source_hash_ + ", image hash " +

@@ -90,8 +90,13 @@ class EnvTables {
   const SphericalDistribution* distribution(SamplingMethod method, bool compensated = false) const;
 
   Kind grid() const { return grid_; }
+  /// Size of the distributions (the importance resolution).
   int width() const { return width_; }
   int height() const { return height_; }
+  /// Size of the bake grid the radiance was brought onto before an optional --resolution reduction: the grid a
+  /// renderer should look radiance up on (equal to width() x height() without --resolution).
+  int grid_width() const { return grid_width_; }
+  int grid_height() const { return grid_height_; }
   ImportanceMode importance_mode() const { return mode_; }
   bool conservative() const { return conservative_; }
   /// Scalar importance per texel of the distribution grid (radiance-like, per steradian), row-major.
@@ -115,6 +120,8 @@ class EnvTables {
   Kind grid_ = Kind::LatLong;
   int width_ = 0;
   int height_ = 0;
+  int grid_width_ = 0;
+  int grid_height_ = 0;
   ImportanceMode mode_ = ImportanceMode::Luminance;
   bool conservative_ = false;
   TableArray<float> importance_;
