@@ -74,9 +74,12 @@ class SphericalDistribution {
   const Distribution2D& distribution() const { return *distribution_; }
   std::shared_ptr<const Distribution2D> distribution_ptr() const { return distribution_; }
 
- private:
-  /// Direction of fractional position (fx, fy) in [0,1)^2 inside texel (x, y), uniform in solid angle.
+  /// Direction of fractional position (fx, fy) in [0,1)^2 inside texel (x, y): the warp sample() applies after
+  /// the 2D distribution chose the texel, uniform in solid angle inside the texel. For warps that choose texels
+  /// themselves (product sampling).
   Vec3 direction_in_texel(int x, int y, double fx, double fy) const;
+
+ private:
   /// Inverse of direction_in_texel: texel and fractional position of direction.
   void locate(const Vec3& direction, int& x, int& y, double& fx, double& fy) const;
 

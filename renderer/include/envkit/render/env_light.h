@@ -1,0 +1,71 @@
+#pragma once
+/// @file env_light.h
+/// The environment as a light: radiance lookup and sampling through envkit's baked tables.
+///
+/// Frames. The tables hold directions in the environment map's WORLD frame (the bake applied the map's
+/// convention and rotation). The scene may rotate the environment further: world_scene = R table_dir, with
+/// R = rotation_from_euler_degrees(yaw, pitch, roll) (convention.h). Radiance is scaled by `intensity`.
+///
+/// Radiance lookup. The map is brought onto the tables' bake grid (an envkit-canonical lat-long or an
+/// equal-area octahedral map of grid_width x grid_height): used as is when it already is that grid with an
+/// identity map->world transform, else resampled with libenv's flux-conserving area filter. Lookup takes the
+/// NEAREST texel of that grid, so L / pdf is constant inside each texel (no fireflies from a filtered lookup
+/// that the importance does not cover). When the distribution is that grid, light samples use their drawn
+/// texel directly; when it is coarser (baked with --resolution), each distribution texel covers several
+/// radiance texels (L / pdf is then constant per radiance texel) and radiance is looked up by direction.
+#include <envkit/env_sampling.h>
+#include <envkit/env_tables.h>
+#include <envkit/envmap.h>
+#include <envkit/vec.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace envkit::render {
+
+struct LightSample {
+  Vec3 direction;  ///< unit, scene world frame
+  Vec3 radiance;   ///< RGB, intensity applied
+  double pdf = 0;  ///< per steradian
+};
+
+class EnvironmentLight {
+ public:
+  /// `tables` must have been baked from `map` (checked by the caller through the source hash).
+  EnvironmentLight(const EnvMap& map, std::shared_ptr<const EnvTables> tables, const Mat3& rotation = identity3(),
+                   double intensity = 1.0);
+
+  /// Radiance seen in world direction d (unit), nearest texel.
+  Vec3 radiance(const Vec3& d) const;
+  /// The distribution of a method (compensated twin when `compensated`); throws Error naming what is missing.
+  const SphericalDistribution& distribution(SamplingMethod method, bool compensated) const;
+  /// Draws a direction from `distribution` (which must be one of this light's).
+  LightSample sample(const SphericalDistribution& distribution, Vec2 u) const;
+  /// Density per steradian of world direction d under `distribution`.
+  double pdf(const SphericalDistribution& distribution, const Vec3& d) const;
+
+  const EnvTables& tables() const { return *tables_; }
+  const Mat3& rotation() const { return rotation_; }
+  double intensity() const { return intensity_; }
+  /// Mean radiance over the sphere per channel (intensity applied), for reports and tests.
+  Vec3 mean_radiance() const;
+
+ private:
+  std::shared_ptr<const EnvTables> tables_;
+  const SphericalDistribution* lookup_ = nullptr;  // any baked distribution: gives texel_of for the grid
+  Mat3 rotation_;
+  Mat3 inverse_rotation_;
+  double intensity_ = 1.0;
+  int width_ = 0, height_ = 0;                        // radiance grid (the tables' bake grid)
+  std::unique_ptr<Parameterization> radiance_grid_;  // set when finer than the distribution (--resolution)
+  std::vector<Vec3> texels_;  // RGB of the distribution grid, intensity applied, row-major
+};
+
+/// Loads `tables_path` and checks it against `map` (stale or missing tables are errors naming the file, with
+/// a hint to pass --bake), or, when `bake` is true, bakes every method plus the compensated twins in memory.
+/// `note` receives a line for the user when something was baked.
+std::shared_ptr<const EnvTables> load_or_bake_tables(const EnvMap& map, const std::string& image_path,
+                                                     const std::string& tables_path, bool bake, std::string* note);
+
+}  // namespace envkit::render

@@ -1,0 +1,68 @@
+#pragma once
+/// @file film.h
+/// Per-pixel accumulation of radiance samples (double), and the outputs: the mean (linear Rec.709 radiance),
+/// the variance OF THE MEAN per channel (sample variance / n, unbiased, 0 when n < 2) and the sample count.
+#include <envkit/image.h>
+#include <envkit/vec.h>
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace envkit::render {
+
+/// A window [x0, x1) x [y0, y1) of the full image, in pixels.
+struct Crop {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  int width() const { return x1 - x0; }
+  int height() const { return y1 - y0; }
+};
+
+class Film {
+ public:
+  Film() = default;
+  /// A film covering `crop` of a full_width x full_height image.
+  Film(int full_width, int full_height, Crop crop);
+
+  /// Adds one sample to pixel (x, y) of the FILM (crop-relative). Not thread-safe for the same pixel.
+  void add(int x, int y, const Vec3& value) {
+    Pixel& p = pixels_[std::size_t(y) * crop_.width() + x];
+    p.sum += value;
+    p.sum_sq += Vec3(value.x * value.x, value.y * value.y, value.z * value.z);
+    ++p.count;
+  }
+
+  Vec3 mean(int x, int y) const;
+  /// Variance of the pixel mean per channel (sample variance / n).
+  Vec3 variance(int x, int y) const;
+  std::uint64_t count(int x, int y) const { return pixels_[std::size_t(y) * crop_.width() + x].count; }
+
+  int width() const { return crop_.width(); }
+  int height() const { return crop_.height(); }
+  const Crop& crop() const { return crop_; }
+  int full_width() const { return full_width_; }
+  int full_height() const { return full_height_; }
+  std::uint64_t total_samples() const;
+
+  /// Mean as an RGB image (working space).
+  Image mean_image() const;
+  /// Writes a two-part EXR (float): part 0 "beauty" with R, G, B (the mean; what single-part readers such as
+  /// envinfo/envdiff see), part 1 "aov" with variance.R, variance.G, variance.B (variance of the mean) and
+  /// samples. With a crop, the data window is the crop inside the full display window. Atomic (temp + rename).
+  void write_exr(const std::string& path, const std::map<std::string, std::string>& metadata = {}) const;
+  /// Writes a display-referred preview (.png) through the OCIO display transform (color.h encode_for_display).
+  void write_preview(const std::string& path, const std::string& view = "ACES 1.0 - SDR Video") const;
+
+ private:
+  struct Pixel {
+    Vec3 sum{0, 0, 0};
+    Vec3 sum_sq{0, 0, 0};
+    std::uint64_t count = 0;
+  };
+  int full_width_ = 0, full_height_ = 0;
+  Crop crop_;
+  std::vector<Pixel> pixels_;
+};
+
+}  // namespace envkit::render

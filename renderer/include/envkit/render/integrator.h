@@ -1,0 +1,94 @@
+#pragma once
+/// @file integrator.h
+/// Direct (and optional indirect) illumination from the environment, with every sampling strategy of issue 5.
+///
+/// Estimator structure. Surfaces emit nothing, so the radiance leaving a shading point x towards wo is
+///   L(x, wo) = D(x, wo) + I(x, wo),
+/// D = integral of f cos L_env V over directions that ESCAPE the scene (direct environment light, estimated by
+/// the chosen strategy) and I = integral over directions that HIT a surface (estimated, when --max-depth > 1,
+/// by one extra BSDF-sampled continuation ray that only counts when it hits a surface; an escaping
+/// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
+/// --max-depth 1 (the default) is direct illumination only.
+///
+/// Strategies for D (N = bsdf_samples, M = light_samples):
+///  - bsdf:  (1/N) sum f cos L / p_bsdf over N BSDF samples.
+///  - light: (1/M) sum f cos L V / p_light over M environment samples (light_method: cdf|alias|hierarchical).
+///  - mis:   Veach's multi-sample model, N BSDF + M light samples, weights w_i = (n_i p_i)^b / sum_k (n_k p_k)^b,
+///           b = 1 (balance) or 2 (power); or the one-sample model: one sample per shading point, the technique
+///           chosen with probability c_i = n_i / (N + M), weights from c_i p_i, estimator w_i f cos L / (c_i p_i).
+///  - mis-compensated: as mis with the light technique drawing from the MIS-compensated table (Karlik et al.
+///           2019): max(importance - mean, 0); the compensated pdf enters the weights. Needs N >= 1 (the BSDF
+///           technique must cover what the compensated table leaves out).
+///  - product, product-mis: BSDF x cos x environment product sampling (product_sampling.h, Clarberg 2008) with
+///           M samples, alone or under MIS (same heuristic, multi-sample model) with N BSDF samples. Uses the
+///           hierarchical table; --product-resolution sets the coarse BSDF table.
+/// Delta lobes (perfect mirror): no light sample can hit them, so every strategy follows them by BSDF sampling
+/// with weight 1 (pure-delta materials take exactly one BSDF sample, whatever N and M say).
+/// No NaN or Inf leaves radiance(): a non-finite estimate (never expected) is replaced by 0 and counted.
+#include <envkit/env_sampling.h>
+#include <envkit/render/camera.h>
+#include <envkit/render/env_light.h>
+#include <envkit/render/frame.h>
+#include <envkit/render/sampler.h>
+#include <envkit/render/scene.h>
+
+#include <atomic>
+#include <memory>
+#include <string>
+
+namespace envkit::render {
+
+enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis };
+enum class Heuristic { Balance, Power };
+enum class MisModel { Multi, One };
+
+const char* strategy_name(Strategy s);
+Strategy parse_strategy(const std::string& name);  ///< throws Error listing the valid names
+Heuristic parse_heuristic(const std::string& name);
+MisModel parse_mis_model(const std::string& name);
+/// True when this build has product sampling (renderer/src/product_*.cpp).
+bool product_sampling_available();
+
+struct IntegratorOptions {
+  Strategy strategy = Strategy::Mis;
+  SamplingMethod light_method = SamplingMethod::Hierarchical;
+  Heuristic heuristic = Heuristic::Power;
+  MisModel mis_model = MisModel::Multi;
+  int bsdf_samples = 1;
+  int light_samples = 1;
+  int max_depth = 1;            ///< scattering events per path (1 = direct only)
+  int product_resolution = 32;  ///< passed to the product sampler (coarse BSDF table size)
+};
+
+class ProductSamplers;  // per-thread ProductSampler instances (product_sampling.h)
+
+class Integrator {
+ public:
+  /// Validates the options against the light (e.g. a missing compensated table) and throws Error.
+  Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options);
+  ~Integrator();
+
+  /// Radiance along a camera ray.
+  Vec3 radiance(const Ray& ray, Sampler& sampler) const;
+  /// Direct environment light D(x, wo) leaving a shading point (exposed for tests). frame.n is the shading
+  /// normal on the side of wo; geometric_normal is on the same side.
+  Vec3 direct(const Vec3& position, const Frame& frame, const Vec3& geometric_normal, const Vec3& wo_local,
+              const Material& material, Sampler& sampler) const;
+
+  const IntegratorOptions& options() const { return options_; }
+  std::size_t nonfinite_count() const { return nonfinite_.load(); }
+
+ private:
+  /// L_env(wi) if the ray from the point towards wi escapes, else 0.
+  Vec3 escaped_radiance(const Vec3& origin, const Vec3& wi_world) const;
+  double mis_weight(double a, double b) const;
+
+  const Scene& scene_;
+  const EnvironmentLight& light_;
+  IntegratorOptions options_;
+  const SphericalDistribution* light_distribution_ = nullptr;
+  std::unique_ptr<ProductSamplers> product_;
+  mutable std::atomic<std::size_t> nonfinite_{0};
+};
+
+}  // namespace envkit::render

@@ -1,0 +1,157 @@
+#include <envkit/error.h>
+#include <envkit/latlong.h>
+#include <envkit/param_factory.h>
+#include <envkit/render/env_light.h>
+#include <envkit/resample.h>
+
+#include <chrono>
+#include <cmath>
+
+namespace envkit::render {
+
+namespace {
+
+bool is_identity(const Mat3& m) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (std::abs(m[i][j] - (i == j ? 1.0 : 0.0)) > 1e-12) return false;
+  return true;
+}
+
+/// True if `map` already is the distribution grid (same kind and size, centre-sampled, identity transform).
+bool on_grid(const EnvMap& map, Kind grid, int width, int height) {
+  if (map.param->kind() != grid || map.image.width != width || map.image.height != height) return false;
+  if (!is_identity(map.to_world())) return false;
+  if (grid == Kind::LatLong) {
+    const auto* ll = dynamic_cast<const LatLongMap*>(map.param.get());
+    return ll && ll->grid() == TexelGrid::Centre;
+  }
+  return true;
+}
+
+double sanitize(float v) { return (std::isfinite(v) && v > 0.0f) ? double(v) : 0.0; }
+
+}  // namespace
+
+EnvironmentLight::EnvironmentLight(const EnvMap& map, std::shared_ptr<const EnvTables> tables, const Mat3& rotation,
+                                   double intensity)
+    : tables_(std::move(tables)), rotation_(rotation), inverse_rotation_(transposed(rotation)), intensity_(intensity) {
+  if (!tables_) throw Error("environment: no tables");
+  if (!(intensity >= 0.0) || !std::isfinite(intensity)) throw Error("environment: intensity must be finite and >= 0");
+  for (SamplingMethod m : {SamplingMethod::Hierarchical, SamplingMethod::Cdf, SamplingMethod::Alias})
+    for (bool c : {false, true})
+      if (!lookup_) lookup_ = tables_->distribution(m, c);
+  if (!lookup_) throw Error("environment: the tables hold no distribution");
+  // Radiance lives on the bake grid (grid_width x grid_height); the distribution may be coarser (--resolution).
+  width_ = tables_->grid_width() > 0 ? tables_->grid_width() : tables_->width();
+  height_ = tables_->grid_height() > 0 ? tables_->grid_height() : tables_->height();
+  ParamSpec grid_spec;
+  grid_spec.kind = tables_->grid();
+  grid_spec.width = width_;
+  grid_spec.height = height_;
+  if (width_ != tables_->width() || height_ != tables_->height()) radiance_grid_ = make_parameterization(grid_spec);
+
+  const Image* source = &map.image;
+  Image resampled;
+  if (!on_grid(map, tables_->grid(), width_, height_)) {
+    const auto dst = make_parameterization(grid_spec);
+    resampled = resample(map.ref(), *dst, identity3());
+    source = &resampled;
+  }
+  const int colours = source->color_channels();
+  texels_.resize(std::size_t(width_) * height_);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const float* p = source->at(x, y);
+      Vec3 rgb = colours >= 3 ? Vec3(sanitize(p[0]), sanitize(p[1]), sanitize(p[2]))
+                              : Vec3(sanitize(p[0]), sanitize(p[0]), sanitize(p[0]));
+      texels_[std::size_t(y) * width_ + x] = rgb * intensity_;
+    }
+}
+
+Vec3 EnvironmentLight::radiance(const Vec3& d) const {
+  int x = 0, y = 0;
+  const Vec3 table_dir = apply(inverse_rotation_, d);
+  if (radiance_grid_) {
+    const Vec2 p = radiance_grid_->to_image(table_dir);
+    x = std::isfinite(p.x) ? int(std::floor(p.x)) : 0;
+    y = std::isfinite(p.y) ? int(std::floor(p.y)) : 0;
+  } else {
+    lookup_->texel_of(table_dir, x, y);
+  }
+  x = std::clamp(x, 0, width_ - 1);
+  y = std::clamp(y, 0, height_ - 1);
+  return texels_[std::size_t(y) * width_ + x];
+}
+
+const SphericalDistribution& EnvironmentLight::distribution(SamplingMethod method, bool compensated) const {
+  const SphericalDistribution* d = tables_->distribution(method, compensated);
+  if (!d) {
+    std::string where = tables_->source_path().empty() ? "the tables" : "the tables of " + tables_->source_path();
+    throw Error(where + " hold no " + (compensated ? "compensated " : "") + method_name(method) +
+                " distribution (bake it, or pass --bake)");
+  }
+  return *d;
+}
+
+LightSample EnvironmentLight::sample(const SphericalDistribution& distribution, Vec2 u) const {
+  const DirectionSample ds = distribution.sample(u);
+  LightSample s;
+  s.direction = apply(rotation_, ds.direction);
+  s.pdf = ds.pdf;
+  if (radiance_grid_) {
+    s.radiance = radiance(s.direction);  // the distribution's texel holds several radiance texels
+  } else {
+    const int x = std::clamp(ds.x, 0, width_ - 1), y = std::clamp(ds.y, 0, height_ - 1);
+    s.radiance = texels_[std::size_t(y) * width_ + x];
+  }
+  return s;
+}
+
+double EnvironmentLight::pdf(const SphericalDistribution& distribution, const Vec3& d) const {
+  return distribution.pdf(apply(inverse_rotation_, d));
+}
+
+Vec3 EnvironmentLight::mean_radiance() const {
+  Vec3 sum(0, 0, 0);
+  double omega = 0;
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const double w = radiance_grid_ ? radiance_grid_->texel_solid_angle(x, y) : lookup_->texel_solid_angle(x, y);
+      sum += texels_[std::size_t(y) * width_ + x] * w;
+      omega += w;
+    }
+  return omega > 0 ? sum / omega : sum;
+}
+
+std::shared_ptr<const EnvTables> load_or_bake_tables(const EnvMap& map, const std::string& image_path,
+                                                     const std::string& tables_path, bool bake, std::string* note) {
+  // Tables record the hash of the source FILE bytes (what envbake checks and writes), six faces for a cube pattern.
+  auto source_hash = [&]() -> std::string {
+    if (image_path.empty()) return "";
+    return file_content_hash(is_face_pattern(image_path) ? face_paths(image_path) : std::vector<std::string>{image_path});
+  };
+  if (bake) {
+    BakeOptions options;
+    options.compensated = true;
+    const auto start = std::chrono::steady_clock::now();
+    auto tables = std::make_shared<EnvTables>(EnvTables::bake(map, options, image_path, source_hash()));
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (note) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "baked sampling tables in memory (%dx%d, %.0f ms)", tables->width(),
+                    tables->height(), ms);
+      *note = (image_path.empty() ? std::string() : image_path + ": ") + buf;
+    }
+    return tables;
+  }
+  if (tables_path.empty())
+    fail(image_path, "no sampling table file given (set environment.tables, or pass --bake to bake in memory)");
+  try {
+    return std::make_shared<EnvTables>(EnvTables::load(tables_path, source_hash()));
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " (pass --bake to bake the tables in memory)");
+  }
+}
+
+}  // namespace envkit::render

@@ -1,0 +1,277 @@
+#include <envkit/error.h>
+#include <envkit/render/frame.h>
+#include <envkit/render/integrator.h>
+
+#include "integrator_product.h"
+
+#include <cmath>
+
+namespace envkit::render {
+
+namespace {
+
+bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool is_black(const Vec3& v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
+Vec3 mul(const Vec3& a, const Vec3& b) { return Vec3(a.x * b.x, a.y * b.y, a.z * b.z); }
+
+}  // namespace
+
+const char* strategy_name(Strategy s) {
+  switch (s) {
+    case Strategy::Bsdf: return "bsdf";
+    case Strategy::Light: return "light";
+    case Strategy::Mis: return "mis";
+    case Strategy::MisCompensated: return "mis-compensated";
+    case Strategy::Product: return "product";
+    case Strategy::ProductMis: return "product-mis";
+  }
+  return "?";
+}
+
+Strategy parse_strategy(const std::string& name) {
+  for (Strategy s : {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
+                     Strategy::ProductMis})
+    if (name == strategy_name(s)) return s;
+  throw Error("unknown strategy '" + name + "' (valid: bsdf, light, mis, mis-compensated, product, product-mis)");
+}
+
+Heuristic parse_heuristic(const std::string& name) {
+  if (name == "balance") return Heuristic::Balance;
+  if (name == "power") return Heuristic::Power;
+  throw Error("unknown heuristic '" + name + "' (valid: balance, power)");
+}
+
+MisModel parse_mis_model(const std::string& name) {
+  if (name == "multi") return MisModel::Multi;
+  if (name == "one") return MisModel::One;
+  throw Error("unknown MIS model '" + name + "' (valid: multi, one)");
+}
+
+Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
+    : scene_(scene), light_(light), options_(options) {
+  if (options_.bsdf_samples < 0 || options_.light_samples < 0) throw Error("sample counts must be >= 0");
+  if (options_.max_depth < 1) throw Error("--max-depth must be >= 1");
+  const Strategy s = options_.strategy;
+  if (s == Strategy::Bsdf && options_.bsdf_samples < 1) throw Error("strategy bsdf needs --bsdf-samples >= 1");
+  if (s == Strategy::Light && options_.light_samples < 1) throw Error("strategy light needs --light-samples >= 1");
+  if ((s == Strategy::Mis || s == Strategy::MisCompensated) && options_.bsdf_samples + options_.light_samples < 1)
+    throw Error("strategy mis needs at least one sample");
+  if (s == Strategy::MisCompensated && options_.bsdf_samples < 1)
+    throw Error("strategy mis-compensated needs --bsdf-samples >= 1 (BSDF sampling covers what the compensated "
+                "table leaves out)");
+  if (s == Strategy::Light || s == Strategy::Mis)
+    light_distribution_ = &light_.distribution(options_.light_method, false);
+  if (s == Strategy::MisCompensated) light_distribution_ = &light_.distribution(options_.light_method, true);
+  if (s == Strategy::Product || s == Strategy::ProductMis) {
+    if (options_.product_resolution < 1) throw Error("--product-resolution must be >= 1");
+    if (s == Strategy::Product && options_.light_samples < 1) throw Error("strategy product needs --light-samples >= 1");
+    product_ = std::make_unique<ProductSamplers>(light_, options_.product_resolution);
+  }
+}
+
+Integrator::~Integrator() = default;
+
+double Integrator::mis_weight(double a, double b) const {
+  if (options_.heuristic == Heuristic::Power) {
+    a *= a;
+    b *= b;
+  }
+  const double sum = a + b;
+  return sum > 0.0 && std::isfinite(sum) ? a / sum : (std::isinf(a) ? 1.0 : 0.0);
+}
+
+Vec3 Integrator::escaped_radiance(const Vec3& origin, const Vec3& wi_world) const {
+  if (scene_.occluded(Ray{origin, wi_world})) return Vec3(0, 0, 0);
+  return light_.radiance(wi_world);
+}
+
+Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng, const Vec3& wo,
+                        const Material& material, Sampler& sampler) const {
+  const Vec3 origin = Scene::offset_origin(position, ng);
+  Vec3 sum(0, 0, 0);
+
+  // One BSDF sample; returns its contribution f cos L V / pdf and the sample (pdf 0 when none).
+  auto bsdf_sample = [&](BsdfSample& bs, Vec3& wi_world) -> Vec3 {
+    const Vec2 u = sampler.next_2d();
+    const double u_lobe = sampler.next_1d();
+    if (!material.sample(wo, u, u_lobe, bs) || !(bs.pdf > 0.0) || is_black(bs.f_cos)) {
+      bs.pdf = 0.0;
+      return Vec3(0, 0, 0);
+    }
+    wi_world = frame.to_world(bs.wi);
+    if ((wi_world ^ ng) <= 0.0) {  // shading normal let it through the geometric surface
+      bs.pdf = 0.0;
+      return Vec3(0, 0, 0);
+    }
+    const Vec3 L = escaped_radiance(origin, wi_world);
+    return mul(bs.f_cos, L) / bs.pdf;
+  };
+  // One light sample from `distribution`; returns f cos L V (not divided) and fills the sample.
+  auto light_sample = [&](const SphericalDistribution& distribution, LightSample& ls, Vec3& wi_local) -> Vec3 {
+    ls = light_.sample(distribution, sampler.next_2d());
+    if (!(ls.pdf > 0.0) || (ls.direction ^ ng) <= 0.0 || is_black(ls.radiance)) return Vec3(0, 0, 0);
+    wi_local = frame.to_local(ls.direction);
+    const Vec3 f_cos = material.eval(wo, wi_local);
+    if (is_black(f_cos)) return Vec3(0, 0, 0);
+    if (scene_.occluded(Ray{origin, ls.direction})) return Vec3(0, 0, 0);
+    return mul(f_cos, ls.radiance);
+  };
+
+  // Pure delta materials: one BSDF sample, weight 1, in every strategy.
+  if (material.is_pure_delta()) {
+    BsdfSample bs;
+    Vec3 wi;
+    return bsdf_sample(bs, wi);
+  }
+
+  const int N = options_.bsdf_samples, M = options_.light_samples;
+  switch (options_.strategy) {
+    case Strategy::Bsdf: {
+      for (int i = 0; i < N; ++i) {
+        BsdfSample bs;
+        Vec3 wi;
+        sum += bsdf_sample(bs, wi);
+      }
+      return sum / double(N);
+    }
+    case Strategy::Light: {
+      for (int j = 0; j < M; ++j) {
+        LightSample ls;
+        Vec3 wi;
+        const Vec3 c = light_sample(*light_distribution_, ls, wi);
+        if (!is_black(c)) sum += c / (ls.pdf * M);
+      }
+      if (material.has_delta()) {  // the delta lobe only: light samples cannot reach it
+        BsdfSample bs;
+        Vec3 wi;
+        const Vec3 c = bsdf_sample(bs, wi);
+        if (bs.is_delta) sum += c;
+      }
+      return sum;
+    }
+    case Strategy::Mis:
+    case Strategy::MisCompensated: {
+      const SphericalDistribution& dist = *light_distribution_;
+      if (options_.mis_model == MisModel::One) {
+        const double c_light = double(M) / double(N + M), c_bsdf = 1.0 - c_light;
+        if (sampler.next_1d() < c_light) {
+          LightSample ls;
+          Vec3 wi;
+          const Vec3 c = light_sample(dist, ls, wi);
+          if (is_black(c)) return sum;
+          const double p_b = material.pdf(wo, wi);
+          return c * (mis_weight(c_light * ls.pdf, c_bsdf * p_b) / (c_light * ls.pdf));
+        }
+        BsdfSample bs;
+        Vec3 wi;
+        const Vec3 c = bsdf_sample(bs, wi);
+        if (!(bs.pdf > 0.0)) return sum;
+        if (bs.is_delta) return c / c_bsdf;
+        const double p_l = light_.pdf(dist, wi);
+        return c * (mis_weight(c_bsdf * bs.pdf, c_light * p_l) / c_bsdf);
+      }
+      for (int j = 0; j < M; ++j) {
+        LightSample ls;
+        Vec3 wi;
+        const Vec3 c = light_sample(dist, ls, wi);
+        if (is_black(c)) continue;
+        const double p_b = material.pdf(wo, wi);
+        sum += c * (mis_weight(M * ls.pdf, N * p_b) / (M * ls.pdf));
+      }
+      for (int i = 0; i < N; ++i) {
+        BsdfSample bs;
+        Vec3 wi;
+        const Vec3 c = bsdf_sample(bs, wi);
+        if (!(bs.pdf > 0.0) || is_black(c)) continue;
+        if (bs.is_delta) {
+          sum += c / double(N);
+          continue;
+        }
+        const double p_l = light_.pdf(dist, wi);
+        sum += c * (mis_weight(N * bs.pdf, M * p_l) / N);
+      }
+      return sum;
+    }
+    case Strategy::Product:
+    case Strategy::ProductMis: {
+      const int np = M;
+      const int nb = options_.strategy == Strategy::ProductMis ? N : 0;
+      ProductSampler& product = product_->get();
+      product.prepare(material, frame, wo);
+      for (int j = 0; j < np; ++j) {
+        const Vec2 u = sampler.next_2d();
+        Vec3 wi_world, f_cos;
+        double p = 0.0;
+        if (!product.valid() || !product.sample(u, wi_world, p, f_cos) || !(p > 0.0) || (wi_world ^ ng) <= 0.0 ||
+            is_black(f_cos))
+          continue;
+        const Vec3 L = escaped_radiance(origin, wi_world);
+        if (is_black(L)) continue;
+        const double w = nb > 0 ? mis_weight(np * p, nb * material.pdf(wo, frame.to_local(wi_world))) : 1.0;
+        sum += mul(f_cos, L) * (w / (np * p));
+      }
+      if (nb > 0) {
+        for (int i = 0; i < nb; ++i) {
+          BsdfSample bs;
+          Vec3 wi;
+          const Vec3 c = bsdf_sample(bs, wi);
+          if (!(bs.pdf > 0.0) || is_black(c)) continue;
+          if (bs.is_delta) {
+            sum += c / double(nb);
+            continue;
+          }
+          sum += c * (mis_weight(nb * bs.pdf, np * product.pdf(wi)) / nb);
+        }
+      } else if (material.has_delta()) {
+        BsdfSample bs;
+        Vec3 wi;
+        const Vec3 c = bsdf_sample(bs, wi);
+        if (bs.is_delta) sum += c;
+      }
+      return sum;
+    }
+  }
+  return sum;
+}
+
+Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
+  Vec3 result(0, 0, 0), throughput(1, 1, 1);
+  Hit hit;
+  if (!scene_.intersect(primary, hit)) {
+    result = light_.radiance(primary.direction);
+  } else {
+    Ray ray = primary;
+    for (int depth = 0; depth < options_.max_depth; ++depth) {
+      const Vec3 wo_world = -ray.direction;
+      Vec3 ng = hit.geometric_normal, ns = hit.shading_normal;
+      if ((ng ^ wo_world) < 0.0) {
+        ng = -ng;
+        ns = -ns;
+      }
+      const Frame frame = Frame::from_normal(ns);
+      const Vec3 wo = frame.to_local(wo_world);
+      if (!(wo.z > 0.0)) break;
+      const Material& material = scene_.material(hit.material);
+      result += mul(throughput, direct(hit.position, frame, ng, wo, material, sampler));
+      if (depth + 1 >= options_.max_depth) break;
+      // Continuation (indirect light): counts only when it hits a surface.
+      BsdfSample bs;
+      if (!material.sample(wo, sampler.next_2d(), sampler.next_1d(), bs) || !(bs.pdf > 0.0)) break;
+      const Vec3 wi_world = frame.to_world(bs.wi);
+      if ((wi_world ^ ng) <= 0.0) break;
+      ray = Ray{Scene::offset_origin(hit.position, ng), wi_world};
+      Hit next;
+      if (!scene_.intersect(ray, next)) break;
+      throughput = mul(throughput, bs.f_cos / bs.pdf);
+      if (is_black(throughput) || !finite(throughput)) break;
+      hit = next;
+    }
+  }
+  if (!finite(result)) {
+    nonfinite_.fetch_add(1, std::memory_order_relaxed);
+    return Vec3(0, 0, 0);
+  }
+  return result;
+}
+
+}  // namespace envkit::render

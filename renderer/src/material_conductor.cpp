@@ -1,0 +1,63 @@
+/// Rough conductor: GGX, Smith height-correlated G2, complex conductor Fresnel, visible-normal sampling
+/// (see material.h).
+#include <envkit/render/material.h>
+
+#include "material_microfacet.h"
+
+namespace envkit::render {
+
+namespace {
+
+class ConductorMaterial final : public Material {
+ public:
+  ConductorMaterial(const Vec3& eta, const Vec3& k, double roughness)
+      : eta_(clean(eta)), k_(clean(k)), alpha_(detail::clamp_alpha(roughness)) {}
+
+  const char* name() const override { return "conductor"; }
+
+  Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
+    Vec3 h;
+    if (!detail::above(wo) || !detail::above(wi) || !detail::half_vector(wo, wi, h)) return Vec3(0.0);
+    const double scalar = detail::ggx_d(alpha_, h) * detail::smith_g2_cos_over_4cos(alpha_, wo.z, wi.z);
+    return fresnel(wo ^ h) * scalar;
+  }
+
+  double pdf(const Vec3& wo, const Vec3& wi) const override {
+    Vec3 h;
+    if (!detail::above(wo) || !detail::above(wi) || !detail::half_vector(wo, wi, h)) return 0.0;
+    return detail::vndf_reflection_pdf(alpha_, wo.z, h);
+  }
+
+  bool sample(const Vec3& wo, Vec2 u2, double /*u_lobe*/, BsdfSample& out) const override {
+    if (!detail::above(wo)) return false;
+    const Vec3 m = detail::sample_vndf(alpha_, wo, u2);
+    const Vec3 wi = detail::reflect(wo, m).normalized();
+    if (!(wi.z > 0.0)) return false;  // reflected below the horizon: the sample is lost
+    out.wi = wi;
+    out.f_cos = eval(wo, wi);
+    out.pdf = pdf(wo, wi);
+    out.is_delta = false;
+    return out.pdf > 0.0;
+  }
+
+ private:
+  static Vec3 clean(const Vec3& v) {
+    const auto c = [](double x) { return std::isfinite(x) ? std::max(0.0, x) : 0.0; };
+    return Vec3(c(v.x), c(v.y), c(v.z));
+  }
+  Vec3 fresnel(double cos_i) const {
+    return Vec3(detail::fresnel_conductor(cos_i, eta_.x, k_.x), detail::fresnel_conductor(cos_i, eta_.y, k_.y),
+                detail::fresnel_conductor(cos_i, eta_.z, k_.z));
+  }
+
+  Vec3 eta_, k_;
+  double alpha_;
+};
+
+}  // namespace
+
+std::unique_ptr<Material> make_conductor(const Vec3& eta, const Vec3& k, double roughness) {
+  return std::make_unique<ConductorMaterial>(eta, k, roughness);
+}
+
+}  // namespace envkit::render

@@ -1,0 +1,43 @@
+/// Perfect mirror: one delta lobe, constant reflectance (see material.h).
+#include <envkit/render/material.h>
+
+#include "material_microfacet.h"
+
+namespace envkit::render {
+
+namespace {
+
+class MirrorMaterial final : public Material {
+ public:
+  explicit MirrorMaterial(const Vec3& reflectance) {
+    const auto c = [](double x) { return std::isfinite(x) ? std::max(0.0, x) : 0.0; };
+    reflectance_ = Vec3(c(reflectance.x), c(reflectance.y), c(reflectance.z));
+  }
+
+  const char* name() const override { return "mirror"; }
+  Vec3 eval(const Vec3& /*wo*/, const Vec3& /*wi*/) const override { return Vec3(0.0); }
+  double pdf(const Vec3& /*wo*/, const Vec3& /*wi*/) const override { return 0.0; }
+
+  /// wi = the mirror direction of wo; f_cos = reflectance (the Dirac's weight: f cos / pdf = reflectance);
+  /// pdf = 1 (the probability of the only lobe).
+  bool sample(const Vec3& wo, Vec2 /*u2*/, double /*u_lobe*/, BsdfSample& out) const override {
+    if (!detail::above(wo)) return false;
+    out.wi = Vec3(-wo.x, -wo.y, wo.z);
+    out.f_cos = reflectance_;
+    out.pdf = 1.0;
+    out.is_delta = true;
+    return true;
+  }
+
+  bool has_delta() const override { return true; }
+  bool is_pure_delta() const override { return true; }
+
+ private:
+  Vec3 reflectance_;
+};
+
+}  // namespace
+
+std::unique_ptr<Material> make_mirror(const Vec3& reflectance) { return std::make_unique<MirrorMaterial>(reflectance); }
+
+}  // namespace envkit::render

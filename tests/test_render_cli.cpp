@@ -1,0 +1,244 @@
+// envrender on the command line: a tiny successful render, and bad input (malformed JSON, unknown keys and
+// materials, missing meshes, degenerate triangles, a camera inside geometry, missing and stale tables): exit
+// code 1, one line on stderr naming the file, the line and the problem, and no output file.
+#include "cli_support.h"
+
+#include <envkit/env_tables.h>
+#include <envkit/envmap.h>
+#include <envkit/image_io.h>
+#include <envkit/latlong.h>
+#include <envkit/probes.h>
+#include <envkit/render/scene_loader.h>
+
+#include <gtest/gtest.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
+
+#include <cmath>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <unistd.h>
+
+using namespace envkit;
+namespace fs = std::filesystem;
+
+namespace {
+
+class RenderCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("envkit_render_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path write(const std::string& name, const std::string& text) {
+    std::ofstream(dir_ / name) << text;
+    return dir_ / name;
+  }
+  test::CommandResult envrender(std::vector<std::string> args) {
+    args.push_back("--threads");
+    args.push_back("2");
+    return test::run_tool("envrender", args, dir_);
+  }
+  /// A valid scene with a constant probe; `extra_shape` is appended to the shapes, `camera` replaces the camera.
+  static std::string scene(const std::string& extra_shape = "", const std::string& materials_extra = "",
+                           const std::string& camera = R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                           const std::string& environment = R"("probe": "constant", "radiance": 0.5, "size": [32, 16])") {
+    return std::string("{\n") +
+           "  \"camera\": {" + camera + ", \"fov\": 40, \"resolution\": [16, 8]},\n" +
+           "  \"environment\": {" + environment + "},\n" +
+           "  \"materials\": {\n" +
+           "    \"white\": {\"type\": \"diffuse\", \"albedo\": 0.5}" + materials_extra + "\n" +
+           "  },\n" +
+           "  \"shapes\": [\n" +
+           "    {\"type\": \"sphere\", \"center\": [0, 0.5, 0], \"radius\": 0.5, \"material\": \"white\"}" +
+           extra_shape + "\n" +
+           "  ]\n" +
+           "}\n";
+  }
+  /// Runs a bad scene; expects exit 1, one stderr line containing every fragment, and no output.
+  void expect_error(const fs::path& scene_file, const std::vector<std::string>& fragments,
+                    std::vector<std::string> extra = {}) {
+    const fs::path out = dir_ / "out.exr";
+    std::vector<std::string> args = {"--scene", scene_file.string(), "-o", out.string(), "--spp", "1"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = envrender(args);
+    EXPECT_EQ(r.code, 1) << r.err;
+    ASSERT_EQ(r.err_lines().size(), 1u) << r.err;
+    for (const auto& f : fragments) EXPECT_NE(r.err.find(f), std::string::npos) << "missing '" << f << "' in: " << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_FALSE(fs::exists(dir_ / "out.png"));
+  }
+
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST_F(RenderCli, RendersASmallSceneWithEveryOutput) {
+  const auto file = write("ok.json", scene());
+  const fs::path out = dir_ / "ok.exr";
+  const auto r = envrender({"--scene", file.string(), "-o", out.string(), "--spp", "4", "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+  EXPECT_TRUE(fs::exists(out));
+  EXPECT_TRUE(fs::exists(dir_ / "ok.png"));
+  const Image png = read_image((dir_ / "ok.png").string());
+  EXPECT_EQ(png.width, 16);
+  EXPECT_EQ(png.height, 8);
+  // The EXR holds the mean (part 0, what read_image reads) and the variance AOV and sample count (part 1).
+  const Image beauty = read_image(out.string());
+  EXPECT_EQ(beauty.channels, 3);
+  Imf::MultiPartInputFile exr(out.string().c_str());
+  ASSERT_EQ(exr.parts(), 2);
+  for (const char* channel : {"R", "G", "B"}) EXPECT_NE(exr.header(0).channels().findChannel(channel), nullptr) << channel;
+  for (const char* channel : {"variance.R", "variance.G", "variance.B", "samples"})
+    EXPECT_NE(exr.header(1).channels().findChannel(channel), nullptr) << channel;
+  const Imath::Box2i window = exr.header(1).dataWindow();
+  const int w = window.max.x - window.min.x + 1, h = window.max.y - window.min.y + 1;
+  ASSERT_EQ(w, 16);
+  ASSERT_EQ(h, 8);
+  std::vector<float> samples(std::size_t(w * h)), variance(std::size_t(w * h));
+  Imf::FrameBuffer frame;
+  frame.insert("samples", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(samples.data()), sizeof(float), sizeof(float) * w));
+  frame.insert("variance.G", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(variance.data()), sizeof(float), sizeof(float) * w));
+  Imf::InputPart aov(exr, 1);
+  aov.setFrameBuffer(frame);
+  aov.readPixels(window.min.y, window.max.y);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    EXPECT_EQ(samples[i], 4.0f);
+    EXPECT_TRUE(std::isfinite(variance[i]) && variance[i] >= 0.0f);
+  }
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 16; ++x) EXPECT_TRUE(std::isfinite(beauty.at(x, y, 1)) && beauty.at(x, y, 1) > 0.0f);
+}
+
+TEST_F(RenderCli, CropWritesTheWindowOnly) {
+  const auto file = write("ok.json", scene());
+  const fs::path out = dir_ / "crop.exr";
+  const auto r = envrender({"--scene", file.string(), "-o", out.string(), "--spp", "2", "--crop", "4,2,12,6", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Image png = read_image((dir_ / "crop.png").string());
+  EXPECT_EQ(png.width, 8);
+  EXPECT_EQ(png.height, 4);
+}
+
+TEST_F(RenderCli, UsageErrorsExitWithTwo) {
+  EXPECT_EQ(envrender({"--strategy", "magic"}).code, 2);
+  EXPECT_EQ(envrender({"--spp", "0"}).code, 2);
+  EXPECT_EQ(envrender({"--light-method", "best"}).code, 2);
+}
+
+TEST_F(RenderCli, MalformedJsonNamesTheLine) {
+  std::string text = scene();
+  text.replace(text.find("\"materials\": {"), 14, "\"materials\": {,");  // line 4
+  const auto file = write("bad.json", text);
+  expect_error(file, {"bad.json:4:", "malformed JSON"});
+}
+
+TEST_F(RenderCli, UnknownKeyNamesLineAndKey) {
+  std::string text = scene();
+  text.replace(text.find("\"fov\": 40"), 9, "\"fov\": 40, \"zoom\": 2");  // line 2
+  const auto file = write("key.json", text);
+  expect_error(file, {"key.json:2:", "camera.zoom", "unknown key 'zoom'"});
+}
+
+TEST_F(RenderCli, UnknownMaterialNamesTheShape) {
+  const auto file = write("mat.json", scene(R"(,
+    {"type": "sphere", "center": [2, 0.5, 0], "radius": 0.5, "material": "gold"})"));
+  expect_error(file, {"mat.json:9:", "shapes[1].material", "unknown material 'gold'"});
+}
+
+TEST_F(RenderCli, UnknownMaterialTypeIsAnError) {
+  const auto file = write("type.json", scene("", R"(,
+    "glass": {"type": "dielectric"})"));
+  expect_error(file, {"type.json:6:", "materials.glass.type", "unknown material type 'dielectric'"});
+}
+
+TEST_F(RenderCli, MissingMeshIsAnError) {
+  const auto file = write("mesh.json", scene(R"(,
+    {"type": "mesh", "file": "nowhere.obj", "material": "white"})"));
+  expect_error(file, {"mesh.json:9:", "shapes[1].file", "nowhere.obj", "does not exist"});
+}
+
+TEST_F(RenderCli, DegenerateTrianglesAreReported) {
+  write("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n");
+  const auto file = write("deg.json", scene(R"(,
+    {"type": "mesh", "file": "flat.obj", "material": "white"})"));
+  expect_error(file, {"deg.json:9:", "flat.obj", "1 degenerate triangle", "triangle 0"});
+}
+
+TEST_F(RenderCli, CameraInsideASphereIsAnError) {
+  const auto file = write("inside.json", scene("", "", R"("position": [0, 0.6, 0], "look_at": [0, 0.5, 3])"));
+  expect_error(file, {"inside.json:", "camera.position", "inside", "shapes[0]"});
+}
+
+TEST_F(RenderCli, CameraInsideAClosedMeshIsAnError) {
+  // A closed box (outward-facing triangles) around the camera.
+  write("box.obj",
+        "v -4 -4 -8\nv 4 -4 -8\nv 4 4 -8\nv -4 4 -8\nv -4 -4 8\nv 4 -4 8\nv 4 4 8\nv -4 4 8\n"
+        "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 8 7\nf 4 7 3\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n");
+  const auto file = write("box.json", scene(R"(,
+    {"type": "mesh", "file": "box.obj", "material": "white"})"));
+  expect_error(file, {"box.json:", "camera.position", "inside", "box.obj"});
+}
+
+TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
+  // An environment image and tables baked from a different image.
+  LatLongMap grid(32, 16);
+  write_image((dir_ / "sky.exr").string(), probes::rasterize(probes::ConstantProbe(Vec3(0.5)), grid));
+  write_image((dir_ / "other.exr").string(), probes::rasterize(probes::ConstantProbe(Vec3(0.7)), grid));
+  // envbake records the source file's hash; tables baked from other.exr are stale for sky.exr.
+  const auto baked = test::run_tool("envbake", {(dir_ / "other.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q"}, dir_);
+  ASSERT_EQ(baked.code, 0) << baked.err;
+
+  const auto missing = write("missing.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                                   R"("image": "sky.exr")"));
+  expect_error(missing, {"missing.json:3:", "environment", "tables", "--bake"});
+
+  const auto stale = write("stale.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                               R"("image": "sky.exr", "tables": "sky.envtbl")"));
+  expect_error(stale, {"stale.json:3:", "environment.tables", "sky.envtbl", "stale", "--bake"});
+
+  // --bake bakes in memory and says so.
+  const fs::path out = dir_ / "baked.exr";
+  const auto r = envrender({"--scene", stale.string(), "-o", out.string(), "--spp", "1", "--bake"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("baked sampling tables in memory"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out));
+
+  // Fresh tables (envbake) load without --bake; mis-compensated needs their compensated twins.
+  const auto rebaked = test::run_tool("envbake", {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q"}, dir_);
+  ASSERT_EQ(rebaked.code, 0) << rebaked.err;
+  const auto fresh = envrender({"--scene", stale.string(), "-o", out.string(), "--spp", "1", "-q"});
+  EXPECT_EQ(fresh.code, 0) << fresh.err;
+  fs::remove(out);
+  fs::remove(dir_ / "baked.png");
+  expect_error(stale, {"sky.exr", "no compensated hierarchical distribution", "--bake"},
+               {"--strategy", "mis-compensated"});
+}
+
+TEST_F(RenderCli, SceneFilesShippedInTheRepositoryLoad) {
+  for (const char* name : {"default.json", "overcast.json", "sunny.json"}) {
+    const fs::path file = fs::path(ENVKIT_SOURCE_DIR) / "renderer" / "scenes" / name;
+    ASSERT_TRUE(fs::exists(file)) << file;
+    render::SceneLoadOptions options;
+    options.width = 8;
+    options.height = 4;
+    EXPECT_NO_THROW(render::load_scene_file(file.string(), options)) << name;
+  }
+  // default.json is the built-in default scene.
+  std::ifstream in(fs::path(ENVKIT_SOURCE_DIR) / "renderer" / "scenes" / "default.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), render::default_scene_json());
+}
