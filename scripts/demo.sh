@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The README's first command: install dependencies, build, and run the main job on the built-in default probe:
-# generate it, describe it, convert it to every parameterization (flux-conserving) and write previews.
+# The README's first command: install dependencies, build, and run the main job on the built-in default probe
+# and scene: generate the probe, describe it, convert it to every parameterization (flux-conserving), bake its
+# sampling tables, picture their samples, and render the default scene lit by them.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 "$root/scripts/install-deps.sh"
@@ -18,4 +19,14 @@ done
 "$bin/envconvert" "$out/default_latlong.exr" -o "$out/default_openexr_cube.exr" --to cube --convention openexr --size 512 --force
 echo "== power is conserved by the area filter: lat-long vs its cube"
 "$bin/envdiff" "$out/default_latlong.exr" "$out/default_cube.exr"
-echo "demo outputs in $out"
+echo "== sampling tables: bake once (cdf, alias, hierarchical, compensated), describe, draw"
+"$bin/envbake" "$out/default_latlong.exr" -o "$out/default.envtbl" --tables cdf,alias,hierarchical,compensated --force
+"$bin/envinfo" "$out/default.envtbl"
+"$bin/envsample" "$out/default.envtbl" -n 4096 --method hierarchical -o "$out/samples_hierarchical.png" --force
+echo "== the default scene (spheres of increasing roughness, a diffuse sphere, a ground plane), MIS, lit by the tables"
+scene="$out/default_scene.json"
+# The shipped default scene with its environment pointed at the files above (paths relative to the scene).
+sed -e 's|"environment": {[^}]*}|"environment": {"image": "default_latlong.exr", "tables": "default.envtbl", "rotation": [180, 0, 0], "intensity": 1.0}|' \
+  "$root/renderer/scenes/default.json" > "$scene"
+"$bin/envrender" --scene "$scene" -o "$out/render.exr" --strategy mis --spp 64
+echo "demo outputs in $out (render.png is the preview of render.exr)"
