@@ -18,6 +18,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <deque>
 #include <fcntl.h>
 #include <fstream>
 #include <sys/mman.h>
@@ -54,8 +55,32 @@ constexpr std::size_t kEntryBytes = 64;  // entries are padded to 64 bytes
 
 std::size_t align64(std::size_t n) { return (n + 63) & ~std::size_t(63); }
 
-/// Section checksum: XXH3-64 of the XXH3-64 digests of its 16 MiB blocks (blocks hashed in parallel).
+/// Section checksum: XXH3-64 of the XXH3-64 digests of its 16 MiB blocks (blocks hashed in parallel on load).
 constexpr std::size_t kChecksumBlock = std::size_t(16) << 20;
+
+/// The same checksum over a blob's pieces, streamed block by block (no contiguous copy needed).
+std::uint64_t section_checksum(const BlobWriter& blob) {
+  std::vector<std::uint64_t> digests;
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_64bits_reset(state);
+  std::size_t in_block = 0;
+  for (const BlobWriter::Piece& piece : blob.pieces()) {
+    for (std::size_t offset = 0; offset < piece.size;) {
+      const std::size_t n = std::min(piece.size - offset, kChecksumBlock - in_block);
+      XXH3_64bits_update(state, piece.data + offset, n);
+      offset += n;
+      in_block += n;
+      if (in_block == kChecksumBlock) {
+        digests.push_back(XXH3_64bits_digest(state));
+        XXH3_64bits_reset(state);
+        in_block = 0;
+      }
+    }
+  }
+  if (in_block > 0 || digests.empty()) digests.push_back(XXH3_64bits_digest(state));
+  XXH3_freeState(state);
+  return XXH3_64bits(digests.data(), digests.size() * sizeof(std::uint64_t));
+}
 std::uint64_t section_checksum(const std::byte* data, std::size_t size) {
   const std::size_t blocks = std::max<std::size_t>(1, (size + kChecksumBlock - 1) / kChecksumBlock);
   std::vector<std::uint64_t> digests(blocks);
@@ -68,7 +93,7 @@ std::uint64_t section_checksum(const std::byte* data, std::size_t size) {
 
 struct Section {
   std::string name;
-  std::vector<std::byte> bytes;
+  BlobWriter blob;
 };
 
 /// A read-only memory map of a whole file (or nothing for an empty file).
@@ -123,24 +148,17 @@ std::shared_ptr<const Distribution2D> restore_distribution(int method, BlobReade
 }  // namespace
 
 void EnvTables::save(const std::string& path) const {
-  std::vector<Section> sections;
-  {
-    Section s{"descriptor", {}};
-    s.bytes.resize(descriptor_.size());
-    std::memcpy(s.bytes.data(), descriptor_.data(), descriptor_.size());
-    sections.push_back(std::move(s));
-  }
-  {
-    BlobWriter w;
-    w.array(importance_);
-    sections.push_back({"importance", w.release()});
-  }
+  // Sections reference the tables' own memory: nothing is copied before it is written.
+  std::deque<Section> sections;
+  sections.push_back({"descriptor", {}});
+  sections.back().blob.raw(descriptor_.data(), descriptor_.size());
+  sections.push_back({"importance", {}});
+  sections.back().blob.array(importance_);
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m)
       if (distributions_[set][m]) {
-        BlobWriter w;
-        distributions_[set][m]->distribution().save(w);
-        sections.push_back({section_name(m, set), w.release()});
+        sections.push_back({section_name(m, set), {}});
+        distributions_[set][m]->distribution().save(sections.back().blob);
       }
 
   FileHeader header{};
@@ -154,10 +172,10 @@ void EnvTables::save(const std::string& path) const {
     SectionEntry e{};
     std::strncpy(e.name, sections[i].name.c_str(), sizeof(e.name) - 1);
     e.offset = offset;
-    e.size = sections[i].bytes.size();
-    e.checksum = section_checksum(sections[i].bytes.data(), sections[i].bytes.size());
+    e.size = sections[i].blob.size();
+    e.checksum = section_checksum(sections[i].blob);
     std::memcpy(directory.data() + i * kEntryBytes, &e, sizeof(e));
-    offset = align64(offset + sections[i].bytes.size());
+    offset = align64(offset + sections[i].blob.size());
   }
   header.directory_checksum = XXH3_64bits(directory.data(), directory.size());
 
@@ -176,7 +194,7 @@ void EnvTables::save(const std::string& path) const {
     put(directory.data(), directory.size());
     for (const Section& s : sections) {
       pad();
-      put(s.bytes.data(), s.bytes.size());
+      for (const BlobWriter::Piece& piece : s.blob.pieces()) put(piece.data, piece.size);
     }
     pad();
     f.flush();

@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <deque>
 #include <memory>
 #include <string>
 #include <type_traits>
@@ -84,34 +85,63 @@ class TableArray {
   std::size_t size_ = 0;
 };
 
+/// Builds a blob without copying its arrays: it records pieces (8-byte scalar words it owns, and references to the
+/// callers' arrays), so writing an 800 MB table set costs no second copy in memory. The referenced arrays must
+/// outlive the writer's use.
 class BlobWriter {
  public:
+  struct Piece {
+    const std::byte* data;
+    std::size_t size;
+  };
+
   template <class T>
   void scalar(const T& value) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    append(&value, sizeof(T));
+    static_assert(std::is_trivially_copyable_v<T> && sizeof(T) <= 8);
+    std::uint64_t word = 0;
+    std::memcpy(&word, &value, sizeof(T));
+    words_.push_back(word);  // a deque: earlier words never move
+    add(reinterpret_cast<const std::byte*>(&words_.back()), 8);
   }
   template <class T>
   void array(const std::vector<T>& values) {
     static_assert(std::is_trivially_copyable_v<T>);
-    scalar<std::uint64_t>(values.size());
-    append(values.data(), values.size() * sizeof(T));
+    reference(values.data(), values.size());
   }
   template <class T>
   void array(const TableArray<T>& values) {
-    scalar<std::uint64_t>(values.size());
-    append(values.data(), values.bytes());
+    reference(values.data(), values.size());
   }
-  const std::vector<std::byte>& bytes() const { return bytes_; }
-  std::vector<std::byte> release() { return std::move(bytes_); }
+  /// Raw bytes (no count, no padding): for sections that are not blobs (the JSON descriptor).
+  void raw(const void* data, std::size_t size) { add(static_cast<const std::byte*>(data), size); }
+
+  const std::vector<Piece>& pieces() const { return pieces_; }
+  std::size_t size() const { return size_; }
+  /// The blob as one contiguous buffer (a copy; for small blobs and tests).
+  std::vector<std::byte> flatten() const {
+    std::vector<std::byte> out;
+    out.reserve(size_);
+    for (const Piece& p : pieces_) out.insert(out.end(), p.data, p.data + p.size);
+    return out;
+  }
 
  private:
-  void append(const void* data, std::size_t n) {
-    const std::size_t at = bytes_.size();
-    bytes_.resize(at + ((n + 7) & ~std::size_t(7)), std::byte{0});
-    if (n) std::memcpy(bytes_.data() + at, data, n);
+  template <class T>
+  void reference(const T* data, std::size_t count) {
+    scalar<std::uint64_t>(count);
+    const std::size_t n = count * sizeof(T);
+    add(reinterpret_cast<const std::byte*>(data), n);
+    static constexpr std::byte zeros[8] = {};
+    add(zeros, ((n + 7) & ~std::size_t(7)) - n);
   }
-  std::vector<std::byte> bytes_;
+  void add(const std::byte* data, std::size_t n) {
+    if (n == 0) return;
+    pieces_.push_back({data, n});
+    size_ += n;
+  }
+  std::deque<std::uint64_t> words_;
+  std::vector<Piece> pieces_;
+  std::size_t size_ = 0;
 };
 
 class BlobReader {
