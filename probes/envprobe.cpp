@@ -1,4 +1,5 @@
 // envprobe: writes analytic environments (closed-form power) and the built-in default probe.
+#include <envkit/atomic_file.h>
 #include <envkit/convention.h>
 #include <envkit/envmap.h>
 #include <envkit/error.h>
@@ -325,8 +326,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? 0 : 2;  // usage errors exit 2, like every other tool
   }
+  envkit::install_temp_cleanup_on_signal();  // SIGINT/SIGTERM during a write leave no temp file (issue 7)
   try {
     return run(a, app);
   } catch (const Error& e) {

@@ -28,7 +28,8 @@ struct Case {
 
 std::vector<Case> all_cases() {
   std::vector<Case> cases;
-  for (auto [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {3, 3}, {7, 5}, {64, 32}, {4096, 2048}}) {
+  for (const auto& size : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {3, 3}, {7, 5}, {64, 32}, {4096, 2048}}) {
+    const int w = size.first, h = size.second;  // plain variables: clang 14 cannot capture structured bindings
     for (TexelGrid g : {TexelGrid::Centre, TexelGrid::Corner}) {
       cases.push_back({"latlong" + std::to_string(w) + "x" + std::to_string(h) + (g == TexelGrid::Corner ? "c" : ""),
                        [=] { return std::make_unique<LatLongMap>(w, h, g); }});

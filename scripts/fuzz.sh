@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# fuzz.sh [--seconds N] [--targets "a b"] [--no-build]
+#
+# Builds the libFuzzer targets (tests/fuzz, clang, ASan + UBSan + libFuzzer) into ${ENVKIT_FUZZ_BUILD_DIR:-build-fuzz},
+# replays the seed corpora and every past crash (CTest, label fuzz), then runs every target for N seconds
+# (default 60; CI passes 20 through scripts/test-sanitize.sh) on one core, and prints executions, coverage and
+# findings per target. The growing corpora live in <build>/fuzz/corpus/<target> (seeded from
+# tests/fuzz/corpus/<target>); crashes, leaks, timeouts and OOMs are written to <build>/fuzz/artifacts/<target>/.
+# A finding: copy the artifact into tests/fuzz/regressions/<target>/ (it is then replayed by CTest), fix the bug.
+# Exit status: 0 when no target found anything, 1 otherwise (every target runs either way).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${ENVKIT_FUZZ_BUILD_DIR:-$root/build-fuzz}"
+jobs="${ENVKIT_JOBS:-$(nproc)}"
+seconds=60
+targets=""
+do_build=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --seconds) seconds="$2"; shift ;;
+    --targets) targets="$2"; shift ;;
+    --no-build) do_build=0 ;;
+    -h|--help) sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "fuzz.sh: unknown argument '$1'" >&2; exit 2 ;;
+  esac
+  shift
+done
+
+export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1${ENVKIT_ASAN_EXTRA:+:$ENVKIT_ASAN_EXTRA}"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+export LSAN_OPTIONS="suppressions=$root/tests/fuzz/lsan.supp:print_suppressions=0"  # leaks inside system libraries only
+unset OCIO ENVKIT_OCIO_CONFIG
+
+if [ "$do_build" = 1 ]; then
+  command -v clang++ >/dev/null || { echo "fuzz.sh: clang++ missing (scripts/install-deps.sh installs it)" >&2; exit 1; }
+  t0=$(date +%s)
+  CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DENVKIT_SANITIZE=ON -DENVKIT_FUZZ=ON \
+    -DENVKIT_BUILD_TESTS=OFF -DENVKIT_BUILD_BENCHMARKS=OFF -DENVKIT_BUILD_RENDERER=OFF >/dev/null
+  ninja -C "$build" -j "$jobs" envkit_fuzz_all
+  echo "== fuzz build: $(($(date +%s) - t0)) s"
+fi
+bin="$build/fuzz"
+[ -n "$targets" ] || targets="$(cd "$bin" && ls fuzz_* 2>/dev/null | tr '\n' ' ')"
+[ -n "$targets" ] || { echo "fuzz.sh: no fuzz targets in $bin" >&2; exit 1; }
+
+echo "== replaying seed corpora and regression inputs (ctest -L fuzz)"
+(cd "$build/tests/fuzz" && ctest --output-on-failure -L fuzz -j "$jobs")
+
+work="$build/fuzz/run"
+mkdir -p "$work"
+status=0
+summary=()
+for t in $targets; do
+  corpus="$build/fuzz/corpus/$t"
+  artifacts="$build/fuzz/artifacts/$t"
+  mkdir -p "$corpus" "$artifacts"
+  seeds=()
+  for d in "$root/tests/fuzz/corpus/$t" "$root/tests/fuzz/regressions/$t"; do [ -d "$d" ] && seeds+=("$d"); done
+  if [ "$t" = fuzz_tables ]; then  # a valid table file in the current format version
+    ENVKIT_FUZZ_WRITE_SEED="$corpus/baked_seed.envtables" "$bin/$t" >/dev/null 2>&1 ||
+      echo "fuzz.sh: could not bake a seed table file (EnvTables::bake failed); fuzzing from the corpus only" >&2
+  fi
+  dict=()
+  if [ -f "$root/tests/fuzz/dict/${t#fuzz_}.dict" ]; then dict=(-dict="$root/tests/fuzz/dict/${t#fuzz_}.dict"); fi
+  before=$(ls "$artifacts" | wc -l)
+  log="$work/$t.log"
+  echo "== $t: ${seconds} s"
+  set +e
+  (cd "$work" && "$bin/$t" "$corpus" "${seeds[@]}" "${dict[@]}" -max_total_time="$seconds" -timeout=30 \
+     -rss_limit_mb=3072 -max_len=4096 -print_final_stats=1 -artifact_prefix="$artifacts/" >"$log" 2>&1)
+  rc=$?
+  set -e
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
+  speed=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
+  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*')
+  after=$(ls "$artifacts" | wc -l)
+  found=$((after - before))
+  if [ "$rc" != 0 ] || [ "$found" -gt 0 ]; then
+    status=1
+    echo "   FINDING in $t (exit $rc): $(ls -t "$artifacts" | head -1)"
+    grep -E 'ERROR: |FINDING|runtime error|SUMMARY' "$log" | head -5 | sed 's/^/   /'
+  fi
+  line="$(printf '%-22s %10s execs %7s exec/s  cov %6s  corpus %5s  findings %s' "$t" "${execs:-?}" "${speed:-?}" \
+           "${cov:-?}" "$(ls "$corpus" | wc -l)" "$found")"
+  summary+=("$line")
+  echo "   $line"
+done
+echo "== fuzz summary (${seconds} s per target; logs in $work)"
+printf '%s\n' "${summary[@]}"
+exit "$status"

@@ -1,0 +1,60 @@
+#pragma once
+/// @file fuzz_support.h
+/// What the libFuzzer targets in tests/fuzz share: a private scratch directory (created once per process,
+/// removed at exit) and a way to silence std::cout / std::cerr while a tool runs (sanitizer reports go to
+/// file descriptor 2 directly, so they are never silenced).
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+#include <streambuf>
+#include <string>
+
+namespace envkit::fuzz {
+
+/// A fresh directory /tmp/envkit_fuzz_<name>_<pid> (or under $ENVKIT_FUZZ_TMP), removed when the process exits.
+inline const std::filesystem::path& scratch_dir(const std::string& name = "target") {
+  static const std::filesystem::path dir = [&] {
+    const char* base = std::getenv("ENVKIT_FUZZ_TMP");
+    std::filesystem::path d = std::filesystem::path(base && *base ? base : "/tmp") /
+                              ("envkit_fuzz_" + name + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(d);
+    std::filesystem::create_directories(d);
+    std::atexit([] {
+      std::error_code ec;
+      std::filesystem::remove_all(scratch_dir(), ec);
+    });
+    return d;
+  }();
+  return dir;
+}
+
+/// Discards everything written to std::cout and std::cerr while alive (unless ENVKIT_FUZZ_VERBOSE is set).
+class SilenceStreams {
+ public:
+  SilenceStreams() {
+    if (std::getenv("ENVKIT_FUZZ_VERBOSE")) return;
+    out_ = std::cout.rdbuf(&null_);
+    err_ = std::cerr.rdbuf(&null_);
+  }
+  ~SilenceStreams() {
+    if (out_) std::cout.rdbuf(out_);
+    if (err_) std::cerr.rdbuf(err_);
+    std::cout.clear();
+    std::cerr.clear();
+  }
+  SilenceStreams(const SilenceStreams&) = delete;
+  SilenceStreams& operator=(const SilenceStreams&) = delete;
+
+ private:
+  struct NullBuf : std::streambuf {
+    int overflow(int c) override { return c; }
+    std::streamsize xsputn(const char*, std::streamsize n) override { return n; }
+  } null_;
+  std::streambuf* out_ = nullptr;
+  std::streambuf* err_ = nullptr;
+};
+
+}  // namespace envkit::fuzz

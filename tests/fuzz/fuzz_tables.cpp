@@ -1,0 +1,79 @@
+// libFuzzer target: the table-file loader (EnvTables::load, libenv/src/env_tables_file.cpp).
+//
+// Input: the bytes of a table file. They are written to a scratch file and loaded; a load must either throw
+// envkit::Error naming the file, or give tables whose distributions can be sampled (a few samples and pdf lookups
+// per baked method). Anything else is a finding.
+// Seed: with ENVKIT_FUZZ_WRITE_SEED=<path> the target bakes a small valid table file (16x8 lat-long, every
+// method, compensated twins) to <path> and exits; scripts/fuzz.sh does this before fuzzing, so the seed always
+// has the current format version.
+#include "fuzz_support.h"
+
+#include <envkit/env_tables.h>
+#include <envkit/envmap.h>
+#include <envkit/error.h>
+#include <envkit/latlong.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+namespace {
+
+[[noreturn]] void finding(const std::string& what) {
+  std::fprintf(stderr, "FINDING: %s\n", what.c_str());
+  std::fflush(stderr);
+  __builtin_trap();
+}
+
+void write_seed(const std::string& path) {
+  envkit::EnvMap map;
+  map.image = envkit::Image(16, 8, 3);
+  map.image.channel_names = envkit::default_channel_names(3);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 16; ++x)
+      for (int c = 0; c < 3; ++c) map.image.at(x, y, c) = (x == 5 && y == 2) ? 50.0f : 0.1f + 0.05f * float(y + c);
+  map.param = std::make_unique<envkit::LatLongMap>(16, 8);
+  envkit::BakeOptions options;
+  options.compensated = true;
+  envkit::EnvTables::bake(map, options, "seed.exr").save(path);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  if (const char* seed = std::getenv("ENVKIT_FUZZ_WRITE_SEED")) {
+    write_seed(seed);
+    std::exit(0);
+  }
+  envkit::fuzz::scratch_dir("tables");
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string path = (envkit::fuzz::scratch_dir() / "input.envtables").string();
+  {
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  }
+  try {
+    const envkit::EnvTables tables = envkit::EnvTables::load(path);
+    for (auto method : {envkit::SamplingMethod::Cdf, envkit::SamplingMethod::Alias, envkit::SamplingMethod::Hierarchical})
+      for (bool comp : {false, true}) {
+        const envkit::SphericalDistribution* d = tables.distribution(method, comp);
+        if (!d) continue;
+        for (double u : {0.0, 0.3, 0.7, 0.999999}) {
+          const envkit::DirectionSample s = d->sample(envkit::Vec2(u, 1.0 - u));
+          if (!std::isfinite(s.pdf) || s.pdf < 0) finding("a sample with a non-finite or negative pdf");
+          (void)d->pdf(s.direction);
+        }
+      }
+  } catch (const envkit::Error& e) {
+    if (std::string(e.what()).find(path) == std::string::npos)
+      finding(std::string("load error does not name the file: ") + e.what());
+  } catch (const std::exception& e) {
+    finding(std::string("EnvTables::load threw a non-envkit exception: ") + e.what());
+  }
+  return 0;
+}
