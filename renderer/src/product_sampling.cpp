@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 
 namespace envkit::render {
 
@@ -160,14 +161,152 @@ void ProductSampler::precompute_nodes() {
     }
 }
 
+bool ProductSampler::prepare_lobe(const Material& m, const Frame& frame, const Vec3& wo, double& floor) {
+  lobe_active_ = false;
+  lobe_total_ = 0.0;
+  if (options_.lobe_nodes <= 0 || coarse_level_ == 0 || coarse_w_ * coarse_h_ <= 1 || env_.grid() != Kind::LatLong)
+    return false;
+  // Lobe: a cone around the mirror direction whose width follows the peak sampling density there.
+  const Vec3 mirror(-wo.x, -wo.y, wo.z);
+  const double peak = m.pdf(wo, mirror);
+  if (!(peak > 0.0) || !std::isfinite(peak)) return false;
+  const double alpha = std::sqrt(1.0 / (4.0 * kPi * wo.z * peak));
+  const double radius = 2.0 * std::atan(options_.lobe_extent * alpha);
+  if (!(radius < 0.45 * kPi)) return false;
+  const int W = env_.width(), H = env_.height();
+  const double texel = kPi / H;
+  int level = std::max(0, int(std::ceil(std::log2(2.0 * radius / options_.lobe_nodes / texel))));
+  const Vec3 axis = apply(table_from_world_, frame.to_world(mirror)).normalized();
+  const double theta_a = std::acos(std::clamp(axis.y, -1.0, 1.0));
+  const double lon_a = std::atan2(axis.x, axis.z);
+  int row0 = 0, rows = 0, col0 = 0, cols = 0, lw = 0;
+  level = std::min(level, coarse_level_);
+  for (;; ++level) {
+    if (level > coarse_level_) return false;
+    const int span = 1 << level;
+    lw = pyramid_.level_width(level);
+    const int lh = pyramid_.level_height(level);
+    const double lo = theta_a - radius, hi = theta_a + radius;
+    const int j0 = std::max(0, int(std::floor(lo / kPi * H / span)));
+    const int j1 = std::min(lh - 1, int(std::floor(hi / kPi * H / span)));
+    row0 = j0;
+    rows = j1 - j0 + 1;
+    bool full = lo <= 0.0 || hi >= kPi || std::sin(radius) >= std::sin(theta_a);
+    if (!full) {
+      const double delta = std::asin(std::min(1.0, std::sin(radius) / std::sin(theta_a)));
+      const double x_lo = (kPi - (lon_a + delta)) / kTwoPi * W, x_hi = (kPi - (lon_a - delta)) / kTwoPi * W;
+      const int i0 = int(std::floor(x_lo / span)), i1 = int(std::floor(x_hi / span));
+      cols = i1 - i0 + 1;
+      const bool wraps = i0 < 0 || i1 >= lw;
+      if (cols >= lw || (wraps && W % span != 0)) {
+        full = true;
+      } else {
+        col0 = ((i0 % lw) + lw) % lw;
+      }
+    }
+    if (full) {
+      col0 = 0;
+      cols = lw;
+    }
+    if (rows * cols <= options_.max_lobe_nodes) break;
+  }
+  lobe_level_ = level;
+  lobe_row0_ = row0;
+  lobe_rows_ = rows;
+  lobe_col0_ = col0;
+  lobe_cols_ = cols;
+  const std::size_t n = std::size_t(rows) * std::size_t(cols);
+  lobe_b_.resize(n);
+  lobe_cdf_.resize(n);
+  const int span = 1 << level;
+  double rho = 0.0, cumulative = 0.0;
+  // b per node: the BSDF at the node's centre, or (proxy) the material's sampling density there times
+  // f_cos / pdf at the mirror direction (cheaper than eval for microfacet lobes, and of the same shape up to
+  // Fresnel and masking); nodes whose centre lies farther than the cone plus the node's half diagonal get 0.
+  // Proxy: the GGX D(h) of alpha_eff (the lobe's shape up to Fresnel and masking), scaled to eval at the mirror.
+  double proxy = 0.0;
+  const double a2 = alpha * alpha;
+  if (options_.lobe_proxy) {
+    proxy = mean_rgb(m.eval(wo, mirror)) * kPi * a2;
+    if (!(proxy > 0.0) || !std::isfinite(proxy)) proxy = 0.0;
+  }
+  const Vec3 mirror_world = frame.to_world(mirror);
+  const double node_half = 0.75 * span * texel;  // > half the node's angular diagonal away from the poles
+  const double cos_cut = std::cos(std::min(kPi, radius + node_half));
+  for (int r = 0; r < rows; ++r) {
+    const int j = row0 + r;
+    const double y0 = double(j * span), y1 = double(std::min((j + 1) * span, H));
+    const double z0 = std::cos(kPi * y0 / H), z1 = std::cos(kPi * y1 / H);
+    for (int c = 0; c < cols; ++c) {
+      int i = col0 + c;
+      if (i >= lw) i -= lw;
+      const double x0 = double(i * span), x1 = double(std::min((i + 1) * span, W));
+      const Vec3 d = latlong_direction(0.5 * (x0 + x1), W, 0.5 * (z0 + z1));
+      const Vec3 dw = apply(world_from_table_, d);
+      double b = 0.0;
+      if ((dw ^ mirror_world) >= cos_cut) {
+        const Vec3 wi = frame.to_local(dw);
+        if (wi.z > 0.0) {
+          if (proxy > 0.0) {
+            const Vec3 h = (wo + wi).normalized();
+            const double c2 = h.z * h.z, t = c2 * (a2 - 1.0) + 1.0;
+            b = proxy * a2 / (kPi * t * t);
+          } else {
+            b = mean_rgb(m.eval(wo, wi));
+          }
+        }
+      }
+      if (!(b > 0.0) || !std::isfinite(b)) b = 0.0;
+      const std::size_t k = std::size_t(r) * std::size_t(cols) + std::size_t(c);
+      lobe_b_[k] = b;
+      rho += b * (x1 - x0) * (kTwoPi / W) * (z0 - z1);
+      cumulative += b * pyramid_.node(level, i, j);
+      lobe_cdf_[k] = cumulative;
+    }
+  }
+  // Floor of the coarse table: the BSDF away from the lobe (plastic's base, GGX tails), estimated at the normal
+  // and four directions 60 degrees from it outside the cone, and at least floor_fraction x the lobe's mean.
+  double background = 0.0;
+  int count = 0;
+  const double s60 = std::sqrt(0.75);
+  for (const Vec3& wi : {Vec3(0, 0, 1), Vec3(s60, 0, 0.5), Vec3(-s60, 0, 0.5), Vec3(0, s60, 0.5), Vec3(0, -s60, 0.5)}) {
+    if (angle_between(wi, mirror) <= radius) continue;
+    const double b = mean_rgb(m.eval(wo, wi));
+    if (b > 0.0 && std::isfinite(b)) background += b;
+    ++count;
+  }
+  if (count > 0) background /= count;
+  floor = std::max(background, options_.floor_fraction * rho / kTwoPi);
+  if (!(floor > 0.0) || !std::isfinite(floor)) floor = 1.0;
+  lobe_total_ = cumulative;
+  lobe_active_ = std::isfinite(cumulative);
+  if (!lobe_active_) lobe_total_ = 0.0;
+  return true;
+}
+
+double ProductSampler::lobe_b(int x, int y) const {
+  if (!lobe_active_) return 0.0;
+  const int r = (y >> lobe_level_) - lobe_row0_;
+  if (r < 0 || r >= lobe_rows_) return 0.0;
+  int c = (x >> lobe_level_) - lobe_col0_;
+  if (c < 0) c += pyramid_.level_width(lobe_level_);
+  if (c >= lobe_cols_) return 0.0;
+  return lobe_b_[std::size_t(r) * std::size_t(lobe_cols_) + std::size_t(c)];
+}
+
 void ProductSampler::prepare(const Material& m, const Frame& frame, const Vec3& wo_local) {
   material_ = &m;
   frame_ = frame;
   wo_local_ = wo_local;
   valid_ = false;
-  total_ = 0.0;
+  lobe_active_ = false;
+  total_ = coarse_total_ = lobe_total_ = 0.0;
   for (auto& level : levels_) std::fill(level.begin(), level.end(), 0.0);
   if (!(wo_local.z > 0.0) || m.is_pure_delta() || !finite_nonzero(wo_local)) return;
+
+  // A lobe narrower than the coarse nodes: its own finer level; the coarse table is then the floor alone.
+  double lobe_floor = 0.0;
+  const bool lobe = prepare_lobe(m, frame, wo_local, lobe_floor);
 
   // BSDF table: mean over the node's points of mean_rgb(eval), on nodes that can see above the horizon.
   const int S2 = options_.points_per_axis * options_.points_per_axis;
@@ -181,6 +320,11 @@ void ProductSampler::prepare(const Material& m, const Frame& frame, const Vec3& 
       bsdf_[node] = -1.0;  // marks "no support"
       continue;
     }
+    ++touching;
+    if (lobe) {
+      bsdf_[node] = 0.0;
+      continue;
+    }
     double b = 0.0;
     const Vec3* points = node_points_.data() + node * std::size_t(S2);
     for (int p = 0; p < S2; ++p) {
@@ -190,10 +334,10 @@ void ProductSampler::prepare(const Material& m, const Frame& frame, const Vec3& 
     b = std::isfinite(b) ? b / S2 : 0.0;
     bsdf_[node] = b;
     sum_b += b;
-    ++touching;
   }
   if (touching == 0) return;
-  const double floor = sum_b > 0.0 ? options_.floor_fraction * sum_b / double(touching) : 1.0;
+  const double floor =
+      lobe ? lobe_floor : (sum_b > 0.0 ? options_.floor_fraction * sum_b / double(touching) : 1.0);
 
   // Product weights at the coarse level, then the double sum pyramid above it.
   const int c = coarse_level_;
@@ -218,8 +362,9 @@ void ProductSampler::prepare(const Material& m, const Frame& frame, const Vec3& 
         here[std::size_t(j) * std::size_t(w) + std::size_t(i)] = s;
       }
   }
-  total_ = levels_.back()[0];
-  valid_ = total_ > 0.0 && std::isfinite(total_);
+  coarse_total_ = levels_.back()[0];
+  total_ = coarse_total_ + lobe_total_;
+  valid_ = coarse_total_ > 0.0 && std::isfinite(total_);
 }
 
 void ProductSampler::product_children(int m, int i, int j, double c[4]) const {
@@ -241,16 +386,35 @@ bool ProductSampler::sample(Vec2 u, Vec3& wi_world, double& pdf_out) const {
   double ux = clamp_decision(u.x), uy = clamp_decision(u.y);
   int i = 0, j = 0, dx = 0, dy = 0;
   double c[4];
-  // Down the product pyramid to the coarse level.
-  for (int m = int(levels_.size()) - 2; m >= 0; --m) {
-    product_children(m, i, j, c);
-    if (!descend(c, ux, uy, dx, dy)) return false;
-    i = 2 * i + dx;
-    j = 2 * j + dy;
+  int start = coarse_level_;
+  const double t = ux * total_;
+  if (lobe_active_ && t >= coarse_total_ && lobe_total_ > 0.0) {
+    // Lobe part: a node of the lobe rectangle with probability b x env_node / lobe_total.
+    const double tl = std::min(t - coarse_total_, lobe_total_);
+    const auto it = std::upper_bound(lobe_cdf_.begin(), lobe_cdf_.end(), tl);
+    std::size_t k = std::size_t(it - lobe_cdf_.begin());
+    if (k >= lobe_cdf_.size()) k = lobe_cdf_.size() - 1;
+    while (k > 0 && !(lobe_cdf_[k] > lobe_cdf_[k - 1])) --k;  // never a zero-weight node
+    const double below = k > 0 ? lobe_cdf_[k - 1] : 0.0, w = lobe_cdf_[k] - below;
+    if (!(w > 0.0)) return false;
+    ux = clamp_decision((tl - below) / w);
+    const int r = int(k / std::size_t(lobe_cols_)), col = int(k % std::size_t(lobe_cols_));
+    j = lobe_row0_ + r;
+    i = lobe_col0_ + col;
+    if (i >= pyramid_.level_width(lobe_level_)) i -= pyramid_.level_width(lobe_level_);
+    start = lobe_level_;
+  } else {
+    if (lobe_active_) ux = clamp_decision(std::min(t, coarse_total_) / coarse_total_);
+    // Down the product pyramid to the coarse level.
+    for (int m = int(levels_.size()) - 2; m >= 0; --m) {
+      product_children(m, i, j, c);
+      if (!descend(c, ux, uy, dx, dy)) return false;
+      i = 2 * i + dx;
+      j = 2 * j + dy;
+    }
   }
-  const int ci = i, cj = j;
   // Down the environment's own finer levels.
-  for (int k = coarse_level_ - 1; k >= 0; --k) {
+  for (int k = start - 1; k >= 0; --k) {
     c[0] = pyramid_.node(k, 2 * i, 2 * j);
     c[1] = pyramid_.node(k, 2 * i + 1, 2 * j);
     c[2] = pyramid_.node(k, 2 * i, 2 * j + 1);
@@ -259,10 +423,7 @@ bool ProductSampler::sample(Vec2 u, Vec3& wi_world, double& pdf_out) const {
     i = 2 * i + dx;
     j = 2 * j + dy;
   }
-  const double env_coarse = pyramid_.node(coarse_level_, ci, cj);
-  const double leaf = pyramid_.node(0, i, j);
-  const double omega = env_.texel_solid_angle(i, j);
-  const double p = coarse_probability(ci, cj) * (leaf / env_coarse) / omega;
+  const double p = texel_pdf(i, j);
   if (!(p > 0.0) || !std::isfinite(p)) return false;
   wi_world = apply(world_from_table_, env_.direction_in_texel(i, j, clamp_offset(ux), clamp_offset(uy)));
   pdf_out = p;
@@ -279,13 +440,22 @@ double ProductSampler::pdf(const Vec3& wi_world) const {
   if (!valid_ || !finite_nonzero(wi_world)) return 0.0;
   int x = 0, y = 0;
   env_.texel_of(apply(table_from_world_, wi_world), x, y);
+  return texel_pdf(x, y);
+}
+
+double ProductSampler::texel_pdf(int x, int y) const {
   const int ci = x >> coarse_level_, cj = y >> coarse_level_;
-  const double pc = coarse_probability(ci, cj);
-  if (!(pc > 0.0)) return 0.0;
-  const double env_coarse = pyramid_.node(coarse_level_, ci, cj);
   const double leaf = pyramid_.node(0, x, y);
-  if (!(env_coarse > 0.0) || !(leaf > 0.0)) return 0.0;
-  const double p = pc * (leaf / env_coarse) / env_.texel_solid_angle(x, y);
+  if (!(leaf > 0.0)) return 0.0;
+  double q = 0.0;  // (product weight of the texel's nodes / their env sums) x total_
+  const double pc = coarse_probability(ci, cj);
+  if (pc > 0.0) {
+    const double env_coarse = pyramid_.node(coarse_level_, ci, cj);
+    if (!(env_coarse > 0.0)) return 0.0;
+    q = pc * (leaf / env_coarse);
+  }
+  if (lobe_active_) q += lobe_b(x, y) * leaf / total_;
+  const double p = q / env_.texel_solid_angle(x, y);
   return std::isfinite(p) ? p : 0.0;
 }
 

@@ -92,11 +92,14 @@ void BM_ProductPrepare(benchmark::State& state) {
   ProductSampler ps(environment(), identity3(), int(state.range(0)));
   const auto& points = shading_points();
   std::size_t i = 0;
+  double lobe_nodes = 0.0;
   for (auto _ : state) {
     const ShadingPoint& p = points[i++ & 63];
     ps.prepare(*m, p.frame, p.wo);
     benchmark::DoNotOptimize(ps.valid());
+    lobe_nodes += ps.lobe_node_count();
   }
+  state.counters["lobe_nodes"] = lobe_nodes / double(std::max<std::size_t>(i, 1));
   state.counters["nodes"] = double(ps.coarse_width() * ps.coarse_height());
   state.counters["points"] = double(ps.points_per_axis() * ps.points_per_axis());
   state.SetLabel(m->name());

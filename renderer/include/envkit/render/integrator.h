@@ -57,7 +57,7 @@ struct IntegratorOptions {
   int bsdf_samples = 1;
   int light_samples = 1;
   int max_depth = 1;            ///< scattering events per path (1 = direct only)
-  int product_resolution = 32;  ///< passed to the product sampler (coarse BSDF table size)
+  int product_resolution = 8;   ///< passed to the product sampler (coarse BSDF table size)
 };
 
 class ProductSamplers;  // per-thread ProductSampler instances (product_sampling.h)

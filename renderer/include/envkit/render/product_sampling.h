@@ -17,13 +17,28 @@
 ///     even where the S x S points miss a narrow lobe (its worst-case weight is bounded by the floor).
 ///  3. Product weights P(i, j) = env_node(c, i, j) x b(i, j), a double sum pyramid over them up to 1 x 1 with
 ///     the environment pyramid's ceil-halving layout.
+///  Lobe refinement (lat-long tables, Options::lobe_nodes > 0, resolution > 1): when the material's lobe is a
+///     cone narrower than ~80 degrees around the mirror direction r (half-angle 2 atan(lobe_extent x alpha_eff),
+///     alpha_eff = sqrt(1 / (4 pi cos_o pdf(wo, r))), the GGX alpha of a visible-normal-sampled GGX lobe), the
+///     coarse table evaluates NO BSDF: b = 0 on every node touching the hemisphere, and its floor is the BSDF
+///     away from the lobe (mean eval at the normal and 4 directions 60 degrees from it, outside the cone) or
+///     floor_fraction x the lobe's mean, whichever is larger. The lobe gets its own level l <= c (about
+///     lobe_nodes nodes across the cone; coarser while the rectangle of nodes covering the cone in (theta, phi)
+///     holds more than max_lobe_nodes) with b_l per node: eval at the node centre, or (lobe_proxy, default)
+///     eval(wo, r) x pi alpha_eff^2 x D_GGX(h; alpha_eff), the lobe's shape up to Fresnel and masking at ~1/5 the
+///     cost; nodes farther than the cone plus their half diagonal get 0. The sampled density is the mixture
+///         pdf(w) ~ env_leaf(x, y) / Omega(x, y) x (floor(coarse node) + b_l(lobe node)),
+///     drawn by choosing the coarse pyramid or the lobe's node list (binary search of its cumulative b x env)
+///     with u.x, then descending the environment's levels below the chosen node. Unbiasedness is unchanged:
+///     the floor keeps pdf > 0 on every node that touches the hemisphere, whatever b_l is.
 /// Sampling: u is warped down the product pyramid exactly as distribution_pyramid.cpp does (column pair by u.x,
 /// then child by u.y, re-uniformised and clamped with sampling::clamp_decision at every level), then down the
 /// environment's own levels c-1 .. 0 with its node sums, then uniformly in solid angle inside the texel
 /// (lat-long: longitude linear, cos theta linear, rows measured from the nearer pole, as env_sampling.cpp does;
 /// octahedral: uniform in the equal-area square).
 /// Density (exact, per steradian, world frame):
-///     pdf(w) = P(i, j) / sum(P) x env_leaf(x, y) / env_node(c, i, j) / Omega(x, y)
+///     pdf(w) = [P(i, j) / env_node(c, i, j) + b_l(lobe node of (x, y))] x env_leaf(x, y) / Omega(x, y) / Z,
+///     Z = sum(P) + sum over lobe nodes of b_l x env_node(l, .)
 /// for the texel (x, y) containing w (SphericalDistribution::texel_of after the inverse rotation) and its coarse
 /// node (i, j) = (x >> c, y >> c). sample() returns the same formula for the texel it drew, so
 /// pdf(sample direction) == sample pdf (bit for bit unless rounding moves a direction across a texel edge). The
@@ -34,14 +49,17 @@
 /// Pure delta materials (the mirror) have no product: prepare() leaves the sampler invalid; use BSDF sampling.
 ///
 /// Cost (measured, tests/bench/bench_product.cpp, 2048 x 1024 env, shared 2-core machine, CPU time): prepare for
-/// a glossy conductor ~4 us at 8 columns, ~17 us at 16, ~19 us at 32 (S = 1), ~75 us at 64, ~1.3 ms at 256 (a
-/// diffuse material ~3x less); sample ~0.2-0.4 us whatever the resolution (plain hierarchical environment sampling:
+/// a glossy conductor (alpha 0.1) without lobe refinement ~4 us at 8 columns, ~17 us at 16, ~19 us at 32
+/// (S = 1), ~75 us at 64, ~1.3 ms at 256 (a diffuse material ~3x less); with lobe refinement (default, ~21 lobe
+/// nodes) ~1.6 us at 8, ~1.9 us at 16, ~5.2 us at 32; sample ~0.2-0.4 us whatever the resolution (plain hierarchical environment sampling:
 /// ~0.19 us); pdf ~0.15 us. Prepare once per shading point, then draw several samples.
-/// Variance per sample of f_cos L / pdf, gold-like conductor under a 1024 x 512 sky + 3000x sun, lobe near the
+/// Variance per sample of f_cos L / pdf (without lobe refinement), gold-like conductor under a 1024 x 512 sky + 3000x sun, lobe near the
 /// sun (alpha 0.05 / 0.1 / 0.3): BSDF sampling 2018 / 6293 / 9348, environment sampling 84.5 / 25.3 / 13.5,
 /// product at 16 columns 6.3 / 2.0 / 0.30, at 32 columns 2.4 / 0.96 / 0.23, at 64 columns 0.33 / 0.28 / 0.058.
-/// Not thread-safe: one
-/// sampler per thread (it reuses its buffers); the environment distribution it refers to must outlive it.
+/// Rendered efficiency against power MIS (glossy spheres, docs/bench_product.md): below 1x; on a smooth sky a
+/// piecewise-constant table cannot match VNDF sampling of a narrow lobe (variance per sample 20-300x BSDF
+/// sampling's at alpha 0.05), so product wins only where a bright source sits in the lobe.
+/// Not thread-safe: one sampler per thread (it reuses its buffers); the environment distribution it refers to must outlive it.
 #include <envkit/env_sampling.h>
 #include <envkit/render/frame.h>
 #include <envkit/render/material.h>
@@ -64,6 +82,16 @@ class ProductSampler {  // one per thread; reuses its buffers
     /// lobes (10x the variance of S = 2).
     int points_per_axis = 0;
     double floor_fraction = 0.02;  ///< floor of b, relative to the mean b over nodes above the horizon
+    /// Lobe refinement (lat-long tables only; 0 disables it): a lobe narrower than the coarse nodes gets its own
+    /// finer level with about this many nodes across the lobe's cone diameter.
+    int lobe_nodes = 4;
+    /// Lobe cone half-angle = 2 atan(lobe_extent x alpha_eff) around the mirror direction, alpha_eff =
+    /// sqrt(1 / (4 pi cos_o pdf(wo, mirror))) (the GGX alpha for a GGX lobe sampled by visible normals).
+    double lobe_extent = 3.0;
+    int max_lobe_nodes = 256;  ///< coarser lobe level while the lobe rectangle holds more nodes than this
+    /// Lobe nodes use the GGX D(h) of alpha_eff scaled to eval at the mirror direction instead of eval
+    /// (cheaper; the same shape up to Fresnel and masking; any positive b keeps the estimator unbiased).
+    bool lobe_proxy = true;
   };
 
   /// env_hierarchical: a SphericalDistribution whose distribution() is a PyramidDistribution2D (Error otherwise).
@@ -92,6 +120,10 @@ class ProductSampler {  // one per thread; reuses its buffers
   int coarse_height() const { return coarse_h_; }
   /// S actually used (BSDF evaluations per coarse node: S x S).
   int points_per_axis() const { return options_.points_per_axis; }
+  /// After prepare: the lobe level (< coarse_level()) and its node count, or -1 / 0 when the whole table is
+  /// the coarse one (wide lobe, resolution 1, octahedral table).
+  int lobe_level() const { return lobe_active_ ? lobe_level_ : -1; }
+  int lobe_node_count() const { return lobe_active_ ? lobe_rows_ * lobe_cols_ : 0; }
 
  private:
   struct NodeCone {
@@ -105,6 +137,13 @@ class ProductSampler {  // one per thread; reuses its buffers
   double coarse_probability(int i, int j) const;
   /// Child sums (c00, c10, c01, c11) of node (i, j) at product level m + 1 (m >= 0), or env level k + 1.
   void product_children(int m, int i, int j, double c[4]) const;
+  /// Lobe refinement: chooses the level and rectangle and fills lobe_b_ / lobe_cdf_; false = use the coarse
+  /// table alone (wide lobe). floor: the b floor of the coarse table in lobe mode.
+  bool prepare_lobe(const Material& m, const Frame& frame, const Vec3& wo_local, double& floor);
+  /// b of the lobe node containing texel (x, y) (0 outside the lobe rectangle or without lobe).
+  double lobe_b(int x, int y) const;
+  /// Density per steradian of texel (x, y) (the pdf of every direction inside it).
+  double texel_pdf(int x, int y) const;
 
   const SphericalDistribution& env_;
   const PyramidDistribution2D& pyramid_;
@@ -122,7 +161,14 @@ class ProductSampler {  // one per thread; reuses its buffers
   std::vector<std::vector<double>> levels_;  // product pyramid: levels_[0] = coarse grid ... levels_.back() = root
   std::vector<int> level_w_, level_h_;
   std::vector<double> bsdf_;                 // b per coarse node (scratch)
-  double total_ = 0.0;
+  double total_ = 0.0;         // coarse_total_ + lobe_total_
+  double coarse_total_ = 0.0;  // sum of the coarse product table
+  // Lobe refinement (per shading point): level, rectangle of nodes (rows x cols, columns wrap around), b per
+  // node, cumulative b x env node weights.
+  bool lobe_active_ = false;
+  int lobe_level_ = 0, lobe_row0_ = 0, lobe_rows_ = 0, lobe_col0_ = 0, lobe_cols_ = 0;
+  double lobe_total_ = 0.0;
+  std::vector<double> lobe_b_, lobe_cdf_;
   bool valid_ = false;
   const Material* material_ = nullptr;
   Frame frame_;
