@@ -36,7 +36,7 @@ if [ "$do_build" = 1 ]; then
   t0=$(date +%s)
   CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DENVKIT_SANITIZE=ON -DENVKIT_FUZZ=ON \
-    -DENVKIT_BUILD_TESTS=OFF -DENVKIT_BUILD_BENCHMARKS=OFF -DENVKIT_BUILD_RENDERER=OFF >/dev/null
+    -DENVKIT_BUILD_TESTS=OFF -DENVKIT_BUILD_BENCHMARKS=OFF -DENVKIT_BUILD_RENDERER=ON >/dev/null
   ninja -C "$build" -j "$jobs" envkit_fuzz_all
   echo "== fuzz build: $(($(date +%s) - t0)) s"
 fi

@@ -205,12 +205,11 @@ EnvMap make_probe_map(const Reader& r, const json& e, const std::string& path, s
     r.fail(Reader::join(path, "probe"), "unknown probe '" + kind + "' (valid: default, overcast, constant, sun)");
   }
   description = "probe " + probe->describe();
-  LatLongMap map(width, height);
-  Image image = probes::rasterize(*probe, map);
-  LoadOptions load;
-  load.kind = Kind::LatLong;
-  load.convention = "envkit";
-  return make_envmap(std::move(image), "probe:" + kind, load);
+  // Built directly: any W x H lat-long is a valid bake grid (make_envmap would insist on a 2:1 image file).
+  EnvMap env;
+  env.param = std::make_unique<LatLongMap>(width, height);
+  env.image = probes::rasterize(*probe, *env.param);
+  return env;
 }
 
 const std::set<std::string> kEnvironmentKeys = {"image", "tables", "probe", "size", "radiance", "sky", "elevation_deg",
