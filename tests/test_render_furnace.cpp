@@ -1,5 +1,6 @@
 // White furnace and mirror tests of envrender's integrator: a sphere in a constant environment L.
 // Lambertian albedo rho renders rho L; a mirror of reflectance r renders r L; for every strategy.
+#include "render_support.h"
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
@@ -47,14 +48,7 @@ std::vector<Case> all_strategies() {
   std::vector<Case> cases;
   auto add = [&](const char* name, Strategy s, SamplingMethod m = SamplingMethod::Hierarchical,
                  Heuristic h = Heuristic::Power, MisModel model = MisModel::Multi, int n = 1, int mm = 1) {
-    IntegratorOptions o;
-    o.strategy = s;
-    o.light_method = m;
-    o.heuristic = h;
-    o.mis_model = model;
-    o.bsdf_samples = n;
-    o.light_samples = mm;
-    cases.push_back({name, o});
+    cases.push_back({name, envkit::test::strategy_options(s, m, h, model, n, mm)});
   };
   add("bsdf", Strategy::Bsdf);
   add("light-cdf", Strategy::Light, SamplingMethod::Cdf);

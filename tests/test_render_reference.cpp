@@ -1,5 +1,6 @@
 // A single shading point: the direct-light estimator of every strategy against a numerically integrated
 // reference  integral f(wo, wi) cos(theta_i) L(wi) d wi  (quadrature over the environment's own texels).
+#include "render_support.h"
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
@@ -67,14 +68,7 @@ Vec3 reference(const EnvironmentLight& light, const Material& material, const Fr
 std::vector<IntegratorOptions> strategies() {
   std::vector<IntegratorOptions> list;
   auto add = [&](Strategy s, SamplingMethod m, Heuristic h, MisModel model, int n, int mm) {
-    IntegratorOptions o;
-    o.strategy = s;
-    o.light_method = m;
-    o.heuristic = h;
-    o.mis_model = model;
-    o.bsdf_samples = n;
-    o.light_samples = mm;
-    list.push_back(o);
+    list.push_back(envkit::test::strategy_options(s, m, h, model, n, mm));
   };
   add(Strategy::Bsdf, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 1, 0);
   add(Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 0, 1);

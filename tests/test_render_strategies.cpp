@@ -1,5 +1,6 @@
 // Every strategy renders the same image (the default scene, small): per-region means agree within their
 // statistical error (variance AOV); and nothing non-finite appears under a 1e6 sun.
+#include "render_support.h"
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
@@ -48,14 +49,7 @@ struct Named {
 std::vector<Named> strategies(bool include_bsdf) {
   std::vector<Named> list;
   auto add = [&](const std::string& name, Strategy s, SamplingMethod m, Heuristic h, MisModel model, int n, int mm) {
-    IntegratorOptions o;
-    o.strategy = s;
-    o.light_method = m;
-    o.heuristic = h;
-    o.mis_model = model;
-    o.bsdf_samples = n;
-    o.light_samples = mm;
-    list.push_back({name, o});
+    list.push_back({name, envkit::test::strategy_options(s, m, h, model, n, mm)});
   };
   if (include_bsdf) add("bsdf", Strategy::Bsdf, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 1, 0);
   add("light-cdf", Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 0, 1);

@@ -91,13 +91,6 @@ std::unique_ptr<Parameterization> make_grid(Kind grid, int width, int height) {
   return std::make_unique<LatLongMap>(width, height, TexelGrid::Centre);
 }
 
-bool is_identity(const Mat3& m) {
-  const Mat3 id = identity3();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      if (m[r][c] != id[r][c]) return false;
-  return true;
-}
 
 /// True when the map's texels are already the bake grid's texels (same kind, centre grid, no transform).
 bool on_bake_grid(const EnvMap& map, Kind grid) {

@@ -266,13 +266,6 @@ struct Hit {
   double fraction = 0.0;  // part of the texel's solid angle inside feature k
 };
 
-bool is_identity(const Mat3& m) {
-  const Mat3 id = identity3();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      if (m[r][c] != id[r][c]) return false;
-  return true;
-}
 
 }  // namespace
 

@@ -11,17 +11,11 @@ namespace envkit::render {
 
 namespace {
 
-bool is_identity(const Mat3& m) {
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (std::abs(m[i][j] - (i == j ? 1.0 : 0.0)) > 1e-12) return false;
-  return true;
-}
 
 /// True if `map` already is the distribution grid (same kind and size, centre-sampled, identity transform).
 bool on_grid(const EnvMap& map, Kind grid, int width, int height) {
   if (map.param->kind() != grid || map.image.width != width || map.image.height != height) return false;
-  if (!is_identity(map.to_world())) return false;
+  if (!is_identity(map.to_world(), 1e-12)) return false;
   if (grid == Kind::LatLong) {
     const auto* ll = dynamic_cast<const LatLongMap*>(map.param.get());
     return ll && ll->grid() == TexelGrid::Centre;

@@ -43,6 +43,13 @@ inline Mat3 compose(const Mat3& a, const Mat3& b) {
 }
 
 inline Mat3 identity3() { return Mat3(1, 0, 0, 0, 1, 0, 0, 0, 1); }
+/// True when every entry of m is within `tolerance` of the identity's (exactly, by default).
+inline bool is_identity(const Mat3& m, double tolerance = 0.0) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      if (!(std::abs(m[r][c] - (r == c ? 1.0 : 0.0)) <= tolerance)) return false;
+  return true;
+}
 
 /// sqrt that never returns NaN for tiny negative round-off.
 inline double safe_sqrt(double x) { return std::sqrt(std::max(0.0, x)); }
