@@ -1,0 +1,245 @@
+"""Assembles REPORT.md (next to the --out directory) from the sections' markdown and JSON summaries, and writes the
+recommendations from the numbers. Usage: report.py OUT_DIR MODE SECONDS "FAILED SECTIONS" """
+import datetime
+import json
+import math
+import os
+import platform
+import re
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import g, geomean  # noqa: E402
+
+out_dir, mode, seconds, failed = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4].split()
+base = os.path.basename(out_dir.rstrip("/"))
+report_path = os.path.join(os.path.dirname(out_dir.rstrip("/")), "REPORT.md")
+SECTIONS = ["conversion", "tables", "strategies", "stratification", "precision", "extremes"]
+
+
+def load(name):
+    p = os.path.join(out_dir, name + ".json")
+    if not os.path.exists(p):
+        return None
+    with open(p) as f:
+        return json.load(f)
+
+
+def section_md(name):
+    p = os.path.join(out_dir, name + ".md")
+    if not os.path.exists(p):
+        return f"## {name}\n\nNot run (no {base}/{name}.md).\n"
+    text = open(p).read()
+    return re.sub(r"\]\((?!https?:)([^)/]+\.(?:png|md))\)", rf"]({base}/\1)", text)
+
+
+S = {s: load(s) for s in SECTIONS}
+rec = []       # recommendation bullets
+headline = []  # headline numbers
+
+# ---------------------------------------------------------------- 1. conversion
+c = S["conversion"]
+if c:
+    F = c["faces"][-1]
+    conv = {k.split("|")[1]: v for k, v in c["conv"].items() if int(k.split("|")[0]) == F}
+    fastest = min(conv, key=lambda f: conv[f]["time"])
+    best = min(conv, key=lambda f: conv[f]["relmse"])
+    sun = c["sun"]
+    cons = min(sun, key=lambda f: sun[f]["power"])
+    smooth = {k.split("|")[1]: v for k, v in c.get("smooth", {}).items() if int(k.split("|")[0]) == F}
+    qual = smooth if smooth else conv  # reconstruction quality: the sun-less map when measured
+    sbest = min(qual, key=lambda f: qual[f]["relmse"])
+    ok_preview = [f for f in conv if qual[f]["relmse"] <= 2 * qual[sbest]["relmse"]]
+    prev = min(ok_preview, key=lambda f: conv[f]["time"])
+    headline.append(f"Conversion of a {c['source'][0]}x{c['source'][1]} lat-long to cube {F}: `{best}` has the lowest "
+                    f"relMSE ({g(conv[best]['relmse'])}), `{fastest}` is fastest ({g(conv[fastest]['time'])} s; "
+                    + ", ".join(f"{f} {g(v['time'])} s" for f, v in conv.items() if f != fastest) +
+                    "); sub-texel sun power error: " + ", ".join(f"{f} {g(v['power'])}" for f, v in sun.items()) + ".")
+    if smooth:
+        headline.append(f"Sun-less (overcast) map to cube {F}: relMSE " +
+                        ", ".join(f"{f} {g(v['relmse'])}" for f, v in smooth.items()) + ".")
+    rec.append(f"**Converting maps.** For previews, `--filter {prev}` (the fastest filter within 2x of the best "
+               f"{'sun-less map ' if smooth else ''}relMSE at cube {F}: {g(conv[prev]['time'])} s, relMSE "
+               f"{g(qual[prev]['relmse'])} vs best {g(qual[sbest]['relmse'])} ({sbest})). For maps that will "
+               f"light final frames or be baked into tables, `--filter {cons}`: "
+               + ("it is the only filter that keeps" if sum(v["power"] < 1e-3 for v in sun.values()) == 1 else
+                  "it best keeps") +
+               f" a sub-texel sun's power (error {g(sun[cons]['power'])} vs "
+               f"{g(max(v['power'] for k, v in sun.items() if k != cons))} for the worst other filter), at "
+               f"{conv[cons]['time'] / conv[fastest]['time']:.1f}x the time of `{fastest}`.")
+
+# ---------------------------------------------------------------- 2. tables
+t = S["tables"]
+if t:
+    fr = t["fracs"]
+    b = t["bake"]
+    full, small = b[str(fr[0])], b[str(fr[-1])]
+    headline.append(f"Tables of a {t['map'][0]}x{t['map'][1]} map: 1/{fr[-1]} resolution bakes in "
+                    f"{g(small['seconds_median'])} s vs {g(full['seconds_median'])} s and takes "
+                    f"{small['bytes_total'] / 2**20:.2f} MiB vs {full['bytes_total'] / 2**20:.2f} MiB.")
+    if t.get("renders"):
+        rr = t["renders"]
+        strat = t["strategies"][0]
+        fulle = rr[f"{strat}|{fr[0]}|time"]["relmse"]
+        good = [f for f in fr if rr[f"{strat}|{f}|time"]["relmse"] <= 1.25 * fulle
+                and abs(rr[f"{strat}|{f}|spp"]["mean_ratio"] - 1) < 0.02]
+        pick = max(good) if good else fr[0]
+        per = ", ".join(f"{'full' if f == 1 else '1/' + str(f)} {g(rr[f'{strat}|{f}|time']['relmse'])}" for f in fr)
+        if pick == fr[0]:
+            rec.append(f"**Table resolution.** Keep full-resolution tables: with `{strat}` no smaller table stays "
+                       f"within 25% of the full table's equal-time relMSE and 2% of its mean brightness (equal-time "
+                       f"relMSE {per}); the smaller tables only save memory ({small['bytes_total'] / 2**20:.2f} MiB "
+                       f"vs {full['bytes_total'] / 2**20:.2f} MiB at 1/{fr[-1]}).")
+        else:
+            rec.append(f"**Table resolution.** For previews and interactive work, 1/{pick} resolution tables: with "
+                       f"`{strat}` they stay within 25% of the full table's equal-time relMSE and 2% of its mean "
+                       f"brightness (equal-time relMSE {per}) at {b[str(pick)]['bytes_total'] / 2**20:.2f} MiB instead "
+                       f"of {full['bytes_total'] / 2**20:.2f} MiB; keep full-resolution tables for final frames.")
+    else:
+        rec.append("**Table resolution.** No render numbers in this run (see section 2: envrender could not load "
+                   f"envbake's table files), so only cost is measured: 1/{fr[-1]} tables are "
+                   f"{full['bytes_total'] / max(small['bytes_total'], 1):.0f}x smaller and bake in "
+                   f"{g(small['seconds_median'])} s vs {g(full['seconds_median'])} s. No recommendation on "
+                   f"their render quality until that is measured.")
+
+# ---------------------------------------------------------------- 3. strategies
+s = S["strategies"]
+if s and s.get("ratios"):
+    ratios, res, basecfg = s["ratios"], s["results"], s["base"]
+    scenes = s["scenes"]
+    probes = sorted({k.split("/")[1] for k in scenes}, key=lambda p: ["sunny", "overcast"].index(p) if p in
+                    ["sunny", "overcast"] else 9)
+
+    def best_for(keys, eff_of):
+        scores = {cfg: geomean([eff_of(k, cfg) for k in keys]) for cfg in s["configs"]}
+        scores = {k: v for k, v in scores.items() if math.isfinite(v)}
+        return max(scores, key=scores.get), scores
+
+    def final_eff(k, cfg):
+        return ratios.get(k, {}).get(cfg, float("nan"))
+
+    def preview_eff(k, cfg):  # efficiency at the first ladder level (1 spp), relative to the base strategy there
+        a, b0 = res[k].get(cfg), res[k].get(basecfg)
+        if not a or not b0 or a[0]["relmse"] <= 0 or b0[0]["relmse"] <= 0:
+            return float("nan")
+        return (b0[0]["relmse"] * b0[0]["seconds"]) / (a[0]["relmse"] * a[0]["seconds"])
+
+    fb, fscores = best_for(scenes, final_eff)
+    pb, pscores = best_for(scenes, preview_eff)
+    headline.append(f"Strategies (efficiency = 1/(relMSE x time), geometric mean over {len(scenes)} scenes, relative "
+                    f"to {basecfg}): best `{fb}` {fscores[fb]:.2f}x; " +
+                    ", ".join(f"{k} {fscores[k]:.2f}x" for k in ("bsdf", "light hierarchical", "mis-compensated",
+                                                                 "product r32", "product-mis r32") if k in fscores) + ".")
+    rec.append(f"**Previews (1 spp, time-normalised).** `{pb}`: {pscores[pb]:.2f}x the efficiency of {basecfg} at "
+               f"1 spp (geometric mean over the scenes).")
+    rec.append(f"**Final frames.** `{fb}`: {fscores[fb]:.2f}x the efficiency of {basecfg} over the spp ladder "
+               f"(geometric mean over the scenes)" +
+               ("." if fb == basecfg else f"; {basecfg} itself is the reference at 1.00x."))
+    for probe in probes:
+        keys = [k for k in scenes if k.endswith("/" + probe)]
+        pbest, sc = best_for(keys, final_eff)
+        per = "; ".join(f"{k.split('/')[0]}: `{max((c for c in s['configs'] if math.isfinite(final_eff(k, c))), key=lambda c: final_eff(k, c))}` "
+                        f"{max(final_eff(k, c) for c in s['configs'] if math.isfinite(final_eff(k, c))):.2f}x" for k in keys)
+        rec.append(f"**{probe.capitalize()} probe.** Best overall `{pbest}` ({sc[pbest]:.2f}x {basecfg}); per "
+                   f"material: {per}.")
+    comp = [final_eff(k, "mis-compensated") for k in scenes if k.endswith("/sunny")]
+    prod = [final_eff(k, "product r32") for k in scenes if k.split("/")[0] in ("glossy",)]
+    if comp and any(math.isfinite(x) for x in comp):
+        headline.append(f"Targets of issue 5: compensated MIS on the sunny probe {geomean(comp):.2f}x plain MIS "
+                        f"(target >= 1.5x: {'met' if geomean(comp) >= 1.5 else 'NOT met'}); product r32 on the "
+                        f"glossy sphere {geomean(prod):.2f}x (target >= 2x: "
+                        f"{'met' if prod and geomean(prod) >= 2 else 'NOT met'}).")
+
+# ---------------------------------------------------------------- 4. stratification
+st = S["stratification"]
+if st:
+    avg = st["avg"]
+    probe = st["probes"][0]
+    gains = {m: avg[f"{probe}|{m}|random"]["64"] / max(avg[f"{probe}|{m}|sobol"]["64"], 1e-300)
+             for m in ("cdf", "alias", "hierarchical")}
+    bestm = min(("cdf", "alias", "hierarchical"), key=lambda m: avg[f"{probe}|{m}|sobol"]["64"])
+    headline.append(f"Stratification ({probe} probe, 64 samples): relMSE random/Sobol = " +
+                    ", ".join(f"{m} {v:.2g}x" for m, v in gains.items()) + ".")
+    rec.append(f"**Sample sequences.** Draw tables with Sobol points through `{bestm}` (lowest Sobol relMSE at 64 "
+               f"samples, {g(avg[f'{probe}|{bestm}|sobol']['64'])}); alias tables gain only {gains['alias']:.2g}x from "
+               f"Sobol where cdf gains {gains['cdf']:.2g}x and hierarchical {gains['hierarchical']:.2g}x, so use alias "
+               f"only with random sequences or when O(1) sampling matters more than stratification.")
+
+# ---------------------------------------------------------------- 5. precision
+pr = S["precision"]
+if pr and pr.get("rows"):
+    rows = pr["rows"]
+    wmax = max(int(r["width"]) for r in rows)
+    at = {r["method"]: r for r in rows if int(r["width"]) == wmax}
+    fn = at.get("float-naive")
+    parts = [f"{m}: max rel. error {g(float(r['max_rel_err']))}, {r['unreachable']} unreachable texels"
+             for m, r in at.items()]
+    headline.append(f"Precision at {wmax}x{wmax // 2}: " + "; ".join(parts) + ".")
+    if fn:
+        rec.append(f"**Table precision.** Accumulate in double (envkit's cdf and pyramid): float running sums leave "
+                   f"{fn['unreachable']} of {fn['lit_texels']} lit texels unreachable at {wmax}x{wmax // 2} "
+                   f"(max relative probability error {g(float(fn['max_rel_err']))}).")
+
+# ---------------------------------------------------------------- 6. extremes
+e = S["extremes"]
+if e and e.get("res"):
+    rng = e["ranges"]
+    hi, lo = rng[-1], rng[0]
+    r = e["res"]
+    at_hi = {cfg: r[f"{cfg}|{hi:g}"]["relmse"] for cfg in e["configs"] if f"{cfg}|{hi:g}" in r}
+    if at_hi:
+        bh = min(at_hi, key=at_hi.get)
+        growth = {cfg: r[f"{cfg}|{hi:g}"]["relmse"] / max(r[f"{cfg}|{lo:g}"]["relmse"], 1e-300)
+                  for cfg in e["configs"] if f"{cfg}|{hi:g}" in r and f"{cfg}|{lo:g}" in r}
+        headline.append(f"Sun dynamic range {hi:g}: lowest relMSE at {e['spp']} spp `{bh}` ({g(at_hi[bh])}); "
+                        + ", ".join(f"{k} {g(v)}" for k, v in at_hi.items() if k != bh) + ".")
+        if len(rng) > 1:
+            worst = max(growth, key=growth.get)
+            ties = [k for k, v in at_hi.items() if v <= 1.1 * at_hi[bh]]
+            lead = (f"`{bh}` has the lowest relMSE at equal spp ({g(at_hi[bh])})" if len(ties) == 1 else
+                    f"{', '.join(f'`{k}`' for k in ties)} tie within 10% for the lowest relMSE at equal spp "
+                    f"({g(at_hi[bh])}; the error they share does not depend on the strategy)")
+            worst_txt = (f"`{worst}` degrades most from {lo:g} to {hi:g} (relMSE x{g(growth[worst])}, "
+                         f"{g(r[f'{worst}|{lo:g}']['relmse'])} -> {g(at_hi[worst])})")
+            rec.append(f"**Very bright suns.** At a dynamic range of {hi:g}, {lead}; {worst_txt}. Strategies whose "
+                       f"relMSE at {hi:g} is over 3x the best: " +
+                       (", ".join(f"`{k}` ({g(v)})" for k, v in at_hi.items() if v > 3 * at_hi[bh]) or "none") + ".")
+
+# ---------------------------------------------------------------- write
+now = datetime.datetime.now(datetime.timezone.utc)
+cmd = {"quick": "scripts/report.sh --quick", "full": "scripts/report.sh --full", "smoke": "scripts/report.sh --smoke"}[mode]
+L = ["# envkit speed-accuracy report\n",
+     f"Generated by `{cmd}` on {now:%Y-%m-%d %H:%M UTC} ({platform.node()}, {os.cpu_count()} cores, shared with "
+     f"other users: absolute times wobble, ratios measured side by side in one run are the result); the sections "
+     f"ran for {sum(v.get('seconds_total', 0) for v in S.values() if v):.0f} s in total ("
+     + ", ".join(f"{k} {v.get('seconds_total', 0):.0f} s" for k, v in S.items() if v) + "). "
+     f"Regenerate everything with `scripts/report.sh --full` (the real measurement, ~30-60 min on 2 cores) or "
+     f"`scripts/report.sh --quick` (small sizes, few spp, 1 repeat: a few minutes); both build what they need in "
+     f"build-report/. relMSE = mean((I - R)^2 / (R^2 + 0.01)) against a high-sample or exact reference; efficiency "
+     f"= 1/(relMSE x time). Raw numbers: `{base}/*.json`; tables: `{base}/*.md`; plots: `{base}/*.png`.\n"]
+modes = sorted({v["mode"] for v in S.values() if v})
+if modes and modes != [mode]:
+    L.append(f"Sections come from runs in modes {', '.join(modes)} (each section says which when it differs from "
+             f"`{mode}`).\n")
+if mode != "full":
+    L.append(f"**This is a `{mode}` run**: small images and few samples; the numbers show the shape of the trade-offs "
+             f"and keep the generator honest, the full run gives the figures to quote.\n")
+if failed:
+    L.append(f"**Sections that failed in this run:** {', '.join(failed)}.\n")
+L.append("## Headline numbers\n")
+L += [f"- {h}" for h in headline] or ["- (no section produced numbers)"]
+L.append("")
+for sname in SECTIONS:
+    md = section_md(sname)
+    if S[sname] and S[sname].get("mode") != mode:
+        # a section kept from another invocation (e.g. --sections reran only some): say which
+        when = S[sname].get("generated", "?")
+        md = re.sub(r"^(## .*)\n", lambda m: m.group(1) + f"\n\n*(This section is from a `--{S[sname]['mode']}` "
+                    f"run, {when}.)*\n", md, count=1)
+    L.append(md)
+L.append("## Recommendations (generated from the numbers above)\n")
+L += [f"- {r}" for r in rec] or ["- (no numbers to base recommendations on)"]
+L.append("")
+with open(report_path, "w") as f:
+    f.write("\n".join(L))
+print(f"report.py: wrote {report_path}", file=sys.stderr)
