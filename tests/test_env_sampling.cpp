@@ -93,7 +93,7 @@ std::unique_ptr<Parameterization> grid_param(Kind grid, int w, int h) {
 EnvMap envmap_of(const SphereMap& m) {
   EnvMap env;
   env.image = Image(m.width, m.height, 1);
-  env.image.pixels = m.radiance;
+  env.image.pixels.assign(m.radiance.begin(), m.radiance.end());
   env.param = grid_param(m.grid, m.width, m.height);
   return env;
 }

@@ -162,9 +162,9 @@ bool is_table_file(const std::string& path) {
   return f.read(magic, 8) && std::memcmp(magic, "ENVKTBL", 8) == 0;
 }
 
-envkit::Image scalar_image(int w, int h, std::vector<float> values) {
+envkit::Image scalar_image(int w, int h, const std::vector<float>& values) {
   envkit::Image image(w, h, 1);
-  image.pixels = std::move(values);
+  image.pixels.assign(values.begin(), values.end());
   return image;
 }
 

@@ -130,8 +130,8 @@ ImportanceFunction importance_function(const Image& image, ImportanceMode mode) 
 }
 
 /// Max over each texel's 3x3 neighbourhood: the texels a bilinear lookup anywhere inside it may touch.
-std::vector<float> dilate_3x3(const std::vector<float>& values, const Parameterization& grid, int W, int H) {
-  std::vector<float> out(values.size());
+FloatBuffer dilate_3x3(const FloatBuffer& values, const Parameterization& grid, int W, int H) {
+  FloatBuffer out(values.size());
   tbb::parallel_for(0, H, [&](int y) {
     for (int x = 0; x < W; ++x) {
       float m = values[std::size_t(y) * W + x];
@@ -202,7 +202,7 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
   // 2. Scalar importance on the grid.
   progress(0.2, "importance");
   const ImportanceFunction importance_of = importance_function(radiance, options.importance);
-  std::vector<float> importance(std::size_t(W) * std::size_t(H));
+  FloatBuffer importance(std::size_t(W) * std::size_t(H));
   tbb::parallel_for(0, H, [&](int y) {
     for (int x = 0; x < W; ++x) importance[std::size_t(y) * W + x] = importance_of(radiance.at(x, y));
   });
@@ -220,7 +220,7 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
       throw Error("bake: an octahedral resolution must be square, got " + std::to_string(TW) + "x" +
                   std::to_string(TH));
     Image scalar(W, H, 1);
-    scalar.pixels = importance;
+    scalar.pixels = std::move(importance);
     const std::unique_ptr<Parameterization> coarse = make_grid(options.grid, TW, TH);
     ResampleOptions ro;
     ro.filter = Filter::Area;
@@ -264,7 +264,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
   total_importance_ = total;
 
   const auto weights_of = [&](const auto& value) {
-    std::vector<float> w(n);
+    FloatBuffer w(n);
     tbb::parallel_for(0, H, [&](int y) {
       for (int x = 0; x < W; ++x) {
         const std::size_t i = std::size_t(y) * W + x;
@@ -275,7 +275,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
   };
 
   const bool wanted[3] = {options.cdf, options.alias, options.hierarchical};
-  const auto build_set = [&](const std::vector<float>& weights, int set) {
+  const auto build_set = [&](const FloatBuffer& weights, int set) {
     for (int m = 0; m < 3; ++m) {
       if (!wanted[m]) continue;
       if (options.progress)
@@ -289,7 +289,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
     }
   };
 
-  const std::vector<float> weights = weights_of([&](std::size_t i) { return importance_[i]; });
+  const FloatBuffer weights = weights_of([&](std::size_t i) { return importance_[i]; });
   build_set(weights, 0);
   if (!(total > 0.0)) {
     warnings_.push_back("the map carries no light (all importance is zero): the tables sample uniformly");
