@@ -9,9 +9,11 @@
 #include <OpenEXR/ImfEnvmapAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputPart.h>
 #include <OpenEXR/ImfMultiPartInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfThreading.h>
 #include <OpenImageIO/imageio.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -57,6 +59,18 @@ std::string condense(std::string text, const std::string& temp = "", const std::
   return out.empty() ? "unknown error" : out;
 }
 
+// ---- OpenEXR ------------------------------------------------------------------------------------------------
+
+/// OpenEXR's thread pool (de)compresses blocks in parallel: it is empty until sized, and the threads
+/// argument of Imf::OutputFile only sets the number of line buffers. Sized once, to the machine.
+void use_exr_threads() {
+  static const bool once = [] {
+    Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    return true;
+  }();
+  (void)once;
+}
+
 // ---- non-finite values -------------------------------------------------------------------------------------
 
 struct NonFiniteCounts {
@@ -67,7 +81,7 @@ struct NonFiniteCounts {
 using Range = tbb::blocked_range<std::size_t>;
 constexpr std::size_t kGrain = 1 << 16;
 
-NonFiniteCounts count_nonfinite(const std::vector<float>& values) {
+NonFiniteCounts count_nonfinite(const FloatBuffer& values) {
   return tbb::parallel_reduce(
       Range(0, values.size(), kGrain), NonFiniteCounts{},
       [&](const Range& r, NonFiniteCounts acc) {
@@ -81,7 +95,7 @@ NonFiniteCounts count_nonfinite(const std::vector<float>& values) {
       std::plus<>());
 }
 
-std::size_t count_negative(const std::vector<float>& values) {
+std::size_t count_negative(const FloatBuffer& values) {
   return tbb::parallel_reduce(
       Range(0, values.size(), kGrain), std::size_t{0},
       [&](const Range& r, std::size_t acc) {
@@ -575,8 +589,9 @@ void write_exr(const std::string& path, const std::string& file, const Image& da
   Imf::FrameBuffer frame;
   for (std::size_t c = 0; c < nc; ++c)
     frame.insert(data.channel_names[c], Imf::Slice(pixel, const_cast<char*>(base + c * element), xstride, ystride));
+  use_exr_threads();
   try {
-    Imf::OutputFile out(file.c_str(), header, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    Imf::OutputFile out(file.c_str(), header, Imf::globalThreadCount());
     out.setFrameBuffer(frame);
     out.writePixels(data.height);
   } catch (const std::exception& e) {
@@ -603,6 +618,40 @@ void write_with_oiio(const std::string& path, const std::string& file, const OII
 
 namespace {
 
+/// Reads the pixels of part 0 of an OpenEXR file with OpenEXR itself, straight into the interleaved float buffer in
+/// OIIO's channel order. OIIO 2.4 reads through an intermediate buffer in the file's channel order and converts it
+/// single-threaded: 2.0 s against 0.45 s for an uncompressed 8192x4096 RGB float file. Returns false (nothing
+/// read) for files this path does not handle: deep data, subsampled channels, channels OIIO names differently.
+bool read_exr_pixels(const std::string& path, const OIIO::ImageSpec& spec, Image& image) {
+  if (spec.deep) return false;
+  use_exr_threads();
+  try {
+    Imf::MultiPartInputFile file(path.c_str());
+    Imf::InputPart part(file, 0);
+    const Imath::Box2i dw = part.header().dataWindow();
+    if (dw.min.x != spec.x || dw.min.y != spec.y || dw.max.x - dw.min.x + 1 != spec.width ||
+        dw.max.y - dw.min.y + 1 != spec.height)
+      return false;
+    const Imf::ChannelList& list = part.header().channels();
+    const std::size_t nc = static_cast<std::size_t>(image.channels);
+    const std::size_t xstride = sizeof(float) * nc, ystride = xstride * static_cast<std::size_t>(image.width);
+    char* origin = reinterpret_cast<char*>(image.pixels.data()) -
+                   (static_cast<std::ptrdiff_t>(dw.min.y) * static_cast<std::ptrdiff_t>(ystride) +
+                    static_cast<std::ptrdiff_t>(dw.min.x) * static_cast<std::ptrdiff_t>(xstride));
+    Imf::FrameBuffer frame;
+    for (std::size_t c = 0; c < nc; ++c) {
+      const Imf::Channel* channel = list.findChannel(image.channel_names[c]);
+      if (!channel || channel->xSampling != 1 || channel->ySampling != 1) return false;
+      frame.insert(image.channel_names[c], Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xstride, ystride));
+    }
+    part.setFrameBuffer(frame);
+    part.readPixels(dw.min.y, dw.max.y);
+  } catch (const std::exception& e) {
+    fail(path, "cannot read pixels (truncated or corrupt file?): " + condense(e.what()));
+  }
+  return true;
+}
+
 /// All channels of subimage 0, MIP level 0 as float, alpha moved last.
 Image read_pixels(const std::string& path, OIIO::ImageInput& in, const OIIO::ImageSpec& spec) {
   Image image;
@@ -612,7 +661,8 @@ Image read_pixels(const std::string& path, OIIO::ImageInput& in, const OIIO::Ima
   for (int c = 0; c < spec.nchannels; ++c) image.channel_names.push_back(spec.channel_name(c));
   image.alpha_channel = find_alpha(spec);
   image.pixels.resize(image.texel_count() * static_cast<std::size_t>(image.channels));
-  if (!in.read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
+  const bool exr = std::string(in.format_name()) == "openexr" && read_exr_pixels(path, spec, image);
+  if (!exr && !in.read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data()))
     fail(path, "cannot read pixels (truncated or corrupt file?): " + condense(in.geterror()));
   move_alpha_last(image);
   return image;
