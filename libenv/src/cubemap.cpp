@@ -111,6 +111,7 @@ CubeMap::CubeMap(int face_size, CubeLayout layout, CubeBasis basis, TexelGrid gr
     }
   }
   cells_x_ = width_ / n_;
+  tap_cell_ = n_;
   slot_face_.fill(-1);
   for (const CubeFace& cf : faces_) {
     slot_face_[(cf.origin_y / n_) * cells_x_ + cf.origin_x / n_] = cf.face;
@@ -161,8 +162,9 @@ Vec2 CubeMap::to_image(const Vec3& d) const {
   const CubeFace& cf = faces_[f];
   const double major = d ^ cf.axis;
   if (!(major > 0.0)) return Vec2(cf.origin_x + 0.5 * n_, cf.origin_y + 0.5 * n_);  // zero vector
-  const double a = std::clamp((d ^ cf.right) / major, -1.0, 1.0);
-  const double b = std::clamp((d ^ cf.down) / major, -1.0, 1.0);
+  const double inverse_major = 1.0 / major;
+  const double a = std::clamp((d ^ cf.right) * inverse_major, -1.0, 1.0);
+  const double b = std::clamp((d ^ cf.down) * inverse_major, -1.0, 1.0);
   // Clamp the final coordinates (not the face-local ones): origin + (n - ulp) can round up onto the next cell.
   const double x0 = cf.origin_x, y0 = cf.origin_y;
   const double x = std::clamp(x0 + local_coord(a), x0, max_x_[f]);

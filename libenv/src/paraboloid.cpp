@@ -9,6 +9,7 @@ DualParaboloidMap::DualParaboloidMap(int width, int height) : RadialMap(width, h
   const double radius = 0.5 * std::min(half, static_cast<double>(height));
   disks_.push_back(Disk{0.5 * half, 0.5 * height, radius, Vec3(0, 0, 1), Vec3(-1, 0, 0), Vec3(0, 1, 0)});
   disks_.push_back(Disk{1.5 * half, 0.5 * height, radius, Vec3(0, 0, -1), Vec3(1, 0, 0), Vec3(0, 1, 0)});
+  tap_cell_ = -1;  // taps beyond a disk's rim continue into the other hemisphere
 }
 
 std::string DualParaboloidMap::describe() const {

@@ -41,10 +41,11 @@ class LatLongMap final : public Parameterization {
   static Vec3 direction_from_uv(double u, double v);
   /// (u, v) in [0, 1) x [0, 1] of a direction (u = 0 at longitude pi, i.e. -Z).
   static Vec2 uv_from_direction(const Vec3& dir);
+  /// Domain coordinates (u, v) of a continuous image position, per grid (u depends on x only, v on y only:
+  /// to_direction(pos) == direction_from_uv(u, clamp(v, 0, 1))).
+  Vec2 domain_from_image(Vec2 pos) const;
 
  private:
-  /// Domain coordinates (u, v) in [0,1]^2 of a continuous image position, per grid.
-  Vec2 domain_from_image(Vec2 pos) const;
   Vec2 image_from_domain(Vec2 uv) const;
   TexelGrid grid_;
   double du_dx_, dv_dy_;    // domain units per pixel

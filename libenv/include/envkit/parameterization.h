@@ -79,12 +79,27 @@ class Parameterization {
   /// and renormalises the filter weights).
   virtual bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const;
 
+  /// Lets filters skip resolve_tap for the common case: a tap inside the image that lies in the same aligned
+  /// tap_cell() x tap_cell() block as its anchor resolves to itself (cube faces: N). 0: every tap inside the image
+  /// resolves to itself (lat-long, octahedral, disks, whose blank texels are masked separately); -1: always ask.
+  int tap_cell() const { return tap_cell_; }
+
+  /// resolve_tap, without the virtual call for taps that tap_cell() says resolve to themselves.
+  bool resolve(int anchor_i, int anchor_j, int& i, int& j) const {
+    const bool inside = i >= 0 && j >= 0 && i < width_ && j < height_;
+    if (inside && (tap_cell_ == 0 ||
+                   (tap_cell_ > 0 && i / tap_cell_ == anchor_i / tap_cell_ && j / tap_cell_ == anchor_j / tap_cell_)))
+      return true;
+    return resolve_tap(anchor_i, anchor_j, i, j);
+  }
+
  protected:
   /// Clamp a tap into the image; false only for an empty image.
   bool clamp_tap(int& i, int& j) const;
 
   int width_;
   int height_;
+  int tap_cell_ = 0;
 };
 
 }  // namespace envkit

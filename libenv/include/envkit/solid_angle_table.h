@@ -9,6 +9,8 @@
 
 namespace envkit {
 
+class CubeMap;
+
 class SolidAngleTable {
  public:
   explicit SolidAngleTable(const Parameterization& param);
@@ -23,6 +25,7 @@ class SolidAngleTable {
   double total() const { return total_; }
 
  private:
+  void fill_cube(const CubeMap& cube);
   int width_ = 0;
   bool halve_edge_columns_ = false;
   double constant_ = 0.0;

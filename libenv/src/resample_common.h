@@ -1,0 +1,48 @@
+#pragma once
+// Pieces shared by the resampling algorithms (resample.cpp: point filters and the area gather;
+// resample_scatter.cpp: the area scatter). Private to libenv.
+#include <envkit/filter.h>
+#include <envkit/resample.h>
+#include <envkit/solid_angle_table.h>
+
+#include <atomic>
+#include <cstddef>
+#include <mutex>
+#include <vector>
+
+namespace envkit::detail {
+
+/// Reports progress in steps of about 1% from whichever worker crosses a step.
+class ProgressCounter {
+ public:
+  ProgressCounter(const ProgressFn& fn, std::size_t total) : fn_(fn), total_(total > 0 ? total : 1) {}
+  void add(std::size_t n);
+
+ private:
+  const ProgressFn& fn_;
+  std::size_t total_;
+  std::atomic<std::size_t> done_{0};
+  std::mutex mutex_;
+};
+
+struct OutputLayout {
+  int channels = 0;  // output channels
+  int alpha = -1;    // output alpha index
+  bool add_coverage = false;
+};
+
+OutputLayout output_layout(const Image& src, const TexelSource& source);
+Image make_output(const Image& src, const Parameterization& dst, const OutputLayout& o);
+
+/// Texels that are both far brighter than the mean and carry a real share of a channel's power (sorted indices).
+std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,
+                                         double contrast, const std::vector<double>& power);
+
+/// Adds the flux of each hot texel to `out`: the texel is cut into sub-cells with exact solid angles and each
+/// sub-cell's flux L x omega goes to the output texel that sees it (divided by that texel's solid angle), so their
+/// power is conserved to round-off whatever their size. Deterministic (serial accumulation in a fixed order).
+void splat_hot_texels(const MapRef& src, const std::vector<std::size_t>& hot, const SolidAngleTable& src_omega,
+                      const Parameterization& dst, const SolidAngleTable& dst_omega, const Mat3& dst_to_src,
+                      Image& out);
+
+}  // namespace envkit::detail

@@ -1,0 +1,218 @@
+// The `area` filter's scatter (see resample.h): for shrinking, each source texel is read once and its flux is
+// spread over the output texels that a square of its solid angle, centred on its projection, overlaps.
+#include "resample_common.h"
+
+#include <envkit/huge_page_allocator.h>
+#include <envkit/latlong.h>
+#include <envkit/texel_directions.h>
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace envkit::detail {
+
+namespace {
+
+/// A source texel's square is at most this many output texels wide (a rim texel of a mirror-ball output can
+/// see a whole source texel's worth of directions); its flux is still conserved, spread over the capped square.
+constexpr double kMaxSideInTexels = 8.0;
+constexpr int kMaxSplatCellsPerAxis = static_cast<int>(kMaxSideInTexels) + 2;
+/// Source rows are dealt round-robin in blocks of this many rows to a FIXED number of accumulators (not one per
+/// thread): each accumulator sums its rows in order, and the accumulators are summed in order, so the result is the
+/// same whatever the number of threads. Two: the machines envkit runs on have few cores, and every accumulator is a
+/// full-size copy of the output (first-touching fresh memory is slow on virtual machines).
+constexpr int kRowsPerBlock = 8;
+constexpr int kAccumulators = 2;
+/// Float accumulators hold a handful of contributions per output texel to float precision; past this many source
+/// texels per output texel (on average) the sums are kept in double.
+constexpr double kFloatAccumulationMaxRatio = 64.0;
+
+/// Output pixels per radian along x and y for each row of a lat-long output, whose texels are far from square near
+/// the poles (a parallel's texels are narrow there): a source texel's square is stretched accordingly. Empty for
+/// other outputs, whose texels are close enough to square.
+struct RowScales {
+  std::vector<double> x, y;
+};
+
+RowScales latlong_row_scales(const Parameterization& dst) {
+  RowScales r;
+  const auto* ll = dynamic_cast<const LatLongMap*>(&dst);
+  if (!ll) return r;
+  const int H = dst.height();
+  r.x.resize(H);
+  r.y.resize(H);
+  for (int j = 0; j < H; ++j) {
+    const Vec2 a = ll->domain_from_image(Vec2(0.0, j)), b = ll->domain_from_image(Vec2(1.0, j + 1.0));
+    const double v = std::clamp(0.5 * (a.y + b.y), 0.0, 1.0);
+    r.x[j] = 1.0 / std::max(kTwoPi * (b.x - a.x) * std::sin(kPi * v), 1e-300);
+    r.y[j] = 1.0 / (kPi * (b.y - a.y));
+  }
+  return r;
+}
+
+/// Fraction of [lo, hi) inside cell [c, c + 1), for each cell the interval touches; returns the first cell.
+int overlaps(double lo, double hi, double* fraction, int& count) {
+  const int first = static_cast<int>(std::floor(lo));
+  const double inverse = 1.0 / (hi - lo);
+  count = 0;
+  for (int c = first; c < hi; ++c) fraction[count++] = (std::min(hi, c + 1.0) - std::max(lo, double(c))) * inverse;
+  return first;
+}
+
+template <class Real>
+void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const SolidAngleTable& src_omega,
+                           const SolidAngleTable& dst_omega, const std::vector<std::size_t>& hot,
+                           const Mat3& dst_to_src, ProgressCounter& progress, Image& out) {
+  const Image& img = s.image;
+  const Parameterization& sp = s.param;
+  const int C = img.channels, W = img.width, H = img.height;
+  const int DW = dst.width(), DH = dst.height();
+  const Mat3 src_to_dst = transposed(dst_to_src);
+  const bool rotate = !is_identity(src_to_dst);
+  const TexelDirections directions(sp);
+  const RowScales row_scales = latlong_row_scales(dst);
+  // 1 / sqrt(omega) of each output texel: a source texel's square is sqrt(omega_s) times that on a side.
+  FloatBuffer inverse_side;
+  if (row_scales.x.empty()) {
+    inverse_side.resize(std::size_t(DW) * std::size_t(DH));
+    tbb::parallel_for(0, DH, [&](int j) {
+      for (int i = 0; i < DW; ++i) {
+        const double omega = dst_omega(i, j);
+        inverse_side[std::size_t(j) * DW + i] = omega > 0.0 ? static_cast<float>(1.0 / std::sqrt(omega)) : 0.0f;
+      }
+    });
+  }
+
+  // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
+  using Accumulator = std::vector<Real, HugePageAllocator<Real>>;
+  const int stride = C + 1;
+  const std::size_t out_texels = std::size_t(DW) * std::size_t(DH);
+  const int blocks = (H + kRowsPerBlock - 1) / kRowsPerBlock;
+  std::vector<Accumulator> acc(kAccumulators);
+  // Lat-long texels of a row share one solid angle but the first and last of a corner-sampled grid.
+  const bool omega_per_row = dynamic_cast<const LatLongMap*>(&sp) != nullptr && W > 2;
+
+  tbb::parallel_for(0, kAccumulators, 1, [&](int k) {
+    Accumulator& sum = acc[k];
+    sum.assign(out_texels * stride, Real(0));
+    double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
+    // Consecutive source texels mostly land in the same output texel (a whole polar row can): their contributions
+    // are summed in double here and reach the accumulator once per run, which keeps float accumulators exact
+    // enough and saves scattered writes.
+    std::vector<double> pending(stride, 0.0);
+    std::size_t pending_cell = std::size_t(-1);
+    const auto flush = [&] {
+      if (pending_cell == std::size_t(-1)) return;
+      Real* cell = sum.data() + pending_cell * stride;
+      for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(pending[c]);
+      std::fill(pending.begin(), pending.end(), 0.0);
+      pending_cell = std::size_t(-1);
+    };
+    for (int block = k; block < blocks; block += kAccumulators) {
+      const int j_end = std::min(H, (block + 1) * kRowsPerBlock);
+      for (int j = block * kRowsPerBlock; j < j_end; ++j) {
+        // Hot texels (splatted exactly afterwards) still give their weight here, with zero colour.
+        auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
+        const double row_omega = omega_per_row ? src_omega(1, j) : 0.0;
+        for (int i = 0; i < W; ++i) {
+          const std::size_t index = std::size_t(j) * W + i;
+          const bool is_hot = next_hot != hot.end() && *next_hot == index;
+          if (is_hot) ++next_hot;
+          const double omega_s = omega_per_row && i > 0 && i < W - 1 ? row_omega : src_omega(i, j);
+          Vec3 d;
+          if (omega_s <= 0.0 || !directions.centre(i, j, d)) continue;
+          const double root_omega_s = std::sqrt(omega_s);
+          const Vec2 p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
+          const int ti = std::clamp(static_cast<int>(p.x), 0, DW - 1);
+          const int tj = std::clamp(static_cast<int>(p.y), 0, DH - 1);
+          // The source texel's square, sqrt(omega_s) on a side, in output pixels.
+          double width, height;
+          if (!row_scales.x.empty()) {
+            width = std::min(root_omega_s * row_scales.x[tj], kMaxSideInTexels);
+            height = std::min(root_omega_s * row_scales.y[tj], kMaxSideInTexels);
+          } else {
+            const double inverse = inverse_side[std::size_t(tj) * DW + ti];
+            width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
+          }
+          const float* px = img.pixels.data() + index * C;
+          const auto add = [&](int ci, int cj, double w) {
+            if (!dst.resolve(ti, tj, ci, cj)) return;
+            const std::size_t cell = std::size_t(cj) * DW + ci;
+            if (cell != pending_cell) {
+              flush();
+              pending_cell = cell;
+            }
+            for (int c = 0; c < C; ++c)
+              if (!is_hot || c == img.alpha_channel) pending[c] += w * px[c];
+            pending[C] += w;
+          };
+          const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
+          if (x0 >= ti && y0 >= tj && x0 + width <= ti + 1 && y0 + height <= tj + 1) {
+            add(ti, tj, omega_s);  // the common case: the square lies inside one output texel
+            continue;
+          }
+          int nx, ny;
+          const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
+          for (int b = 0; b < ny; ++b)
+            for (int a = 0; a < nx; ++a)
+              if (fx[a] * fy[b] > 0.0) add(cx + a, cy + b, omega_s * fx[a] * fy[b]);
+        }
+      }
+      flush();
+      progress.add(static_cast<std::size_t>(j_end - block * kRowsPerBlock));
+    }
+  });
+
+  // Normalise by the weight each output texel received (a constant map stays exactly constant). An output texel no
+  // square reached (possible only where output texels are smaller than source texels) takes the nearest source
+  // texel that is not hot.
+  const int Co = out.channels;
+  tbb::parallel_for(0, DH, [&](int tj) {
+    std::vector<double> value(stride);
+    for (int ti = 0; ti < DW; ++ti) {
+      if (dst_omega(ti, tj) <= 0.0) continue;
+      const std::size_t t = std::size_t(tj) * DW + ti;
+      std::fill(value.begin(), value.end(), 0.0);
+      for (const Accumulator& sum : acc)
+        for (int c = 0; c < stride; ++c) value[c] += sum[t * stride + c];
+      float* px = out.pixels.data() + t * Co;
+      if (value[C] > 0.0) {
+        for (int c = 0; c < C; ++c) px[c] = static_cast<float>(value[c] / value[C]);
+        continue;
+      }
+      Vec3 d;
+      Vec2 q;
+      if (!dst.covered_point(ti, tj, q) || !dst.to_direction(q, d)) continue;
+      const Vec2 p = sp.to_image(apply(dst_to_src, d));
+      const std::size_t index = std::size_t(std::clamp(static_cast<int>(p.y), 0, H - 1)) * W +
+                                std::size_t(std::clamp(static_cast<int>(p.x), 0, W - 1));
+      if (std::binary_search(hot.begin(), hot.end(), index)) continue;
+      for (int c = 0; c < C; ++c) px[c] = img.pixels[index * C + c];
+    }
+  });
+}
+
+}  // namespace
+
+Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Parameterization& dst,
+                            const Mat3& dst_to_src, const ResampleOptions& opt) {
+  const Image& img = s.image;
+  const Parameterization& sp = s.param;
+  Image out = make_output(img, dst, output_layout(img, source));
+  const SolidAngleTable src_omega(sp), dst_omega(dst);
+  const std::vector<std::size_t> hot =
+      find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast, total_power(img, sp));
+  ProgressCounter progress(opt.progress, static_cast<std::size_t>(img.height) + 1);
+  const double ratio = double(img.texel_count()) / std::max(1.0, double(dst.width()) * double(dst.height()));
+  if (ratio <= kFloatAccumulationMaxRatio)
+    scatter_and_normalise<float>(s, dst, src_omega, dst_omega, hot, dst_to_src, progress, out);
+  else
+    scatter_and_normalise<double>(s, dst, src_omega, dst_omega, hot, dst_to_src, progress, out);
+  progress.add(1);
+  splat_hot_texels(s, hot, src_omega, dst, dst_omega, dst_to_src, out);
+  return out;
+}
+
+}  // namespace envkit::detail
