@@ -3,6 +3,7 @@
 #include "common/progress.h"
 
 #include <envkit/atomic_file.h>
+#include <envkit/envmap.h>
 #include <envkit/error.h>
 #include <envkit/render/integrator.h>
 #include <envkit/render/render.h>
@@ -82,11 +83,18 @@ int run(const Args& a) {
   load.bake = a.bake;
   if (!a.resolution.empty()) {
     char tail = 0;
-    if (std::sscanf(a.resolution.c_str(), "%dx%d%c", &load.width, &load.height, &tail) != 2 || load.width < 1 ||
-        load.height < 1)
+    if (std::sscanf(a.resolution.c_str(), "%9dx%9d%c", &load.width, &load.height, &tail) != 2)
       throw CLI::ValidationError("--resolution", "expected WxH, got '" + a.resolution + "'");
+    // The scene format's limit, checked before the scene is loaded and anything is allocated.
+    if (load.width < 1 || load.height < 1 || load.width > 16384 || load.height > 16384)
+      throw CLI::ValidationError("--resolution", "'" + a.resolution + "': width and height must be in [1, 16384]");
   }
   LoadedScene scene = a.scene.empty() ? make_default_scene(load) : load_scene_file(a.scene, load);
+  // The environment image (its six faces for a '%' pattern) is an input too: never replace it. The loader names it
+  // in environment_description ("probe ..." for a generated environment, which is no file).
+  for (const std::string& image : envkit::face_paths(scene.environment_description)) inputs.push_back(image);
+  envkit::check_output_path(a.output, inputs, false);
+  envkit::check_output_path(png, inputs, false);
   if (!a.quiet) {
     for (const std::string& note : scene.notes) tools::info(note);
     for (const std::string& w : scene.tables->warnings())

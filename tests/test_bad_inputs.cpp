@@ -3,7 +3,8 @@
 // sized, missing, ...) and asserts the exit code, that stderr is the expected number of lines (one for errors) and
 // that its first line matches a regex naming the file and the problem, and that no output or temporary file
 // appeared in the work directory (or, for cases that succeed, exactly the listed outputs). The manifest format is
-// documented in tests/bad-inputs/README.md. Cases whose tool is not built yet (envbake, envrender) are skipped.
+// documented in tests/bad-inputs/README.md. Cases whose tool is not built (envrender with
+// -DENVKIT_BUILD_RENDERER=OFF) are skipped.
 //
 // Also here: tools interrupted by SIGTERM / SIGINT in the middle of a long write leave neither the output nor a
 // temporary file (libenv's signal cleanup is tested in-process by test_atomic_file; this runs the real tools).
@@ -43,7 +44,9 @@ extern char** environ;
 namespace fs = std::filesystem;
 using envkit::Image;
 using envkit::test::CommandResult;
-using nlohmann::json;
+// ordered: a case's "make" entries are written in the order listed (a later one may replace a file an earlier
+// one wrote, e.g. the environment map next to a scene).
+using json = nlohmann::ordered_json;
 
 namespace {
 
@@ -108,6 +111,40 @@ void write_table(const fs::path& p) {
   map.image = smooth(16, 8);
   map.param = std::make_unique<envkit::LatLongMap>(16, 8);
   envkit::EnvTables::bake(map, envkit::BakeOptions{}, "src.exr").save(p.string());
+}
+
+/// scene:VARIANT: a tiny envrender scene at `p` (4x2 pixels, one diffuse sphere seen from outside). VARIANT `image`
+/// (and every variant but `probe`) is lit by sky.exr, a tagged 16x8 lat-long written next to the scene, with
+/// sky.envtbl baked from that file (its source hash matches, as envbake writes it); `probe` by a constant 8x4 probe
+/// (no other file). The other variants each break one thing of `image`: `malformed` (a ',' on line 4), `unknown_key`
+/// (camera.zoom, line 2), `unknown_material` (shapes[0] uses 'gold', line 8), `missing_mesh` (shapes[1] is
+/// nowhere.obj, line 9), `no_tables` (no 'tables' key, line 3), `huge` (camera resolution 1000000 x 1000000).
+void write_scene(const fs::path& p, const std::string& variant) {
+  static const std::set<std::string> variants = {"image",       "probe",            "malformed",    "no_tables",
+                                                 "unknown_key", "unknown_material", "missing_mesh", "huge"};
+  if (!variants.count(variant)) throw std::runtime_error("unknown scene variant '" + variant + "'");
+  const bool probe = variant == "probe";
+  const std::string resolution = variant == "huge" ? "[1000000, 1000000]" : "[4, 2]";
+  const std::string env = probe                    ? R"("probe": "constant", "radiance": 0.5, "size": [8, 4])"
+                          : variant == "no_tables" ? R"("image": "sky.exr")"
+                                                   : R"("image": "sky.exr", "tables": "sky.envtbl")";
+  std::string text = "{\n";
+  text += R"(  "camera": {"position": [0, 1, -5], "look_at": [0, 0.5, 0], "fov": 40, "resolution": )" + resolution +
+          (variant == "unknown_key" ? ", \"zoom\": 2},\n" : "},\n");
+  text += "  \"environment\": {" + env + "},\n";
+  text += variant == "malformed" ? "  \"materials\": {,\n" : "  \"materials\": {\n";
+  text += "    \"white\": {\"type\": \"diffuse\", \"albedo\": 0.5}\n  },\n  \"shapes\": [\n";
+  text += R"(    {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": ")" +
+          std::string(variant == "unknown_material" ? "gold" : "white") + "\"}";
+  if (variant == "missing_mesh") text += ",\n" R"(    {"type": "mesh", "file": "nowhere.obj", "material": "white"})";
+  text += "\n  ]\n}\n";
+  spit(p, text);
+  if (probe) return;
+  const fs::path sky = p.parent_path() / "sky.exr";
+  write_tagged(sky, smooth(16, 8), "latlong");
+  const envkit::EnvMap map = envkit::load_envmap(sky.string());
+  envkit::EnvTables::bake(map, envkit::BakeOptions{}, sky.string(), envkit::file_content_hash({sky.string()}))
+      .save((p.parent_path() / "sky.envtbl").string());
 }
 
 /// Makes file `p` from a generator description (see tests/bad-inputs/README.md). "truncate:G" and "corrupt:G"
@@ -187,10 +224,11 @@ void generate(const fs::path& p, const std::string& gen) {
     return spit(p, radiance_header(w, h) + std::string(64, '\0'));
   }
   if (head == "table") return write_table(p);
+  if (head == "scene") return write_scene(p, arg);
   if (head == "text") return spit(p, arg);
   if (head == "empty") return spit(p, "");
   if (head == "dir") return (void)fs::create_directories(p);
-  if (head == "file") return (void)fs::copy_file(kCorpusDir / "files" / arg, p);
+  if (head == "file") return (void)fs::copy_file(kCorpusDir / "files" / arg, p, fs::copy_options::overwrite_existing);
   throw std::runtime_error("unknown generator '" + gen + "'");
 }
 
@@ -269,7 +307,8 @@ TEST(BadInputManifest, HasAtLeastThirtyCasesWithUniqueNames) {
     tools.insert(c.tool);
   }
   EXPECT_GE(cases.size(), 30u);
-  for (const char* t : {"envconvert", "envinfo", "envdiff", "envprobe"}) EXPECT_TRUE(tools.count(t)) << t;
+  for (const char* t : {"envconvert", "envinfo", "envdiff", "envprobe", "envbake", "envsample", "envrender"})
+    EXPECT_TRUE(tools.count(t)) << t;
 }
 
 TEST_P(BadInput, FailsCleanly) {

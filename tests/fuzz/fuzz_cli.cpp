@@ -11,7 +11,11 @@
 // removed afterwards and seed files it replaced (--force) are restored, so runs do not depend on each other.
 // Cost limit: inputs with a number above kMaxNumber (or written with an exponent or a 0x prefix) are skipped, so
 // that "--size 100000" does not make every run allocate gigabytes; without --size, envprobe gets "--size 16x8"
-// appended (its default is 1024x512). See tests/fuzz/README.md.
+// appended (its default is 1024x512). envrender renders tiny scenes of the scratch directory (scene.json,
+// probe.json, ...; see write_scene_files): it gets "--resolution 4x2", "--spp 1" and "--scene probe.json" when they
+// are absent (the built-in default scene bakes a 1024x512 probe: inputs giving an empty --scene, which means the
+// default scene too, are skipped), and inputs asking for more than a few samples are skipped (envrender_too_costly).
+// See tests/fuzz/README.md.
 #include "fuzz_support.h"
 
 #include <envkit/envmap.h>
@@ -29,6 +33,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -70,6 +75,32 @@ void write_tagged(const std::string& name, const envkit::Image& img, const std::
   envkit::write_image(name, img, opt);
 }
 
+/// envrender's scenes (4x2 pixels): scene.json lit by in.exr through in.envtbl, every material and shape type
+/// (mesh.obj is a tetrahedron); probe.json, a sun probe; stale.json, plain.exr with in.envtbl (stale unless --bake);
+/// cube.json and faces.json, a cube strip and six face files without tables (need --bake); bad.json, malformed.
+void write_scene_files() {
+  auto scene = [](const std::string& name, const std::string& environment) {
+    std::ofstream(name, std::ios::binary)
+        << R"({"camera": {"position": [0, 1, -5], "look_at": [0, 0.5, 0], "fov": 40, "resolution": [4, 2]},)" "\n"
+        << R"( "environment": {)" << environment << "},\n"
+        << R"( "materials": {"d": {"type": "diffuse", "albedo": 0.5}, "c": {"type": "conductor", "roughness": 0.2},)"
+        << R"( "p": {"type": "plastic", "roughness": 0.05}, "m": {"type": "mirror"}},)" "\n"
+        << R"( "shapes": [{"type": "triangles", "material": "d", "triangles": [[0, 2, 1], [0, 3, 2]],)" "\n"
+        << R"(             "vertices": [[-9, 0, -9], [9, 0, -9], [9, 0, 9], [-9, 0, 9]]},)" "\n"
+        << R"(            {"type": "sphere", "center": [-1, 0.5, 0], "radius": 0.5, "material": "c"},)" "\n"
+        << R"(            {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "p"},)" "\n"
+        << R"(            {"type": "mesh", "file": "mesh.obj", "material": "m"}]})" "\n";
+  };
+  std::ofstream("mesh.obj", std::ios::binary)
+      << "v 1 0 0\nv 2 0 0\nv 1.5 0 1\nv 1.5 1 0.4\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
+  scene("scene.json", R"("image": "in.exr", "tables": "in.envtbl", "rotation": [90, 0, 0], "intensity": 2)");
+  scene("probe.json", R"("probe": "sun", "size": [16, 8], "radiance": 100, "sky": 0.5)");
+  scene("stale.json", R"("image": "plain.exr", "tables": "in.envtbl")");
+  scene("cube.json", R"("image": "cube.exr")");
+  scene("faces.json", R"("image": "face_%.exr", "convention": "gl")");
+  std::ofstream("bad.json", std::ios::binary) << "{\"camera\": {,}\n";
+}
+
 void write_seed_files() {
   write_tagged("in.exr", gradient(16, 8, 3), "latlong");
   write_tagged("plain.exr", gradient(16, 8, 3), "");
@@ -90,13 +121,15 @@ void write_seed_files() {
   write_tagged("ball.exr", ball, "");
   for (const char* f : {"+X", "-X", "+Y", "-Y", "+Z", "-Z"}) write_tagged(std::string("face_") + f + ".exr", gradient(4, 4, 3), "");
 #ifdef ENVKIT_FUZZ_HAVE_TABLES
-  {  // a table file for envsample / envinfo / envrender
+  {  // a table file for envsample / envinfo / envrender, recording in.exr's file hash as envbake does (fresh)
     envkit::EnvMap map;
     map.image = gradient(16, 8, 3);
     map.param = std::make_unique<envkit::LatLongMap>(16, 8);
-    envkit::EnvTables::bake(map, envkit::BakeOptions{}, "in.exr").save("in.envtbl");
+    envkit::EnvTables::bake(map, envkit::BakeOptions{}, "in.exr", envkit::file_content_hash({"in.exr"}))
+        .save("in.envtbl");
   }
 #endif
+  if (std::string(ENVKIT_FUZZ_TOOL) == "envrender") write_scene_files();
   std::ofstream("junk.exr", std::ios::binary) << "not an image";
   std::ofstream("empty.exr", std::ios::binary);
   fs::create_directories("dir.exr");
@@ -148,6 +181,63 @@ bool too_costly(const std::string& a) {
   return false;
 }
 
+/// The values given to option `name` ("--name V" or "--name=V"); `present` tells whether it appears at all.
+std::vector<std::string> option_values(const std::vector<std::string>& args, const std::string& name, bool& present) {
+  std::vector<std::string> values;
+  present = false;
+  for (std::size_t i = 1; i < args.size(); ++i) {
+    if (args[i] == name) {
+      present = true;
+      if (i + 1 < args.size()) values.push_back(args[i + 1]);
+    } else if (args[i].rfind(name + "=", 0) == 0) {
+      present = true;
+      values.push_back(args[i].substr(name.size() + 1));
+    }
+  }
+  return values;
+}
+
+/// envrender: true when the arguments ask for more than a few samples (every run must stay in milliseconds); adds
+/// the forced options (see the file comment) when they are absent. A value holding a digit must be a plain integer
+/// (WxH for --resolution) within the limit, or negative (refused by envrender): "1_000" or "+1000" could mean more
+/// to CLI11 than to this check. Values without a digit ("abc", "nan") reach envrender's own checks.
+bool envrender_too_costly(std::vector<std::string>& args) {
+  static const std::map<std::string, long> limits = {{"--spp", 4},           {"--max-depth", 4},
+                                                     {"--bsdf-samples", 8},  {"--light-samples", 8},
+                                                     {"--product-resolution", 16}, {"--threads", 4}};
+  auto has_digit = [](const std::string& v) { return v.find_first_of("0123456789") != std::string::npos; };
+  auto plain = [](const std::string& v, long limit) {
+    const std::size_t start = v.size() > 1 && v[0] == '-' ? 1 : 0;
+    if (v.size() == start || v.size() > 6 || v.find_first_not_of("0123456789", start) != std::string::npos)
+      return false;
+    return std::stol(v) <= limit;
+  };
+  bool present = false;
+  for (const auto& [name, limit] : limits)
+    for (const std::string& v : option_values(args, name, present))
+      if (has_digit(v) && !plain(v, limit)) return true;
+  for (const std::string& v : option_values(args, "--resolution", present)) {
+    const auto x = v.find('x');
+    if (has_digit(v) && (x == std::string::npos || !plain(v.substr(0, x), 8) || !plain(v.substr(x + 1), 8)))
+      return true;
+  }
+  if (!present) args.insert(args.end(), {"--resolution", "4x2"});
+  // --time renders passes until the time is up: at most 20 ms, "inf" never ends (NaN is let through: it must not
+  // hang either).
+  for (const std::string& v : option_values(args, "--time", present))
+    if (std::strtod(v.c_str(), nullptr) > 0.02 ||
+        (has_digit(v) && v.find_first_not_of("0123456789.") != std::string::npos))
+      return true;
+  option_values(args, "--spp", present);
+  if (!present) args.insert(args.end(), {"--spp", "1"});
+  // The built-in default scene rasterizes and bakes a 1024x512 probe on every run (seconds under ASan); an empty
+  // --scene also means the default scene.
+  for (const std::string& v : option_values(args, "--scene", present))
+    if (v.empty()) return true;
+  if (!present) args.insert(args.end(), {"--scene", "probe.json"});
+  return false;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
@@ -178,6 +268,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     has_size = has_size || a.rfind("--size", 0) == 0;
   }
   if (std::string(ENVKIT_FUZZ_TOOL) == "envprobe" && !has_size) args.insert(args.end(), {"--size", "16x8"});
+  if (std::string(ENVKIT_FUZZ_TOOL) == "envrender" && envrender_too_costly(args)) return 0;
 
   std::vector<std::vector<char>> storage;
   std::vector<char*> argv;
