@@ -233,8 +233,7 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
   const std::unique_ptr<Parameterization> table_grid = make_grid(options.grid, TW, TH);
   if (options.conservative) importance = dilate_3x3(importance, *table_grid, TW, TH);
   for (float& v : importance) v = static_cast<float>(ImportanceFunction::positive(v));  // resampling may leave -0 or tiny negatives
-  t.importance_.resize(importance.size());
-  std::copy(importance.begin(), importance.end(), t.importance_.data());
+  t.importance_.adopt(std::move(importance));
 
   t.build_distributions(options);
   t.descriptor_ = t.make_descriptor(&options);

@@ -9,6 +9,7 @@
 /// else with one memcpy. Every read is bounds-checked: a blob that ends early or claims more elements than it
 /// holds is an Error naming the context, never an overread.
 #include <envkit/error.h>
+#include <envkit/huge_page_allocator.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -58,6 +59,9 @@ class TableArray {
   }
 
   // Building (owned storage only).
+  using Storage = std::vector<T, HugePageAllocator<T>>;
+  /// Takes over a built array without copying it.
+  void adopt(Storage&& values) { owned_ = std::move(values), refresh(); }
   void resize(std::size_t n) { owned_.resize(n), refresh(); }
   void assign(std::size_t n, const T& value) { owned_.assign(n, value), refresh(); }
   T* data() { return owned_.data(); }
@@ -79,7 +83,7 @@ class TableArray {
     data_ = owned_.data();
     size_ = owned_.size();
   }
-  std::vector<T> owned_;
+  Storage owned_;  // large tables: huge pages (first touch is costly on VMs)
   std::shared_ptr<const void> owner_;
   const T* data_ = nullptr;
   std::size_t size_ = 0;
@@ -103,8 +107,8 @@ class BlobWriter {
     words_.push_back(word);  // a deque: earlier words never move
     add(reinterpret_cast<const std::byte*>(&words_.back()), 8);
   }
-  template <class T>
-  void array(const std::vector<T>& values) {
+  template <class T, class Allocator>
+  void array(const std::vector<T, Allocator>& values) {
     static_assert(std::is_trivially_copyable_v<T>);
     reference(values.data(), values.size());
   }
