@@ -51,6 +51,7 @@ struct Args {
   int threads = 0;
   unsigned seed = 0;
   bool bake = false;
+  bool force = false;
   bool quiet = false;
   bool progress = false;
 };
@@ -75,8 +76,8 @@ int run(const Args& a) {
   const std::string png = preview_path(a.output);
   std::vector<std::string> inputs;
   if (!a.scene.empty()) inputs.push_back(a.scene);
-  envkit::check_output_path(a.output, inputs, false);
-  envkit::check_output_path(png, inputs, false);
+  envkit::check_output_path(a.output, inputs, a.force);
+  envkit::check_output_path(png, inputs, a.force);
   auto thread_limit = tools::limit_threads(a.threads);
 
   SceneLoadOptions load;
@@ -93,8 +94,8 @@ int run(const Args& a) {
   // The environment image (its six faces for a '%' pattern) is an input too: never replace it. The loader names it
   // in environment_description ("probe ..." for a generated environment, which is no file).
   for (const std::string& image : envkit::face_paths(scene.environment_description)) inputs.push_back(image);
-  envkit::check_output_path(a.output, inputs, false);
-  envkit::check_output_path(png, inputs, false);
+  envkit::check_output_path(a.output, inputs, a.force);
+  envkit::check_output_path(png, inputs, a.force);
   if (!a.quiet) {
     for (const std::string& note : scene.notes) tools::info(note);
     for (const std::string& w : scene.tables->warnings())
@@ -165,7 +166,8 @@ int main(int argc, char** argv) {
                "envrender");
   app.footer(kExamples);
   Args a;
-  app.add_option("--scene", a.scene, "JSON scene file (docs/SCENE_FORMAT.md); default: the built-in scene");
+  app.add_option("--scene", a.scene, "JSON scene file (docs/SCENE_FORMAT.md); default: the built-in scene")
+      ->check([](const std::string& path) { return path.empty() ? std::string("empty path") : std::string(); });
   app.add_option("-o,--output", a.output, "output EXR (the PNG preview goes next to it)")->capture_default_str();
   app.add_option("--spp", a.spp, "samples per pixel")->check(CLI::Range(1, 1 << 24))->capture_default_str();
   app.add_option("--time", a.time, "render for this many seconds instead of --spp (passes of 1 spp)")
@@ -197,6 +199,7 @@ int main(int argc, char** argv) {
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");
   app.add_option("--resolution", a.resolution, "override the camera resolution, WxH");
   app.add_option("--seed", a.seed, "sampler seed")->capture_default_str();
+  app.add_flag("-f,--force", a.force, "allow the output (or its PNG preview) to replace an input file");
   app.add_flag("--bake", a.bake, "bake missing or stale sampling tables in memory instead of failing");
   envkit::tools::add_threads_option(app, a.threads);
   app.add_flag("--progress", a.progress, "always show the progress bar");
