@@ -463,6 +463,28 @@ TEST_F(CliTest, OpenExrOutputsAreReadByExrenvmapAndBack) {
   }
 }
 
+TEST_F(CliTest, CompressionAndHalfReachTheOpenExrFile) {
+  const std::string in = write_latlong("in.exr", latlong(32, 16, [](const Vec3& d, int, int) {
+    return Vec3(1.0 + d.y, 1.0, 1.0);
+  }));
+  ok("envconvert", {in, "-o", path("none.exr"), "--to", "cube", "--size", "8", "--compression", "none", "--half", "-q"});
+  ok("envconvert", {in, "-o", path("piz.exr"), "--to", "cube", "--size", "8", "--compression", "piz", "-q"});
+  const auto spec_of = [&](const std::string& name) {
+    auto file = OIIO::ImageInput::open(path(name));
+    EXPECT_TRUE(file) << name;
+    return file ? file->spec() : OIIO::ImageSpec();
+  };
+  EXPECT_EQ(spec_of("none.exr").get_string_attribute("compression"), "none");
+  EXPECT_EQ(spec_of("none.exr").format, OIIO::TypeDesc::HALF);
+  EXPECT_EQ(spec_of("piz.exr").get_string_attribute("compression"), "piz");
+  EXPECT_EQ(spec_of("piz.exr").format, OIIO::TypeDesc::FLOAT);
+  // An unknown OpenEXR compression is a usage error before anything is read or written.
+  const CommandResult bad = tool("envconvert", {in, "-o", path("bad.exr"), "--to", "cube", "--compression", "zap"});
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--compression"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(path("bad.exr")));
+}
+
 // ---- bad input: one line, exit 1, no file -------------------------------------------------------------------
 
 TEST_F(CliTest, NonFiniteInputFailsUnlessFixed) {

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -57,7 +58,7 @@ Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 
 
 struct Options {
   tools::InputSpec in;
-  std::string out, to, layout, filter = "area", convention, rotate, fix_nonfinite, ball_centre;
+  std::string out, to, layout, filter = "area", convention, rotate, fix_nonfinite, ball_centre, compression;
   int size = 0, threads = 0;
   bool half = false, force = false, quiet = false, progress = false;
 };
@@ -102,6 +103,10 @@ void add_options(CLI::App& app, Options& o) {
       ->type_name("zero|clamp")
       ->check(CLI::IsMember({"zero", "clamp"}));
   app.add_flag("--half", o.half, "write half floats (OpenEXR output only)");
+  app.add_option("--compression", o.compression,
+                 "output compression: OpenEXR none|rle|zips|zip|piz|pxr24|b44|b44a|dwaa|dwab (default zip), "
+                 "or what OpenImageIO accepts for the format")
+      ->type_name("C");
   app.add_option("--ball-centre,--ball-center", o.ball_centre, "mirror-ball photograph: ball centre in pixels")
       ->type_name("X,Y");
   app.add_option("--ball-radius", o.in.ball_radius, "mirror-ball photograph: ball radius in pixels")
@@ -131,6 +136,12 @@ void check_combinations(Options& o) {
   }
   if (o.half && !has_extension(o.out, ".exr"))
     throw CLI::ValidationError("--half", "half floats need an OpenEXR (.exr) output");
+  if (!o.compression.empty() && has_extension(o.out, ".exr")) {
+    static const std::vector<std::string> exr = {"none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"};
+    if (std::find(exr.begin(), exr.end(), o.compression.substr(0, o.compression.find(':'))) == exr.end())
+      throw CLI::ValidationError("--compression", "'" + o.compression + "' is not an OpenEXR compression (none, rle, "
+                                 "zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)");
+  }
   if (!o.ball_centre.empty()) {
     const auto [x, y] = tools::parse_number_pair("--ball-centre", o.ball_centre);
     o.in.ball_cx = x;
@@ -204,6 +215,7 @@ int convert(Options& o) {
   std::erase_if(out.image.metadata, [](const auto& kv) { return kv.first.rfind("envkit:", 0) == 0; });
   envkit::SaveOptions so;
   so.write.pixel_type = o.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
+  so.write.compression = o.compression;
   so.filter = envkit::filter_name(ro.filter);
   so.source = fs::path(o.in.path).filename().string();
   envkit::save_envmap(o.out, out, so);
