@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench_exrenvmap.sh [--quick] [--workdir DIR] [--repeats N] [--out FILE]
+# bench_exrenvmap.sh [--quick] [--workdir DIR] [--repeats N] [--out FILE] [--io zip|none|both]
 #
 # Side-by-side speed and accuracy of OpenEXR's exrenvmap and envkit's envconvert on the SAME input, in ONE run:
 #   input      envprobe default, lat-long 2N x N, OpenEXR convention (corner-sampled)      N = 4096 (quick 1024)
@@ -8,6 +8,9 @@
 #   reference  the analytic probe rasterized directly into the output parameterization (envprobe, exact texel
 #              averages); for the back direction the input lat-long itself is the reference.
 #   errors     envdiff REF OUT --json: RMSE, relMSE, max |error|, max relative power difference.
+#   file I/O   both programs read the same input and write half-float OpenEXR (exrenvmap's only output type) with
+#              the same compression, in two settings (--io): "zip" (OpenEXR's default, both tools' default) and
+#              "none" (uncompressed input and outputs: what is left is the conversion itself, not zlib).
 # Times are the median of --repeats runs (3 full, 1 quick); the programs are run interleaved in every repeat so
 # that load from other users hits them alike; the ratio exrenvmap / envconvert is the result, absolute times are
 # context. The markdown table is printed and written to docs/bench_exrenvmap.md (or --out FILE).
@@ -20,6 +23,7 @@ QUICK=0
 WORKDIR=""
 REPEATS=""
 OUT="$ROOT/docs/bench_exrenvmap.md"
+IO=both
 
 while [[ $# -gt 0 ]]; do
   case "$1" in
@@ -27,7 +31,8 @@ while [[ $# -gt 0 ]]; do
     --workdir) WORKDIR="$2"; shift ;;
     --repeats) REPEATS="$2"; shift ;;
     --out) OUT="$2"; shift ;;
-    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --io) IO="$2"; shift ;;
+    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench_exrenvmap.sh: unknown argument '$1'" >&2; exit 2 ;;
   esac
   shift
@@ -80,19 +85,30 @@ if ! exrheader ref_cube.exr | grep -q 'envmap (type envmap): cube-face'; then
 fi
 [[ -s "$NOTES" ]] && sed 's/^/NOTE: /' "$NOTES" >&2
 
+case "$IO" in both) IOS=(zip none) ;; zip|none) IOS=("$IO") ;; *) echo "--io: zip, none or both" >&2; exit 2 ;; esac
+# Uncompressed copies of the inputs (same pixels, same attributes).
+for io in "${IOS[@]}"; do
+  [[ $io == none ]] || continue
+  run_timed oiiotool in.exr --compression none -o in_none.exr >/dev/null
+  run_timed oiiotool ref_cube.exr --compression none -o ref_cube_none.exr >/dev/null
+done
+input() { [[ $1 == none ]] && echo "$2_none.exr" || echo "$2.exr"; }
+
 # ---------------------------------------------------------------- timing (interleaved repeats)
 declare -A T
 for ((r = 1; r <= REPEATS; r++)); do
   log "# repeat $r/$REPEATS"
-  T[fwd_exrenvmap]+="$(run_timed "$EXRENVMAP" -c "${LI[@]}" -w "$FACE" in.exr ex_cube.exr) "
-  for f in "${FILTERS[@]}"; do
-    T[fwd_$f]+="$(run_timed "$BIN/envconvert" in.exr -o "ek_cube_$f.exr" --to cube --size "$FACE" \
-                   --convention openexr --filter "$f" --quiet) "
-  done
-  T[back_exrenvmap]+="$(run_timed "$EXRENVMAP" -l "${CI[@]}" -w "$LLW" ref_cube.exr ex_ll.exr) "
-  for f in "${FILTERS[@]}"; do
-    T[back_$f]+="$(run_timed "$BIN/envconvert" ref_cube.exr -o "ek_ll_$f.exr" --to latlong --size "$N" \
-                    --convention openexr --filter "$f" --quiet) "
+  for io in "${IOS[@]}"; do
+    T[fwd_${io}_exrenvmap]+="$(run_timed "$EXRENVMAP" -c "${LI[@]}" -z "$io" -w "$FACE" "$(input $io in)" "ex_cube_$io.exr") "
+    for f in "${FILTERS[@]}"; do
+      T[fwd_${io}_$f]+="$(run_timed "$BIN/envconvert" "$(input $io in)" -o "ek_cube_${io}_$f.exr" --to cube \
+                         --size "$FACE" --convention openexr --filter "$f" --half --compression "$io" --quiet) "
+    done
+    T[back_${io}_exrenvmap]+="$(run_timed "$EXRENVMAP" -l "${CI[@]}" -z "$io" -w "$LLW" "$(input $io ref_cube)" "ex_ll_$io.exr") "
+    for f in "${FILTERS[@]}"; do
+      T[back_${io}_$f]+="$(run_timed "$BIN/envconvert" "$(input $io ref_cube)" -o "ek_ll_${io}_$f.exr" --to latlong \
+                          --size "$N" --convention openexr --filter "$f" --half --compression "$io" --quiet) "
+    done
   done
 done
 
@@ -103,14 +119,17 @@ import json,sys; d=json.load(sys.stdin)
 print(d["rmse"], d["relmse"], d["max_abs_error"]["value"], d["power_max_relative_difference"])'
 }
 log "# errors"
-for dir in fwd back; do
-  if [[ $dir == fwd ]]; then ref=ref_cube.exr; ex=ex_cube.exr; ek=ek_cube_; else ref=in.exr; ex=ex_ll.exr; ek=ek_ll_; fi
-  echo "$dir exrenvmap - $(median ${T[${dir}_exrenvmap]}) $(err $ref $ex) ${T[${dir}_exrenvmap]}" >> "$RES"
-  for f in "${FILTERS[@]}"; do
-    echo "$dir envconvert $f $(median ${T[${dir}_$f]}) $(err $ref "$ek$f.exr") ${T[${dir}_$f]}" >> "$RES"
+for io in "${IOS[@]}"; do
+  for dir in fwd back; do
+    if [[ $dir == fwd ]]; then ref=ref_cube.exr; ex=ex_cube_$io.exr; ek=ek_cube_${io}_; else ref=in.exr; ex=ex_ll_$io.exr; ek=ek_ll_${io}_; fi
+    k=${dir}_${io}
+    echo "$dir/$io exrenvmap - $(median ${T[${k}_exrenvmap]}) $(err $ref $ex) ${T[${k}_exrenvmap]}" >> "$RES"
+    for f in "${FILTERS[@]}"; do
+      echo "$dir/$io envconvert $f $(median ${T[${k}_$f]}) $(err $ref "$ek$f.exr") ${T[${k}_$f]}" >> "$RES"
+    done
   done
 done
-for f in ex_cube.exr ex_ll.exr; do echo "$f: $(exrheader $f | grep -E 'envmap|32-bit|16-bit' | head -2 | tr -s ' ' | tr '\n' ';')" >> "$WORKDIR/outputs.txt"; done
+for f in ex_cube_"${IOS[0]}".exr ex_ll_"${IOS[0]}".exr; do echo "$f: $(exrheader $f | grep -E 'compression|32-bit|16-bit' | head -2 | tr -s ' ' | tr '\n' ';')" >> "$WORKDIR/outputs.txt"; done
 
 # ---------------------------------------------------------------- report
 python3 - "$RES" "$LOG" "$NOTES" "$OUT" "$MODE" "$LLW" "$LLH" "$FACE" "$REPEATS" "$WORKDIR/outputs.txt" <<'PY'
@@ -128,9 +147,19 @@ lines.append(f"Measured {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %
              f"Forward: lat-long -> cube {face}^2 faces (N x 6N strip); back: analytic cube {face}^2 -> lat-long {llw}x{llh}. "
              f"Reference: the analytic probe rasterized directly (exact texel averages) by envprobe into the output "
              f"parameterization; for the back direction the input lat-long. Time: median of {reps} interleaved run(s), wall clock, "
-             f"including file I/O; envconvert uses all cores (oneTBB), exrenvmap one. Errors: `envdiff REF OUT --json` "
+             f"including file I/O; both write half floats; envconvert uses all cores (oneTBB), exrenvmap one. Errors: `envdiff REF OUT --json` "
              f"(RMSE, relMSE = mean((I-R)^2/(R^2+0.01)), max |I-R|, max relative power difference over channels).\n")
-for d, title in (("fwd", f"Forward: lat-long {llw}x{llh} -> cube {face}"), ("back", f"Back: cube {face} -> lat-long {llw}x{llh}")):
+ios = []
+for r in rows:
+    io = r[0].split("/")[1]
+    if io not in ios: ios.append(io)
+sections = []
+for io in ios:
+    io_text = ("uncompressed input and outputs (`exrenvmap -z none`, `envconvert --compression none`)" if io == "none"
+               else "ZIP input and outputs (both tools' default)")
+    sections.append((f"fwd/{io}", f"Forward: lat-long {llw}x{llh} -> cube {face}, {io_text}"))
+    sections.append((f"back/{io}", f"Back: cube {face} -> lat-long {llw}x{llh}, {io_text}"))
+for d, title in sections:
     lines.append(f"### {title}\n")
     lines.append("| program | filter | time (s) | exrenvmap / envconvert | RMSE | relMSE | max abs err | power rel diff | runs (s) |")
     lines.append("|---|---|---:|---:|---:|---:|---:|---:|---|")
@@ -140,6 +169,14 @@ for d, title in (("fwd", f"Forward: lat-long {llw}x{llh} -> cube {face}"), ("bac
         ratio = "1" if r[1] == "exrenvmap" else f"{tex / float(r[3]):.1f}x"
         filt = "5x5 supersampled, r=1 (default)" if r[1] == "exrenvmap" else r[2]
         lines.append(f"| {r[1]} | {filt} | {float(r[3]):.2f} | {ratio} | {g(r[4])} | {g(r[5])} | {g(r[6])} | {g(r[7])} | {' '.join(r[8:])} |")
+    ex = next(r for r in dr if r[1] == "exrenvmap")
+    better = [r for r in dr if r[1] != "exrenvmap" and float(r[4]) < float(ex[4]) and float(r[5]) < float(ex[5])]
+    if better:
+        best = min(better, key=lambda r: float(r[3]))
+        lines.append(f"\nFastest envconvert filter with lower RMSE and lower relMSE than exrenvmap: **{best[2]}, "
+                     f"{tex / float(best[3]):.1f}x** exrenvmap's speed (target >= 20x: {'met' if tex / float(best[3]) >= 20 else 'NOT met'}).")
+    else:
+        lines.append("\nNo envconvert filter had both lower RMSE and lower relMSE than exrenvmap here.")
     lines.append("")
 notes = open(notesf).read().strip()
 if notes:
