@@ -37,6 +37,7 @@ CONFIGS = [c for c in ALL_CONFIGS if MODE == "full" or (MODE == "quick" and c[0]
 RES = ctx.pick(8, 48, 64)
 LEVELS = ctx.pick([1], [1, 8], [1, 4, 16, 64, 256])
 REF_SPP = ctx.pick(16, 256, 2048)
+RELIABLE = 3.0  # a level counts when its raw relMSE is at least this many times the reference's own noise
 CAP = ctx.pick(2.0, 3.0, 10.0)  # seconds: do not climb to a level predicted (linearly in spp) to take longer
 MATERIALS = ctx.pick(["glossy"], ["diffuse", "glossy", "mirror"], ["diffuse", "glossy", "mirror"])
 PROBES = ctx.pick(["sunny"], ["sunny", "overcast"], ["sunny", "overcast"])
@@ -73,15 +74,23 @@ for probe in PROBES:
                     continue
                 raw, corr = ref.error(r["image"])
                 results[key][name].append({"spp": r["spp"], "seconds": r["seconds"], "relmse": corr, "relmse_raw": raw,
-                                           "nonfinite": r["nonfinite"]})
+                                           "reliable": raw >= RELIABLE * ref.noise, "nonfinite": r["nonfinite"]})
                 nxt = LEVELS[LEVELS.index(spp) + 1] if spp != LEVELS[-1] else None
                 if nxt and r["seconds"] * nxt / spp > CAP:
                     active.discard(name)
         ctx.info(f"{key}: done")
 
 
+def reliable(points):
+    """The levels whose error stands clear of the reference's own noise (raw relMSE >= RELIABLE x that noise): below
+    it the noise-corrected relMSE is a small difference of two noisy numbers. At least the first level."""
+    return [p for p in points if p["reliable"]] or points[:1]
+
+
 def efficiency(points):
-    """Geometric mean of 1/(relMSE x seconds) over the ladder levels >= 4 spp (all levels when none reached 4)."""
+    """Geometric mean of 1/(relMSE x seconds) over the reliable ladder levels >= 4 spp (all reliable levels when
+    none reached 4)."""
+    points = reliable(points)
     pts = [p for p in points if p["spp"] >= 4] or points
     effs = [1.0 / (p["relmse"] * p["seconds"]) for p in pts if p["relmse"] > 0 and p["seconds"] > 0]
     return geomean(effs) if effs else float("nan")
@@ -140,7 +149,7 @@ rows_t = []
 for name, _ in CONFIGS:
     row = [name]
     for k in keys:
-        pts = results[k].get(name) or []
+        pts = reliable(results[k].get(name) or [])
         row.append(f"{g(pts[-1]['relmse'])} @ {pts[-1]['spp']} spp, {g(pts[-1]['seconds'])} s" if pts else "failed")
     rows_t.append(row)
 nonfinite = sum(q["nonfinite"] for d in results.values() for v in d.values() for q in v)
@@ -154,12 +163,14 @@ text = [f"## 3. Sampling strategies\n",
         f"mean Var/(R^2+0.01)) is subtracted from every relMSE. Time: envrender's render time (scene loading and "
         f"baking excluded), both cores. Each strategy climbs the spp ladder {LEVELS} while the next level is "
         f"predicted (linearly in spp) to take <= {CAP:g} s; all strategies run at one level before the next (interleaved). Efficiency = geometric mean of "
-        f"1/(relMSE x time) over the levels >= 4 spp. Machine: {machine}.\n",
+        f"1/(relMSE x time) over the levels >= 4 spp whose raw relMSE is at least {RELIABLE:g}x the reference's own noise "
+        f"(below that the corrected relMSE is a small difference of noisy numbers; such levels are left out of the "
+        f"efficiencies and of the table of the highest level). Machine: {machine}.\n",
         f"![relMSE vs time](strategies.png)\n",
         f"### Efficiency relative to {BASE} (higher is better)\n",
         md_table(hdr, rows),
         f"\n![efficiency ratios](strategies_efficiency.png)\n",
-        "### relMSE at the highest spp reached\n",
+        "### relMSE at the highest reliable spp reached\n",
         md_table(["strategy"] + keys, rows_t, ["---"] * (len(keys) + 1)),
         f"\nNon-finite estimates reported by envrender over all runs: {nonfinite}.\n"]
 if failures:
