@@ -76,7 +76,7 @@ run_timed "$BIN/envprobe" default --param cube --size "$FACE" --convention opene
 
 # exrenvmap reads the parameterization from the OpenEXR 'envmap' attribute; without it, it assumes lat-long.
 # Check that the files carry it; pass -li / -ci explicitly when they do not (and say so in the report).
-LI=(); CI=()
+LI=(-li); CI=(-ci)  # explicit: oiiotool copies of the inputs may not keep the typed envmap attribute
 if ! exrheader in.exr | grep -q 'envmap (type envmap): latitude-longitude'; then
   LI=(-li); echo "envprobe --convention openexr wrote in.exr without the OpenEXR envmap attribute (exrheader shows none); exrenvmap is given -li." >> "$NOTES"
 fi
