@@ -7,9 +7,12 @@
 #include <envkit/texel_directions.h>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 namespace envkit::detail {
 
@@ -19,14 +22,12 @@ namespace {
 /// see a whole source texel's worth of directions); its flux is still conserved, spread over the capped square.
 constexpr double kMaxSideInTexels = 8.0;
 constexpr int kMaxSplatCellsPerAxis = static_cast<int>(kMaxSideInTexels) + 2;
-/// Source rows are dealt round-robin in blocks of this many rows to a FIXED number of accumulators (not one per
-/// thread): each accumulator sums its rows in order, and the accumulators are summed in order, so the result is the
-/// same whatever the number of threads. Two: the machines envkit runs on have few cores, and every accumulator is a
-/// full-size copy of the output (first-touching fresh memory is slow on virtual machines).
-constexpr int kRowsPerBlock = 8;
-constexpr int kAccumulators = 2;
-/// Float accumulators hold a handful of contributions per output texel to float precision; past this many source
-/// texels per output texel (on average) the sums are kept in double.
+/// The source is cut into chunks of this many rows. Chunks are projected in parallel into runs of contributions
+/// (oneTBB parallel_pipeline), and the runs are added to the one accumulator serially, in row order: the sums do not
+/// depend on the number of threads, and the memory is one output-sized accumulator plus the chunks in flight.
+constexpr int kRowsPerChunk = 8;
+/// Float accumulators hold a handful of runs per output texel to float precision; past this many source texels per
+/// output texel (on average) the sums are kept in double.
 constexpr double kFloatAccumulationMaxRatio = 64.0;
 
 /// Output pixels per radian along x and y for each row of a lat-long output, whose texels are far from square near
@@ -61,6 +62,14 @@ int overlaps(double lo, double hi, double* fraction, int& count) {
   return first;
 }
 
+/// Contributions of a chunk of source rows: runs of consecutive texels that land in the same output texel, summed
+/// in double (a whole polar row can land in one output texel).
+struct Chunk {
+  int first_row = 0, end_row = 0;
+  std::vector<std::size_t> cells;  // output texel of each run
+  std::vector<double> sums;        // per run: C flux-weighted channel sums, then the weight
+};
+
 template <class Real>
 void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const SolidAngleTable& src_omega,
                            const SolidAngleTable& dst_omega, const std::vector<std::size_t>& hot,
@@ -84,102 +93,112 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
       }
     });
   }
-
-  // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
-  using Accumulator = std::vector<Real, HugePageAllocator<Real>>;
-  const int stride = C + 1;
-  const std::size_t out_texels = std::size_t(DW) * std::size_t(DH);
-  const int blocks = (H + kRowsPerBlock - 1) / kRowsPerBlock;
-  std::vector<Accumulator> acc(kAccumulators);
   // Lat-long texels of a row share one solid angle but the first and last of a corner-sampled grid.
   const bool omega_per_row = dynamic_cast<const LatLongMap*>(&sp) != nullptr && W > 2;
+  const int stride = C + 1;
 
-  tbb::parallel_for(0, kAccumulators, 1, [&](int k) {
-    Accumulator& sum = acc[k];
-    sum.assign(out_texels * stride, Real(0));
+  // Stage 2 of the pipeline: project a chunk's texels and spread each one's flux over the output texels its
+  // square overlaps, as runs.
+  const auto project = [&](Chunk& chunk) {
     double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
-    // Consecutive source texels mostly land in the same output texel (a whole polar row can): their contributions
-    // are summed in double here and reach the accumulator once per run, which keeps float accumulators exact
-    // enough and saves scattered writes.
-    std::vector<double> pending(stride, 0.0);
-    std::size_t pending_cell = std::size_t(-1);
-    const auto flush = [&] {
-      if (pending_cell == std::size_t(-1)) return;
-      Real* cell = sum.data() + pending_cell * stride;
-      for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(pending[c]);
-      std::fill(pending.begin(), pending.end(), 0.0);
-      pending_cell = std::size_t(-1);
-    };
-    for (int block = k; block < blocks; block += kAccumulators) {
-      const int j_end = std::min(H, (block + 1) * kRowsPerBlock);
-      for (int j = block * kRowsPerBlock; j < j_end; ++j) {
-        // Hot texels (splatted exactly afterwards) still give their weight here, with zero colour.
-        auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
-        const double row_omega = omega_per_row ? src_omega(1, j) : 0.0;
-        for (int i = 0; i < W; ++i) {
-          const std::size_t index = std::size_t(j) * W + i;
-          const bool is_hot = next_hot != hot.end() && *next_hot == index;
-          if (is_hot) ++next_hot;
-          const double omega_s = omega_per_row && i > 0 && i < W - 1 ? row_omega : src_omega(i, j);
-          Vec3 d;
-          if (omega_s <= 0.0 || !directions.centre(i, j, d)) continue;
-          const double root_omega_s = std::sqrt(omega_s);
-          const Vec2 p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
-          const int ti = std::clamp(static_cast<int>(p.x), 0, DW - 1);
-          const int tj = std::clamp(static_cast<int>(p.y), 0, DH - 1);
-          // The source texel's square, sqrt(omega_s) on a side, in output pixels.
-          double width, height;
-          if (!row_scales.x.empty()) {
-            width = std::min(root_omega_s * row_scales.x[tj], kMaxSideInTexels);
-            height = std::min(root_omega_s * row_scales.y[tj], kMaxSideInTexels);
-          } else {
-            const double inverse = inverse_side[std::size_t(tj) * DW + ti];
-            width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
-          }
-          const float* px = img.pixels.data() + index * C;
-          const auto add = [&](int ci, int cj, double w) {
-            if (!dst.resolve(ti, tj, ci, cj)) return;
-            const std::size_t cell = std::size_t(cj) * DW + ci;
-            if (cell != pending_cell) {
-              flush();
-              pending_cell = cell;
-            }
-            for (int c = 0; c < C; ++c)
-              if (!is_hot || c == img.alpha_channel) pending[c] += w * px[c];
-            pending[C] += w;
-          };
-          const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
-          if (x0 >= ti && y0 >= tj && x0 + width <= ti + 1 && y0 + height <= tj + 1) {
-            add(ti, tj, omega_s);  // the common case: the square lies inside one output texel
-            continue;
-          }
-          int nx, ny;
-          const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
-          for (int b = 0; b < ny; ++b)
-            for (int a = 0; a < nx; ++a)
-              if (fx[a] * fy[b] > 0.0) add(cx + a, cy + b, omega_s * fx[a] * fy[b]);
+    std::size_t run_cell = std::size_t(-1);
+    double* run = nullptr;
+    for (int j = chunk.first_row; j < chunk.end_row; ++j) {
+      // Hot texels (splatted exactly afterwards) still give their weight here, with zero colour.
+      auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
+      const double row_omega = omega_per_row ? src_omega(1, j) : 0.0;
+      for (int i = 0; i < W; ++i) {
+        const std::size_t index = std::size_t(j) * W + i;
+        const bool is_hot = next_hot != hot.end() && *next_hot == index;
+        if (is_hot) ++next_hot;
+        const double omega_s = omega_per_row && i > 0 && i < W - 1 ? row_omega : src_omega(i, j);
+        Vec3 d;
+        if (omega_s <= 0.0 || !directions.centre(i, j, d)) continue;
+        const double root_omega_s = std::sqrt(omega_s);
+        const Vec2 p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
+        const int ti = std::clamp(static_cast<int>(p.x), 0, DW - 1);
+        const int tj = std::clamp(static_cast<int>(p.y), 0, DH - 1);
+        // The source texel's square, sqrt(omega_s) on a side, in output pixels (stretched on lat-long rows).
+        double width, height;
+        if (!row_scales.x.empty()) {
+          width = std::min(root_omega_s * row_scales.x[tj], kMaxSideInTexels);
+          height = std::min(root_omega_s * row_scales.y[tj], kMaxSideInTexels);
+        } else {
+          const double inverse = inverse_side[std::size_t(tj) * DW + ti];
+          width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
         }
+        const float* px = img.pixels.data() + index * C;
+        const auto add = [&](int ci, int cj, double w) {
+          if (!dst.resolve(ti, tj, ci, cj)) return;
+          const std::size_t cell = std::size_t(cj) * DW + ci;
+          if (cell != run_cell) {
+            run_cell = cell;
+            chunk.cells.push_back(cell);
+            chunk.sums.resize(chunk.sums.size() + stride, 0.0);
+            run = chunk.sums.data() + chunk.sums.size() - stride;
+          }
+          for (int c = 0; c < C; ++c)
+            if (!is_hot || c == img.alpha_channel) run[c] += w * px[c];
+          run[C] += w;
+        };
+        const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
+        if (x0 >= ti && y0 >= tj && x0 + width <= ti + 1 && y0 + height <= tj + 1) {
+          add(ti, tj, omega_s);  // the common case: the square lies inside one output texel
+          continue;
+        }
+        int nx, ny;
+        const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
+        for (int b = 0; b < ny; ++b)
+          for (int a = 0; a < nx; ++a)
+            if (fx[a] * fy[b] > 0.0) add(cx + a, cy + b, omega_s * fx[a] * fy[b]);
       }
-      flush();
-      progress.add(static_cast<std::size_t>(j_end - block * kRowsPerBlock));
     }
-  });
+  };
+
+  // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
+  std::vector<Real, HugePageAllocator<Real>> sum(std::size_t(DW) * std::size_t(DH) * stride, Real(0));
+  int next_row = 0;
+  const std::size_t tokens = 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
+  tbb::parallel_pipeline(
+      tokens,
+      tbb::make_filter<void, Chunk*>(tbb::filter_mode::serial_in_order,
+                                     [&](tbb::flow_control& fc) -> Chunk* {
+                                       if (next_row >= H) {
+                                         fc.stop();
+                                         return nullptr;
+                                       }
+                                       auto* chunk = new Chunk;
+                                       chunk->first_row = next_row;
+                                       chunk->end_row = next_row = std::min(H, next_row + kRowsPerChunk);
+                                       return chunk;
+                                     }) &
+          tbb::make_filter<Chunk*, Chunk*>(tbb::filter_mode::parallel,
+                                           [&](Chunk* chunk) {
+                                             project(*chunk);
+                                             return chunk;
+                                           }) &
+          tbb::make_filter<Chunk*, void>(tbb::filter_mode::serial_in_order, [&](Chunk* chunk) {
+            const std::unique_ptr<Chunk> owned(chunk);
+            for (std::size_t r = 0; r < chunk->cells.size(); ++r) {
+              Real* cell = sum.data() + chunk->cells[r] * stride;
+              const double* run = chunk->sums.data() + r * stride;
+              for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(run[c]);
+            }
+            progress.add(static_cast<std::size_t>(chunk->end_row - chunk->first_row));
+          }));
 
   // Normalise by the weight each output texel received (a constant map stays exactly constant). An output texel no
   // square reached (possible only where output texels are smaller than source texels) takes the nearest source
   // texel that is not hot.
   const int Co = out.channels;
   tbb::parallel_for(0, DH, [&](int tj) {
-    std::vector<double> value(stride);
     for (int ti = 0; ti < DW; ++ti) {
       if (dst_omega(ti, tj) <= 0.0) continue;
       const std::size_t t = std::size_t(tj) * DW + ti;
-      std::fill(value.begin(), value.end(), 0.0);
-      for (const Accumulator& sum : acc)
-        for (int c = 0; c < stride; ++c) value[c] += sum[t * stride + c];
+      const Real* value = sum.data() + t * stride;
       float* px = out.pixels.data() + t * Co;
-      if (value[C] > 0.0) {
-        for (int c = 0; c < C; ++c) px[c] = static_cast<float>(value[c] / value[C]);
+      if (value[C] > Real(0)) {
+        for (int c = 0; c < C; ++c) px[c] = static_cast<float>(double(value[c]) / double(value[C]));
         continue;
       }
       Vec3 d;
