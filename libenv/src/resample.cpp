@@ -134,7 +134,6 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
     for (int i = 0; i < dst.width(); ++i) {
       const double omega_t = dst_omega(i, j);
       if (omega_t <= 0.0) continue;
-      std::fill(sum.begin(), sum.end(), 0.0);
       double covered_weight = 0.0, total_weight = 0.0;
       Vec3 centre;
       Vec2 pc;
@@ -153,9 +152,23 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
                                      : std::clamp(static_cast<int>(std::ceil(samples / source_size - 1e-9)), 1,
                                                   opt.max_subsamples);
       }
+      if (n == 1 && centre_in_source) {
+        // Magnifying (the common case here): the bilinear reconstruction at the centre, written directly.
+        const int k = source.taps(pc, Filter::Bilinear, taps);
+        if (k > 0) {
+          float* px = out.at(i, j);
+          for (int c = 0; c < C; ++c) {
+            double v = 0.0;
+            for (int t = 0; t < k; ++t) v += double(taps[t].weight) * cold->pixels[taps[t].index * C + c];
+            px[c] = static_cast<float>(v);
+          }
+          if (o.add_coverage) px[o.alpha] = 1.0f;
+          continue;
+        }
+      }
+      std::fill(sum.begin(), sum.end(), 0.0);
       if (n == 1) {
         total_weight = omega_t;
-        if (centre_in_source && add_taps(pc, omega_t)) covered_weight = omega_t;
       } else {
         for (int b = 0; b < n; ++b) {
           for (int a = 0; a < n; ++a) {
