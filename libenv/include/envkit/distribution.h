@@ -59,6 +59,10 @@
 #include <cstdint>
 #include <string>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace envkit {
 
 /// Largest double below 1: every discrete decision uses u clamped to [0, kOneMinusEpsilon]. (Not 1 - 2^-24: with
@@ -79,6 +83,16 @@ struct DistributionSample {
   int y = 0;          ///< row of the texel the sample lies in
 };
 
+/// The texel a Distribution2D chose and the position inside it, before uv is formed: what layers that map texels
+/// themselves (SphericalDistribution) need. sample(u) is exactly {((x + fx) / W, (y + fy) / H), pdf, x, y}.
+struct TexelSample {
+  double fx = 0.0;   ///< offset inside the texel along x, in [0, kTexelOffsetMax]
+  double fy = 0.0;   ///< offset inside the texel along y, in [0, kTexelOffsetMax]
+  double pdf = 0.0;  ///< as DistributionSample::pdf
+  int x = 0;
+  int y = 0;
+};
+
 /// A 2D distribution over the W x H texels of the unit square (see the file comment for conventions).
 /// Implementations are immutable after construction and safe to use from many threads at once.
 class Distribution2D {
@@ -94,6 +108,19 @@ class Distribution2D {
 
   /// Warp u in [0,1)^2 to a sample. Deterministic: identical tables and u give bit-identical results.
   virtual DistributionSample sample(Vec2 u) const = 0;
+
+  /// sample(u) without forming uv: the same texel, pdf and offsets (sample(u).uv = ((x + fx) / W, (y + fy) / H)).
+  /// The built-in distributions compute it directly; this default recovers the offsets from sample(u).uv.
+  virtual TexelSample sample_texel(Vec2 u) const {
+    const DistributionSample s = sample(u);
+    TexelSample t;
+    t.fx = std::clamp(s.uv.x * width_ - s.x, 0.0, kTexelOffsetMax);
+    t.fy = std::clamp(s.uv.y * height_ - s.y, 0.0, kTexelOffsetMax);
+    t.pdf = s.pdf;
+    t.x = s.x;
+    t.y = s.y;
+    return t;
+  }
 
   /// Density w.r.t. uv area at uv: the density of the texel containing uv. uv on the closed square [0,1]^2 is
   /// accepted (1.0 belongs to the last texel, as to_uv() of a pole may return it); 0 outside and for NaN.
@@ -186,11 +213,21 @@ namespace sampling {
 /// Weight as the tables see it: negative, -0 and NaN become 0, +inf becomes FLT_MAX (very bright, but finite).
 inline float sanitize_weight(float w) { return w > 0.0f ? std::min(w, FLT_MAX) : 0.0f; }
 
+/// v clamped to [0, hi]; NaN and -0 -> +0. (SSE2: maxsd returns its second operand when either is NaN, so
+/// max(v, +0) maps NaN, negatives and -0 to +0 without a branch.)
+inline double clamp_unit(double v, double hi) {
+#if defined(__SSE2__)
+  return _mm_cvtsd_f64(_mm_min_sd(_mm_max_sd(_mm_set_sd(v), _mm_setzero_pd()), _mm_set_sd(hi)));
+#else
+  return v > 0.0 ? std::min(v, hi) : 0.0;
+#endif
+}
+
 /// u clamped to [0, kOneMinusEpsilon]; NaN -> 0.
-inline double clamp_decision(double u) { return u > 0.0 ? std::min(u, kOneMinusEpsilon) : 0.0; }
+inline double clamp_decision(double u) { return clamp_unit(u, kOneMinusEpsilon); }
 
 /// Offset inside a texel clamped to [0, kTexelOffsetMax]; NaN -> 0.
-inline double clamp_offset(double f) { return f > 0.0 ? std::min(f, kTexelOffsetMax) : 0.0; }
+inline double clamp_offset(double f) { return clamp_unit(f, kTexelOffsetMax); }
 
 /// Texel index along an axis of n texels for a coordinate t in [0,1]; 1.0 maps to n - 1. The caller checks
 /// the range first.
