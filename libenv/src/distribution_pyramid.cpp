@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace envkit {
 
@@ -16,6 +17,10 @@ using sampling::sanitize_weight;
 
 /// Levels with at least this many nodes are built in parallel (each task writes its own rows of nodes).
 constexpr std::size_t kParallelNodes = std::size_t(1) << 14;
+/// sample() prefetches a level's candidate blocks when the level holds at least this many floats (256 KiB: larger
+/// levels are not expected to stay in L2 between samples; smaller ones would cost the prefetch's instructions for
+/// nothing).
+constexpr std::size_t kPrefetchNodes = std::size_t(1) << 16;
 /// Totals above this are stored scaled down by a power of two, so float node sums cannot overflow.
 constexpr double kMaxStoredTotal = 0x1p120;
 
@@ -47,10 +52,16 @@ std::size_t PyramidDistribution2D::layout_levels() {
   levels_.assign(1, {width_, height_, 0});
   while (levels_.size() == 1 || levels_.back().width > 1 || levels_.back().height > 1)
     levels_.push_back({(levels_.back().width + 1) / 2, (levels_.back().height + 1) / 2, 0});
+  top_level_ = static_cast<int>(levels_.size()) - 1;
   std::size_t size = 0;
+  prefetch_top_ = 0;
   for (int k = 0; k < levels(); ++k) {
     levels_[k].offset = size;
-    size += 4 * std::size_t(levels_[k + 1].width) * std::size_t(levels_[k + 1].height);
+    levels_[k].blocks_per_row = std::size_t(levels_[k + 1].width);
+    const std::size_t nodes = 4 * std::size_t(levels_[k + 1].width) * std::size_t(levels_[k + 1].height);
+    // Reading level k + 1, sample() prefetches level k's candidate blocks when level k is too big to stay cached.
+    if (nodes >= kPrefetchNodes) prefetch_top_ = k + 1;
+    size += nodes;
   }
   return size;
 }
@@ -145,51 +156,16 @@ PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, in
 }
 
 DistributionSample PyramidDistribution2D::sample(Vec2 u) const {
-  double ux = clamp_decision(u.x), uy = clamp_decision(u.y);
-  int i = 0, j = 0;
-  for (int k = levels() - 1; k >= 0; --k) {
-    const float* c = children(k, i, j);
-    if (k > 0) {
-      // The next block is one of the children's blocks: two 32-byte pairs, rows 2j and 2j + 1. Fetching both
-      // now hides the miss behind this level's arithmetic on large maps.
-      __builtin_prefetch(children(k - 1, 2 * i, 2 * j));
-      __builtin_prefetch(children(k - 1, 2 * i, std::min(2 * j + 1, levels_[k].height - 1)));
-    }
-    // Decide by comparing u x sum with the left (top) sum: one division per axis and level, feeding only the
-    // next level. Visited nodes have a positive sum; a zero-sum side is never chosen (u x sum < sum for
-    // u <= kOneMinusEpsilon). (Branch-free and reciprocal variants measured no faster: the branches let the
-    // CPU start the next level's loads before the division resolves.)
-    const double c0 = c[0], c1 = c[1], c2 = c[2], c3 = c[3];
-    const double left = c0 + c2, right = c1 + c3;
-    const double tx = ux * (left + right);
-    int dx;
-    if (tx < left) {
-      dx = 0;
-      ux = clamp_decision(tx / left);
-    } else {
-      dx = 1;
-      ux = clamp_decision((tx - left) / right);
-    }
-    const double top = dx == 0 ? c0 : c1, bottom = dx == 0 ? c2 : c3;
-    const double ty = uy * (top + bottom);
-    int dy;
-    if (ty < top) {
-      dy = 0;
-      uy = clamp_decision(ty / top);
-    } else {
-      dy = 1;
-      uy = clamp_decision((ty - top) / bottom);
-    }
-    i = 2 * i + dx;
-    j = 2 * j + dy;
-  }
+  const TexelSample t = pick(u);
   DistributionSample s;
-  s.uv = Vec2((i + clamp_offset(ux)) / width_, (j + clamp_offset(uy)) / height_);
-  s.pdf = leaf(i, j) * pdf_scale_;
-  s.x = i;
-  s.y = j;
+  s.uv = Vec2((t.x + t.fx) / width_, (t.y + t.fy) / height_);
+  s.pdf = t.pdf;
+  s.x = t.x;
+  s.y = t.y;
   return s;
 }
+
+TexelSample PyramidDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
 
 double PyramidDistribution2D::pdf(Vec2 uv) const {
   if (!sampling::in_unit_square(uv)) return 0.0;
