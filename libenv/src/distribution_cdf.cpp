@@ -17,53 +17,7 @@ using sampling::sanitize_weight;
 /// Grids with at least this many texels build their rows in parallel.
 constexpr std::size_t kParallelTexels = std::size_t(1) << 16;
 
-/// Read-only view of a two-sided CDF of n bins: t[0..n], entries below `split` hold cdf[i], entries from `split`
-/// on hold 1 - cdf[i] (see distribution_cdf.h). Bin i is [lower(i), lower(i+1)) in u.
-struct TwoSidedCdf {
-  const float* t;
-  int n;
-  int split;
-
-  /// Bin probability, computed in double from the two stored floats (exact except at the junction bin, where
-  /// 1 - t may round by 2^-53).
-  double step(int i) const {
-    if (i + 1 < split) return double(t[i + 1]) - double(t[i]);
-    if (i >= split) return double(t[i]) - double(t[i + 1]);
-    return (1.0 - double(t[i + 1])) - double(t[i]);
-  }
-
-  /// u at the start of bin i.
-  double lower(int i) const { return i < split ? double(t[i]) : 1.0 - double(t[i]); }
-
-  /// The bin containing u (u in [0, kOneMinusEpsilon]) and the fraction of the bin before u. Never returns a
-  /// zero-step bin: with lower(i) <= u < lower(i+1) the step is positive.
-  int find(double u, double& fraction, double& bin_step) const {
-    int i;
-    // For u >= 1/2, r = 1 - u is exact (Sterbenz), so comparisons with the stored remaining mass are exact too.
-    const double r = 1.0 - u;
-    if (u < 0.5 || double(t[split]) < r) {
-      // Bin in the forward part: the last entry <= u among t[0..split) (t[0] = 0 <= u).
-      // (std::upper_bound measured faster than a branch-free search: speculation prefetches the next probe.)
-      const float* p = std::upper_bound(t, t + split, u, [](double v, float e) { return v < double(e); });
-      i = static_cast<int>(p - t) - 1;
-      bin_step = step(i);
-      fraction = (u - double(t[i])) / bin_step;
-    } else {
-      // Bin in the backward part: t decreases there; the last entry with remaining mass >= r. t[n] = 0 < r.
-      const float* p = std::partition_point(t + split, t + n, [r](float e) { return double(e) >= r; });
-      i = static_cast<int>(p - t) - 1;
-      bin_step = step(i);
-      fraction = (double(t[i]) - r) / bin_step;
-    }
-    return i;
-  }
-
-  /// The u at fraction f of bin i.
-  double invert(int i, double f) const {
-    const double s = step(i);
-    return i < split ? double(t[i]) + f * s : 1.0 - (double(t[i]) - f * s);
-  }
-};
+using detail::TwoSidedCdf;
 
 struct CdfBuild {
   double sum = 0.0;             // sum of the (sanitised) weights, double
@@ -225,20 +179,16 @@ void CdfDistribution2D::save(BlobWriter& out) const {
 }
 
 DistributionSample CdfDistribution2D::sample(Vec2 u) const {
-  const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
-  double fy, step_y;
-  const int y = marginal.find(clamp_decision(u.y), fy, step_y);
-  const TwoSidedCdf row{conditional_.data() + std::size_t(y) * (std::size_t(width_) + 1), width_, row_split_[y]};
-  double fx, step_x;
-  const int x = row.find(clamp_decision(u.x), fx, step_x);
-
+  const TexelSample t = pick(u);
   DistributionSample s;
-  s.uv = Vec2((x + clamp_offset(fx)) / width_, (y + clamp_offset(fy)) / height_);
-  s.pdf = (step_y * height_) * (step_x * width_);
-  s.x = x;
-  s.y = y;
+  s.uv = Vec2((t.x + t.fx) / width_, (t.y + t.fy) / height_);
+  s.pdf = t.pdf;
+  s.x = t.x;
+  s.y = t.y;
   return s;
 }
+
+TexelSample CdfDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
 
 double CdfDistribution2D::texel_probability(int x, int y) const {
   if (x < 0 || x >= width_ || y < 0 || y >= height_) return 0.0;

@@ -27,11 +27,64 @@
 /// bin the position is linear in u (continuous inversion), so invert() is exact.
 #include <envkit/distribution.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
 
 namespace envkit {
+
+namespace detail {
+
+/// Read-only view of a two-sided CDF of n bins: t[0..n], entries below `split` hold cdf[i], entries from `split`
+/// on hold 1 - cdf[i] (see distribution_cdf.h). Bin i is [lower(i), lower(i+1)) in u.
+struct TwoSidedCdf {
+  const float* t;
+  int n;
+  int split;
+
+  /// Bin probability, computed in double from the two stored floats (exact except at the junction bin, where
+  /// 1 - t may round by 2^-53).
+  double step(int i) const {
+    if (i + 1 < split) return double(t[i + 1]) - double(t[i]);
+    if (i >= split) return double(t[i]) - double(t[i + 1]);
+    return (1.0 - double(t[i + 1])) - double(t[i]);
+  }
+
+  /// u at the start of bin i.
+  double lower(int i) const { return i < split ? double(t[i]) : 1.0 - double(t[i]); }
+
+  /// The bin containing u (u in [0, kOneMinusEpsilon]) and the fraction of the bin before u. Never returns a
+  /// zero-step bin: with lower(i) <= u < lower(i+1) the step is positive.
+  int find(double u, double& fraction, double& bin_step) const {
+    int i;
+    // For u >= 1/2, r = 1 - u is exact (Sterbenz), so comparisons with the stored remaining mass are exact too.
+    const double r = 1.0 - u;
+    if (u < 0.5 || double(t[split]) < r) {
+      // Bin in the forward part: the last entry <= u among t[0..split) (t[0] = 0 <= u).
+      // (std::upper_bound measured faster than a branch-free search: speculation prefetches the next probe.)
+      const float* p = std::upper_bound(t, t + split, u, [](double v, float e) { return v < double(e); });
+      i = static_cast<int>(p - t) - 1;
+      bin_step = step(i);
+      fraction = (u - double(t[i])) / bin_step;
+    } else {
+      // Bin in the backward part: t decreases there; the last entry with remaining mass >= r. t[n] = 0 < r.
+      const float* p = std::partition_point(t + split, t + n, [r](float e) { return double(e) >= r; });
+      i = static_cast<int>(p - t) - 1;
+      bin_step = step(i);
+      fraction = (double(t[i]) - r) / bin_step;
+    }
+    return i;
+  }
+
+  /// The u at fraction f of bin i.
+  double invert(int i, double f) const {
+    const double s = step(i);
+    return i < split ? double(t[i]) + f * s : 1.0 - (double(t[i]) - f * s);
+  }
+};
+
+}  // namespace detail
 
 /// A piecewise-constant density on [0,1) with n equal bins, bin i = [i/n, (i+1)/n) with weight w[i].
 class PiecewiseConstant1D {
@@ -81,11 +134,15 @@ class CdfDistribution2D final : public Distribution2D {
 
   const char* method() const override { return "cdf"; }
   DistributionSample sample(Vec2 u) const override;
+  TexelSample sample_texel(Vec2 u) const override;
   double pdf(Vec2 uv) const override;
   double texel_probability(int x, int y) const override;
   bool can_invert() const override { return true; }
   Vec2 invert(Vec2 uv) const override;
   std::size_t bytes() const override;
+
+  /// sample_texel() as an inline, non-virtual call, for callers that know the class (SphericalDistribution).
+  TexelSample pick(Vec2 u) const;
 
  private:
   TableArray<float> conditional_;          // H rows of W + 1 two-sided entries
@@ -93,5 +150,22 @@ class CdfDistribution2D final : public Distribution2D {
   TableArray<float> marginal_;             // H + 1 two-sided entries
   int marginal_split_ = 0;
 };
+
+[[gnu::always_inline]] inline TexelSample CdfDistribution2D::pick(Vec2 u) const {
+  const detail::TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
+  double fy, step_y;
+  const int y = marginal.find(sampling::clamp_decision(u.y), fy, step_y);
+  const detail::TwoSidedCdf row{conditional_.data() + std::size_t(y) * (std::size_t(width_) + 1), width_,
+                                row_split_[y]};
+  double fx, step_x;
+  const int x = row.find(sampling::clamp_decision(u.x), fx, step_x);
+  TexelSample t;
+  t.fx = sampling::clamp_offset(fx);
+  t.fy = sampling::clamp_offset(fy);
+  t.pdf = (step_y * height_) * (step_x * width_);
+  t.x = x;
+  t.y = y;
+  return t;
+}
 
 }  // namespace envkit
