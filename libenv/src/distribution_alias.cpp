@@ -11,6 +11,8 @@ namespace envkit {
 
 namespace {
 
+using detail::alias_candidate;
+using detail::alias_keep;
 using sampling::clamp_decision;
 using sampling::clamp_offset;
 using sampling::sanitize_weight;
@@ -83,34 +85,13 @@ void make_uniform(int n, Bin* bins) {
   }
 }
 
-/// The alias step shared by 1D and 2D: u (clamped) in [0,1) over n bins -> chosen bin and the uniform fraction
-/// left over for the position inside it.
-template <class Bin>
-int alias_pick(const Bin* bins, int n, double u, double& offset) {
-  const double s = clamp_decision(u) * n;
-  const int candidate = std::min(static_cast<int>(s), n - 1);
-  const double coin = clamp_decision(s - candidate);
-  const float stored = bins[candidate].keep;
-  if (!std::signbit(stored)) {  // q = stored <= 1/2 (q = +0: never keep)
-    const double q = stored;
-    if (coin < q) {
-      offset = clamp_offset(coin / q);
-      return candidate;
-    }
-    offset = clamp_offset((coin - q) / (1.0 - q));
-  } else {  // r = 1 - q = -stored < 1/2 (r = 0: always keep). coin < 1 - r <=> 1 - coin > r, and 1 - coin is
-            // exact whenever it matters (coin >= 1/2), so tiny donations r are resolved exactly.
-    const double r = -double(stored), rest = 1.0 - coin;
-    if (rest > r) {
-      offset = clamp_offset(coin / (1.0 - r));
-      return candidate;
-    }
-    offset = clamp_offset((r - rest) / r);
-  }
-  return static_cast<int>(bins[candidate].alias);
+/// Copies each bin's alias weight from the bin it names (after the weights and aliases are final).
+void fill_alias_weights(AliasBin* bins, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) bins[i].alias_weight = bins[bins[i].alias].weight;
 }
 
-/// Probability alias_pick() returns bin i: its own keep share plus every donation aimed at it, over n. O(n).
+/// Probability an alias step (detail::alias_keep) returns bin i: its own keep share plus every donation aimed at
+/// it, over n. O(n).
 template <class Bin>
 double alias_probability(const Bin* bins, int n, int i) {
   double p = keep_share(bins[i].keep);
@@ -139,21 +120,25 @@ AliasTable1D::AliasTable1D(std::span<const float> weights) {
   uniform_fallback_ = !(sum > 0.0);
   if (uniform_fallback_) {
     make_uniform(n, bins_.data());
-    for (AliasBin& b : bins_) b.weight = 1.0f;
+    for (AliasBin& b : bins_) b.weight = b.alias_weight = 1.0f;
     pdf_scale_ = 1.0;
     return;
   }
   std::vector<double> scaled(weights.size());
   std::vector<std::uint32_t> work(weights.size());
   build_vose(n, [&](int i) { return double(bins_[i].weight); }, sum, bins_.data(), scaled.data(), work.data());
+  fill_alias_weights(bins_.data(), bins_.size());
   pdf_scale_ = n / sum;
 }
 
 AliasTable1D::Sample AliasTable1D::sample(double u) const {
   const int n = size();
-  double offset;
-  const int i = alias_pick(bins_.data(), n, u, offset);
-  return {(i + offset) / n, bins_[i].weight * pdf_scale_, i};
+  double coin, offset;
+  const std::uint32_t candidate = alias_candidate(clamp_decision(u), n, coin);
+  const AliasBin& bin = bins_[candidate];
+  const bool keep = alias_keep(bin, coin, offset);
+  const int i = static_cast<int>(keep ? candidate : bin.alias);
+  return {(i + offset) / n, (keep ? bin.weight : bin.alias_weight) * pdf_scale_, i};
 }
 
 double AliasTable1D::pdf(double x) const {
@@ -171,11 +156,14 @@ double AliasTable1D::bin_probability(int i) const {
 
 AliasDistribution2D::AliasDistribution2D(BlobReader& in) : Distribution2D(in) {
   const std::size_t W = std::size_t(width_), H = std::size_t(height_);
+  pdf_scale_ = in.scalar<double>();
   texels_ = in.table<AliasBin>(W * H);
   rows_ = in.table<RowBin>(H);
-  pdf_scale_ = in.scalar<double>();
   in.finish();
-  // One pass over the aliases: a corrupt index would read outside the table.
+  width_f_ = width_;
+  height_f_ = height_;
+  // One pass over the aliases: a corrupt index would read outside the table. (keep and alias_weight are not
+  // re-checked: wrong values change probabilities, not memory safety, and the section checksums catch corruption.)
   const bool texels_ok =
       std::all_of(texels_.begin(), texels_.end(), [W](const AliasBin& b) { return b.alias < W; });
   const bool rows_ok = std::all_of(rows_.begin(), rows_.end(), [H](const RowBin& b) { return b.alias < H; });
@@ -184,13 +172,13 @@ AliasDistribution2D::AliasDistribution2D(BlobReader& in) : Distribution2D(in) {
 
 void AliasDistribution2D::save(BlobWriter& out) const {
   save_base(out);
+  out.scalar<double>(pdf_scale_);  // first: puts the texel bins at blob offset 64, one bin per 16-byte slot of a line
   out.array(texels_);
   out.array(rows_);
-  out.scalar<double>(pdf_scale_);
 }
 
 AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int height)
-    : Distribution2D(weights, width, height) {
+    : Distribution2D(weights, width, height), width_f_(width), height_f_(height) {
   const std::size_t W = std::size_t(width), H = std::size_t(height);
   texels_.resize(W * H);
   rows_.resize(H);
@@ -212,6 +200,7 @@ AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int he
         build_vose(width, [bins](int x) { return double(bins[x].weight); }, sum, bins, scaled.data(), work.data());
       else
         make_uniform(width, bins);  // never drawn (zero marginal) unless the whole map is zero
+      fill_alias_weights(bins, W);
     }
   };
   if (W * H >= kParallelTexels)
@@ -229,7 +218,7 @@ AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int he
   uniform_fallback_ = !(sum > 0.0);
   if (uniform_fallback_) {
     make_uniform(height, rows_.data());
-    for (AliasBin& b : texels_) b.weight = 1.0f;
+    for (AliasBin& b : texels_) b.weight = b.alias_weight = 1.0f;
     pdf_scale_ = 1.0;
     return;
   }
@@ -240,17 +229,16 @@ AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int he
 }
 
 DistributionSample AliasDistribution2D::sample(Vec2 u) const {
-  double oy, ox;
-  const int y = alias_pick(rows_.data(), height_, u.y, oy);
-  const AliasBin* row = texels_.data() + std::size_t(y) * std::size_t(width_);
-  const int x = alias_pick(row, width_, u.x, ox);
+  const TexelSample t = pick(u);
   DistributionSample s;
-  s.uv = Vec2((x + ox) / width_, (y + oy) / height_);
-  s.pdf = row[x].weight * pdf_scale_;
-  s.x = x;
-  s.y = y;
+  s.uv = Vec2((t.x + t.fx) / width_f_, (t.y + t.fy) / height_f_);
+  s.pdf = t.pdf;
+  s.x = t.x;
+  s.y = t.y;
   return s;
 }
+
+TexelSample AliasDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
 
 double AliasDistribution2D::pdf(Vec2 uv) const {
   if (!sampling::in_unit_square(uv)) return 0.0;

@@ -26,7 +26,8 @@
 /// - AliasDistribution2D (distribution_alias.h): Walker/Vose alias tables, marginal over rows + one per row.
 ///   O(1) per sample whatever the size, the fastest with plain random numbers on large maps, but the mapping from
 ///   u to texels is discontinuous everywhere (neighbouring u go to unrelated texels): it destroys stratification,
-///   so low-discrepancy sequences gain nothing. Not invertible. Largest tables (12 bytes/texel).
+///   so low-discrepancy sequences gain nothing. Not invertible. Largest tables (16 bytes/texel: one aligned
+///   entry per column pick, which also holds the alias's weight).
 /// - PyramidDistribution2D (distribution_pyramid.h): sum pyramid with hierarchical sample warping (Clarberg et
 ///   al. 2005). The warp is continuous inside every quadtree cell, so it preserves the stratification of Sobol
 ///   or other low-discrepancy points best (lowest variance per sample with QMC), and it is the structure that

@@ -47,7 +47,7 @@ const char* importance_name(ImportanceMode mode);
 ImportanceMode parse_importance(const std::string& name);  ///< throws Error for an unknown name
 
 /// Format version written by this build; files with another version are refused.
-inline constexpr std::uint32_t kTableFormatVersion = 1;
+inline constexpr std::uint32_t kTableFormatVersion = 2;
 
 struct BakeOptions {
   ImportanceMode importance = ImportanceMode::Luminance;
