@@ -1,9 +1,16 @@
 #include <envkit/env_sampling.h>
+#include <envkit/distribution_alias.h>
+#include <envkit/distribution_cdf.h>
+#include <envkit/distribution_pyramid.h>
 #include <envkit/latlong.h>
 #include <envkit/octahedral.h>
 
 #include <algorithm>
 #include <cmath>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace envkit {
 
@@ -30,14 +37,21 @@ bool finite_nonzero(const Vec3& d) {
   return std::isfinite(n2) && n2 > 0.0;
 }
 
+/// The longitude table has at least this many steps (each 2 pi / N wide, N >= kMinLongitudeSteps): the angle d
+/// inside a step is then at most 2 pi / 2048 = 3.1e-3, where sin d = d - d^3/6 + d^5/120 and
+/// cos d = 1 - d^2/2 + d^4/24 are exact to 1e-18 (the next terms, d^7/5040 and d^6/720), far below an ulp.
+constexpr int kMinLongitudeSteps = 2048;
+
 }  // namespace
 
 SphericalDistribution::RowBand SphericalDistribution::row_band(int j, int height) {
   const double theta0 = kPi * double(j) / height, theta1 = kPi * double(j + 1) / height;
   RowBand band;
   band.span = 2.0 * std::sin(0.5 * (theta1 + theta0)) * std::sin(0.5 * (theta1 - theta0));
-  band.north = 2 * j + 1 <= height;  // the row's centre is at or above the equator
-  if (band.north) {
+  const bool north = 2 * j + 1 <= height;  // the row's centre is at or above the equator
+  band.g0 = north ? 0.0 : 1.0;
+  band.gs = north ? 1.0 : -1.0;
+  if (north) {
     const double s = std::sin(0.5 * theta0);
     band.start = 2.0 * s * s;
   } else {
@@ -56,9 +70,42 @@ SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Di
   if (grid_ == Kind::Octahedral && width() != height())
     throw Error("spherical distribution: an octahedral grid must be square, got " + std::to_string(width()) + "x" +
                 std::to_string(height()));
+  const double W = width(), H = height();
+  octahedral_pdf_factor_ = 1.0 / (W * H * (kFourPi / (W * H)));
   if (grid_ == Kind::LatLong) {
     rows_.resize(std::size_t(height()));
-    for (int y = 0; y < height(); ++y) rows_[std::size_t(y)] = row_band(y, height());
+    for (int y = 0; y < height(); ++y) {
+      RowBand& band = rows_[std::size_t(y)];
+      band = row_band(y, height());
+      band.pdf_factor = 1.0 / (W * H * ((kTwoPi / W) * band.span));
+    }
+    longitude_substeps_ = (kMinLongitudeSteps + width() - 1) / width();
+    const std::size_t steps = std::size_t(width()) * std::size_t(longitude_substeps_);
+    const double step = kTwoPi / double(steps), step2 = step * step;
+    sin_poly_[0] = step;
+    sin_poly_[1] = -step * step2 / 6.0;
+    sin_poly_[2] = step * step2 * step2 / 120.0;
+    cos_poly_[0] = -step2 / 2.0;
+    cos_poly_[1] = step2 * step2 / 24.0;
+    longitudes_.resize(steps + 1);
+    for (std::size_t k = 0; k <= steps; ++k) {
+      const double a = kTwoPi * (double(k) / double(steps));
+      longitudes_[k] = {std::sin(a), -std::cos(a)};
+    }
+  }
+  // Lat-long grids with a built-in distribution get a sampler with its texel choice (pick(): the classes are
+  // final, so it is what their sample_texel() returns) and the direction inlined, without a virtual call.
+  const Distribution2D* d = distribution_.get();
+  if (grid_ == Kind::LatLong) {
+    const auto choose = [&]<bool kOneStep>() {
+      if (dynamic_cast<const CdfDistribution2D*>(d)) sample_ = &sample_latlong<CdfDistribution2D, kOneStep>;
+      if (dynamic_cast<const AliasDistribution2D*>(d)) sample_ = &sample_latlong<AliasDistribution2D, kOneStep>;
+      if (dynamic_cast<const PyramidDistribution2D*>(d)) sample_ = &sample_latlong<PyramidDistribution2D, kOneStep>;
+    };
+    if (longitude_substeps_ == 1)
+      choose.template operator()<true>();
+    else
+      choose.template operator()<false>();
   }
 }
 
@@ -69,20 +116,50 @@ double SphericalDistribution::texel_solid_angle(int x, int y) const {
   return (kTwoPi / W) * rows_[std::size_t(std::clamp(y, 0, height() - 1))].span;
 }
 
+template <bool kOneStep>
+[[gnu::always_inline]] inline Vec3 SphericalDistribution::latlong_direction(const RowBand& band, int x, double fx,
+                                                                           double fy) const {
+  // Uniform in solid angle inside the row: cos theta linear in fy. from_pole is in [0, 2): every term is >= 0, and
+  // it stays within rounding of the row's far edge, 1 - cos theta1 <= 1 + sin(pi / 2H) (north) or
+  // 1 + cos theta0 < that (south): at most 1.5 for H >= 2. A single row (H = 1) has start 0 and span exactly 2,
+  // so from_pole = 2 fy < 2. Hence from_pole (2 - from_pole) >= 0 and the square root needs no check (the SSE2
+  // square root also skips the errno path of std::sqrt).
+  const double from_pole = band.start + (band.g0 + band.gs * fy) * band.span;
+  const double sin2 = from_pole * (2.0 - from_pole);
+#if defined(__SSE2__)
+  const double sin_theta = _mm_cvtsd_f64(_mm_sqrt_pd(_mm_set1_pd(sin2)));
+#else
+  const double sin_theta = std::sqrt(sin2);
+#endif
+  const double cos_theta = band.gs * (1.0 - from_pole);
+  // Longitude lon = pi - a, a = 2 pi (x + fx) / W, linear in fx: a = a_k + d with a_k from the table and d inside
+  // one step (see kMinLongitudeSteps), sin a and cos a by angle addition. No trigonometric call per sample.
+  std::size_t k = std::size_t(x);
+  double f = fx;
+  if (!kOneStep && longitude_substeps_ != 1) {
+    const double t = fx * longitude_substeps_;  // < longitude_substeps_: fx <= 1 - 2^-24
+    const int q = static_cast<int>(t);
+    k = k * std::size_t(longitude_substeps_) + std::size_t(q);
+    f = t - q;
+  }
+  // d = f x step: sin d = d - d^3/6 + d^5/120, cos d = 1 - d^2/2 + d^4/24 as polynomials in f.
+  const double f2 = f * f;
+  const double sin_d = f * (sin_poly_[0] + f2 * (sin_poly_[1] + f2 * sin_poly_[2]));
+  const double cos_d = 1.0 + f2 * (cos_poly_[0] + f2 * cos_poly_[1]);
+  // lon = pi - a: sin lon = sin a, cos lon = -cos a (the table holds -cos a_k).
+  const Longitude& l = longitudes_[k];
+  const double sin_lon = l.sin_a * cos_d - l.minus_cos_a * sin_d;
+  const double cos_lon = l.minus_cos_a * cos_d + l.sin_a * sin_d;
+  return Vec3(sin_lon * sin_theta, cos_theta, cos_lon * sin_theta);
+}
+
 Vec3 SphericalDistribution::direction_in_texel(int x, int y, double fx, double fy) const {
   const double W = width();
   if (grid_ == Kind::Octahedral) {
     const Vec3 o = OctahedralMap::square_to_sphere(Vec2((x + fx) / W, (y + fy) / W));
     return Vec3(o.y, o.z, o.x);  // octahedron coordinates (x_o, y_o, z_o) = (Z, X, Y), as OctahedralMap
   }
-  const double lon = kPi - kTwoPi * ((x + fx) / W);
-  const RowBand& band = rows_[std::size_t(y)];
-  // Uniform in solid angle inside the row: cos theta linear in fy.
-  double from_pole = band.north ? band.start + fy * band.span : band.start + (1.0 - fy) * band.span;
-  from_pole = std::clamp(from_pole, 0.0, 2.0);
-  const double sin_theta = std::sqrt(std::max(0.0, from_pole * (2.0 - from_pole)));
-  const double cos_theta = band.north ? 1.0 - from_pole : from_pole - 1.0;
-  return Vec3(std::sin(lon) * sin_theta, cos_theta, std::cos(lon) * sin_theta);
+  return latlong_direction<false>(rows_[std::size_t(y)], x, fx, fy);
 }
 
 void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double& fx, double& fy) const {
@@ -104,11 +181,12 @@ void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double
   const double theta = std::atan2(horizontal, d.y);
   y = std::clamp(int(theta / kPi * H), 0, H - 1);
   const RowBand& band = rows_[std::size_t(y)];
+  const bool north = band.north();
   // Distance from the nearer pole, 1 -+ cos theta, without cancellation: h^2 / (1 +- cos theta).
-  const double from_pole = band.north ? (d.y > 0.0 ? horizontal * horizontal / (1.0 + d.y) : 1.0 - d.y)
-                                      : (d.y < 0.0 ? horizontal * horizontal / (1.0 - d.y) : 1.0 + d.y);
+  const double from_pole = north ? (d.y > 0.0 ? horizontal * horizontal / (1.0 + d.y) : 1.0 - d.y)
+                                 : (d.y < 0.0 ? horizontal * horizontal / (1.0 - d.y) : 1.0 + d.y);
   const double t = (from_pole - band.start) / band.span;
-  fy = std::clamp(band.north ? t : 1.0 - t, 0.0, 1.0);
+  fy = std::clamp(north ? t : 1.0 - t, 0.0, 1.0);
 }
 
 void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) const {
@@ -116,16 +194,21 @@ void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) cons
   locate(direction, x, y, fx, fy);
 }
 
-DirectionSample SphericalDistribution::sample(Vec2 u) const {
-  const DistributionSample s = distribution_->sample(u);
-  const double fx = sampling::clamp_offset(s.uv.x * width() - s.x);
-  const double fy = sampling::clamp_offset(s.uv.y * height() - s.y);
-  DirectionSample out;
-  out.x = s.x;
-  out.y = s.y;
-  out.direction = direction_in_texel(s.x, s.y, fx, fy);
-  out.pdf = s.pdf / (double(width()) * double(height()) * texel_solid_angle(s.x, s.y));
-  return out;
+template <class D, bool kOneStep>
+DirectionSample SphericalDistribution::sample_latlong(const SphericalDistribution& s, const Vec2& u) {
+  const TexelSample t = static_cast<const D&>(*s.distribution_).pick(u);
+  const RowBand& band = s.rows_[std::size_t(t.y)];
+  // pdf: the same product as pdf(direction).
+  return DirectionSample{s.latlong_direction<kOneStep>(band, t.x, t.fx, t.fy), t.pdf * band.pdf_factor, t.x, t.y};
+}
+
+DirectionSample SphericalDistribution::sample_general(const SphericalDistribution& s, const Vec2& u) {
+  const TexelSample t = s.distribution_->sample_texel(u);
+  if (s.grid_ == Kind::LatLong) {
+    const RowBand& band = s.rows_[std::size_t(t.y)];
+    return DirectionSample{s.latlong_direction<false>(band, t.x, t.fx, t.fy), t.pdf * band.pdf_factor, t.x, t.y};
+  }
+  return DirectionSample{s.direction_in_texel(t.x, t.y, t.fx, t.fy), t.pdf * s.octahedral_pdf_factor_, t.x, t.y};
 }
 
 double SphericalDistribution::pdf(const Vec3& direction) const {
@@ -133,7 +216,8 @@ double SphericalDistribution::pdf(const Vec3& direction) const {
   int x = 0, y = 0;
   texel_of(direction, x, y);
   const Vec2 centre((x + 0.5) / width(), (y + 0.5) / height());
-  return distribution_->pdf(centre) / (double(width()) * double(height()) * texel_solid_angle(x, y));
+  const double factor = grid_ == Kind::LatLong ? rows_[std::size_t(y)].pdf_factor : octahedral_pdf_factor_;
+  return distribution_->pdf(centre) * factor;
 }
 
 Vec2 SphericalDistribution::invert(const Vec3& direction) const {

@@ -19,6 +19,10 @@
 /// importance is 0. Radiance looked up with the nearest texel of the bake grid makes L / pdf constant inside a
 /// texel.
 ///
+/// Cost: on lat-long grids sample() runs no trigonometric function (per-row cos theta bounds, a longitude table
+/// of sin/cos with an angle addition inside the step, see env_sampling.cpp), and the built-in distributions'
+/// texel choice is inlined into it (one indirect call per sample, chosen at construction).
+///
 /// u: any value is accepted and clamped to [0, 1) at every level (see distribution.h). Thread-safe, immutable.
 #include <envkit/distribution.h>
 #include <envkit/parameterization.h>
@@ -56,7 +60,7 @@ class SphericalDistribution {
   SphericalDistribution(Kind grid, std::shared_ptr<const Distribution2D> distribution);
 
   /// Warp u in [0,1)^2 to a direction.
-  DirectionSample sample(Vec2 u) const;
+  DirectionSample sample(Vec2 u) const { return sample_(*this, u); }
   /// Density per steradian at direction (need not be normalised; 0 for a zero or NaN vector).
   double pdf(const Vec3& direction) const;
   bool can_invert() const { return distribution_->can_invert(); }
@@ -85,16 +89,47 @@ class SphericalDistribution {
 
   /// A lat-long row measured from its nearer pole (full precision near the poles, where cos theta is within an
   /// ulp of +-1): start = 1 - cos theta0 (north) or 1 + cos theta1 (south), span = cos theta0 - cos theta1.
-  struct RowBand {
+  /// At offset fy the distance from the pole is start + (g0 + gs fy) span (fy north, 1 - fy south) and
+  /// cos theta = gs (1 - that distance). pdf_factor = 1 / (W H texel solid angle): pdf per steradian over pdf_uv.
+  /// One cache line per row.
+  struct alignas(64) RowBand {
     double start = 0.0;
     double span = 0.0;
-    bool north = true;
+    double pdf_factor = 0.0;
+    double g0 = 0.0;  // 0 north, 1 south
+    double gs = 1.0;  // +1 north, -1 south
+    bool north() const { return gs > 0.0; }
   };
   static RowBand row_band(int y, int height);
 
+  /// sin a and -cos a of the angle a = 2 pi k / N at the start of step k of the longitude table
+  /// (lon = pi - a: sin lon = sin a, cos lon = -cos a).
+  struct Longitude {
+    double sin_a = 0.0;
+    double minus_cos_a = -1.0;
+  };
+  /// kOneStep: the longitude table has one step per column (W >= 2048), else longitude_substeps_ per column.
+  template <bool kOneStep>
+  Vec3 latlong_direction(const RowBand& band, int x, double fx, double fy) const;
+  /// sample() through the virtual sample_texel(): octahedral grids and distributions other than the built-ins.
+  static DirectionSample sample_general(const SphericalDistribution& s, const Vec2& u);
+  /// sample() on a lat-long grid with a built-in distribution D: its inline pick(), no virtual call.
+  template <class D, bool kOneStep>
+  static DirectionSample sample_latlong(const SphericalDistribution& s, const Vec2& u);
+
   Kind grid_;
   std::shared_ptr<const Distribution2D> distribution_;
-  std::vector<RowBand> rows_;  // lat-long: per row, precomputed (no trigonometry per sample but longitude's)
+  /// What sample() runs, chosen at construction (sample_latlong<D, ...> or sample_general): one indirect call.
+  DirectionSample (*sample_)(const SphericalDistribution&, const Vec2&) = &sample_general;
+  std::vector<RowBand> rows_;  // lat-long: per row, precomputed (no trigonometry per sample)
+  /// Lat-long: N = W x longitude_substeps_ steps of the angle a = 2 pi (x + fx) / W (lon = pi - a), at least
+  /// kMinLongitudeSteps so that a step is small enough for short sin/cos polynomials (env_sampling.cpp);
+  /// N + 1 entries.
+  std::vector<Longitude> longitudes_;
+  int longitude_substeps_ = 1;
+  double sin_poly_[3] = {};             // sin d and cos d - 1 for d = f 2 pi / N, polynomials in f in [0, 1)
+  double cos_poly_[2] = {};
+  double octahedral_pdf_factor_ = 0.0;  // octahedral: 1 / (4 pi), the same for every texel
 };
 
 }  // namespace envkit
