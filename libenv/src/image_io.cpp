@@ -1,6 +1,7 @@
 #include <envkit/atomic_file.h>
 #include <envkit/color.h>
 #include <envkit/error.h>
+#include <envkit/huge_page_allocator.h>
 #include <envkit/image_io.h>
 
 #include <Imath/half.h>
@@ -396,6 +397,15 @@ void check_writable_image(const std::string& path, const Image& image) {
 
 /// The image reduced/expanded to what the format stores: colour channels (Y replicated to RGB when the
 /// format needs RGB), then alpha if the format keeps it.
+/// True when select_channels would return a verbatim copy (same channels, same order, same names).
+bool writes_channels_as_they_are(const Image& image, const Target& t) {
+  if (t.rgb_only) return false;
+  if (image.alpha_channel >= 0 && (!t.alpha || image.alpha_channel != image.channels - 1)) return false;
+  if (image.channel_names.size() != static_cast<std::size_t>(image.channels)) return false;
+  return std::none_of(image.channel_names.begin(), image.channel_names.end(),
+                      [](const std::string& n) { return n.empty(); });
+}
+
 Image select_channels(const Image& image, const Target& t) {
   std::vector<int> colour;
   for (int c = 0; c < image.channels; ++c)
@@ -574,12 +584,16 @@ void write_exr(const std::string& path, const std::string& file, const Image& da
     header.insert(key, Imf::StringAttribute(value));
   }
 
-  // Half data is converted up front; float data is written straight from the interleaved buffer.
-  std::vector<half> halves;
+  // Half data is converted up front (in parallel, clamped to half's largest finite value: beyond it half() gives
+  // Inf); float data is written straight from the interleaved buffer.
+  std::vector<half, HugePageAllocator<half>> halves;
   const char* base = reinterpret_cast<const char*>(data.pixels.data());
   std::size_t element = sizeof(float);
   if (pixel == Imf::HALF) {
-    halves.assign(data.pixels.begin(), data.pixels.end());
+    halves.resize(data.pixels.size());
+    tbb::parallel_for(Range(0, halves.size(), kGrain), [&](const Range& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) halves[i] = half(std::clamp(data.pixels[i], -65504.0f, 65504.0f));
+    });
     base = reinterpret_cast<const char*>(halves.data());
     element = sizeof(half);
   }
@@ -766,6 +780,15 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
   check_envmap_option(path, image, target, options.envmap_attribute);
   const PixelType type = choose_pixel_type(path, target, options.pixel_type);
 
+  // OpenEXR float or half output of an image whose channels go out as they are: written straight from the
+  // caller's pixels (write_exr converts to half with the clamp), without the 400 MB copy of an 8k map.
+  if (target.format == "openexr" && (type == PixelType::Float || type == PixelType::Half) &&
+      writes_channels_as_they_are(image, target)) {
+    AtomicOutput output(path);
+    write_exr(path, output.temp_path(), image, type, image, options);
+    output.commit();
+    return;
+  }
   Image data = select_channels(image, target);
   try {
     if (type == PixelType::UInt8 || type == PixelType::UInt16) {
