@@ -6,6 +6,7 @@
 #include <envkit/latlong.h>
 #include <envkit/texel_directions.h>
 
+#include <tbb/concurrent_queue.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
@@ -56,7 +57,18 @@ RowScales latlong_row_scales(const Parameterization& dst) {
 /// Fraction of [lo, hi) inside cell [c, c + 1), for each cell the interval touches; returns the first cell.
 int overlaps(double lo, double hi, double* fraction, int& count) {
   const int first = static_cast<int>(std::floor(lo));
+  if (hi <= first + 1.0) {  // inside one cell
+    fraction[0] = 1.0;
+    count = 1;
+    return first;
+  }
   const double inverse = 1.0 / (hi - lo);
+  if (hi <= first + 2.0) {  // across one cell edge: the usual case when shrinking
+    fraction[0] = (first + 1.0 - lo) * inverse;
+    fraction[1] = 1.0 - fraction[0];
+    count = 2;
+    return first;
+  }
   count = 0;
   for (int c = first; c < hi; ++c) fraction[count++] = (std::min(hi, c + 1.0) - std::max(lo, double(c))) * inverse;
   return first;
@@ -100,6 +112,10 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   // Stage 2 of the pipeline: project a chunk's texels and spread each one's flux over the output texels its
   // square overlaps, as runs.
   const auto project = [&](Chunk& chunk) {
+    // About one run per two or three texels when shrinking: reserve for one per texel.
+    const std::size_t texels = std::size_t(chunk.end_row - chunk.first_row) * W;
+    chunk.cells.reserve(texels);
+    chunk.sums.reserve(texels * stride);
     double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
     std::size_t run_cell = std::size_t(-1);
     double* run = nullptr;
@@ -158,6 +174,9 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
   std::vector<Real, HugePageAllocator<Real>> sum(std::size_t(DW) * std::size_t(DH) * stride, Real(0));
   int next_row = 0;
+  // Chunks are recycled: a fresh multi-megabyte buffer per chunk would page-fault all over again.
+  std::vector<std::unique_ptr<Chunk>> chunks;
+  tbb::concurrent_queue<Chunk*> free_chunks;
   const std::size_t tokens = 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
   tbb::parallel_pipeline(
       tokens,
@@ -167,7 +186,13 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
                                          fc.stop();
                                          return nullptr;
                                        }
-                                       auto* chunk = new Chunk;
+                                       Chunk* chunk = nullptr;
+                                       if (!free_chunks.try_pop(chunk)) {
+                                         chunks.push_back(std::make_unique<Chunk>());
+                                         chunk = chunks.back().get();
+                                       }
+                                       chunk->cells.clear();
+                                       chunk->sums.clear();
                                        chunk->first_row = next_row;
                                        chunk->end_row = next_row = std::min(H, next_row + kRowsPerChunk);
                                        return chunk;
@@ -178,13 +203,13 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
                                              return chunk;
                                            }) &
           tbb::make_filter<Chunk*, void>(tbb::filter_mode::serial_in_order, [&](Chunk* chunk) {
-            const std::unique_ptr<Chunk> owned(chunk);
             for (std::size_t r = 0; r < chunk->cells.size(); ++r) {
               Real* cell = sum.data() + chunk->cells[r] * stride;
               const double* run = chunk->sums.data() + r * stride;
               for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(run[c]);
             }
             progress.add(static_cast<std::size_t>(chunk->end_row - chunk->first_row));
+            free_chunks.push(chunk);
           }));
 
   // Normalise by the weight each output texel received (a constant map stays exactly constant). An output texel no
