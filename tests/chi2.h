@@ -17,6 +17,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -494,6 +496,31 @@ inline std::string check_invert(const Distribution2D& dist, std::size_t n, std::
     }
   if (failures > 0) err << "worst round-trip error " << worst;
   return err.str();
+}
+
+/// sample_texel() and pick() (what SphericalDistribution uses) are sample() before uv is formed: same texel and
+/// pdf, uv = ((x + fx) / W, (y + fy) / H) bit for bit, offsets in [0, kTexelOffsetMax]; also at the edges of u
+/// and for NaN. D is a concrete distribution class (pick() is its inline, non-virtual texel choice).
+template <class D>
+std::string check_sample_texel(const D& dist, int width, int height, std::size_t n = 2000) {
+  std::mt19937_64 rng(7);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Vec2 edges[] = {Vec2(0, 0),   Vec2(1, 1),   Vec2(kOneMinusEpsilon, 0), Vec2(-1, 2),
+                        Vec2(nan, nan), Vec2(0.5, kOneMinusEpsilon)};
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2 u = i < std::size(edges) ? edges[i] : Vec2(uniform53(rng), uniform53(rng));
+    const DistributionSample s = dist.sample(u);
+    const TexelSample t = dist.sample_texel(u), p = dist.pick(u);
+    std::ostringstream at;
+    at << " at u = (" << u.x << ", " << u.y << ")";
+    if (std::memcmp(&t, &p, sizeof(TexelSample)) != 0) return "pick() differs from sample_texel()" + at.str();
+    if (t.x != s.x || t.y != s.y || t.pdf != s.pdf) return "texel or pdf differs from sample()" + at.str();
+    if (!(t.fx >= 0.0 && t.fx <= kTexelOffsetMax && t.fy >= 0.0 && t.fy <= kTexelOffsetMax))
+      return "offset outside [0, kTexelOffsetMax]" + at.str();
+    if ((t.x + t.fx) / width != s.uv.x || (t.y + t.fy) / height != s.uv.y)
+      return "uv is not (texel + offset) / size" + at.str();
+  }
+  return {};
 }
 
 /// pdf() outside the closed unit square and for NaN is 0.
