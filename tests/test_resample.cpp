@@ -356,3 +356,50 @@ TEST(Resample, ScatterAndGatherAgreeUnderRotation) {
   const Image g = resample({src, fine, rotation}, cube, kIdentity, gather);
   EXPECT_LT(weighted_relative_rmse(s, g, cube), 0.004);
 }
+
+// Corner-sampled outputs (OpenEXR) store texels on the lat-long seam and on cube edges twice; both area methods
+// must give the copies one value (else a seam shows), also when a hot texel (splatted exactly) sits on the seam.
+TEST(Resample, AreaGivesTwinTexelsOfCornerGridsOneValue) {
+  const LatLongMap fine(512, 256);
+  Image src = texel_averages(fine, detailed_env);
+  const auto make_hot = [&](const Vec3& d) {
+    const Vec2 p = fine.to_image(d.normalized());
+    for (int c = 0; c < 3; ++c) src.at(int(p.x), int(p.y), c) = 1e5f;
+  };
+  make_hot(Vec3(0.02, 0.3, 1.0));    // just beside the lat-long seam (u = 0: +Z in the envkit frame)
+  make_hot(Vec3(1.0, 1.0, 0.3));     // on the cube edge between +X and +Y
+  make_hot(Vec3(-1.0, -1.0, -1.0));  // a cube corner
+  const std::vector<Named> corner_maps = {
+      {"latlong 64x32 corner", std::make_shared<LatLongMap>(64, 32, TexelGrid::Corner)},
+      {"cube 16 corner", std::make_shared<CubeMap>(16, CubeLayout::VerticalStrip, CubeBasis::Envkit,
+                                                   TexelGrid::Corner)}};
+  for (const Named& b : corner_maps) {
+    // Texels whose centres see the same direction are twins.
+    std::vector<std::pair<Vec3, std::pair<int, int>>> centres;
+    for (int j = 0; j < b.p->height(); ++j)
+      for (int i = 0; i < b.p->width(); ++i) {
+        Vec3 d;
+        if (b.p->to_direction(Vec2(i + 0.5, j + 0.5), d)) centres.push_back({d.normalized(), {i, j}});
+      }
+    for (AreaMethod method : {AreaMethod::Gather, AreaMethod::Scatter}) {
+      ResampleOptions opt;
+      opt.area_method = method;
+      const Image out = resample({src, fine, kIdentity}, *b.p, kIdentity, opt);
+      int pairs = 0;
+      for (std::size_t m = 0; m < centres.size(); ++m)
+        for (std::size_t n = m + 1; n < centres.size(); ++n) {
+          if ((centres[m].first - centres[n].first).length() > 1e-9) continue;
+          const auto [i0, j0] = centres[m].second;
+          const auto [i1, j1] = centres[n].second;
+          if (j0 == j1 && (j0 == 0 || j0 == b.p->height() - 1) && b.p->kind() == Kind::LatLong) continue;  // poles
+          ++pairs;
+          for (int c = 0; c < 3; ++c)
+            ASSERT_NEAR(out.at(i0, j0, c), out.at(i1, j1, c), 1e-5 * std::abs(out.at(i0, j0, c)) + 1e-6)
+                << b.name << (method == AreaMethod::Gather ? " gather" : " scatter") << ": (" << i0 << "," << j0
+                << ") vs (" << i1 << "," << j1 << ")";
+        }
+      // Lat-long: one seam pair per row but the poles; cube: one pair per inner edge texel, three per corner.
+      EXPECT_EQ(pairs, b.p->kind() == Kind::LatLong ? 30 : 12 * 14 + 8 * 3) << b.name;
+    }
+  }
+}

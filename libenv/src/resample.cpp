@@ -202,6 +202,7 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
 
   // 3. Splat the hot texels: flux L x (exact sub-cell solid angle) into the output texel that sees each sub-cell.
   splat_hot_texels(s, hot, src_omega, dst, dst_omega, dst_to_src, out);
+  merge_twin_texels(dst, dst_omega, out);  // a hot texel on a seam reaches one copy only
   return out;
 }
 

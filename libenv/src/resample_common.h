@@ -38,6 +38,13 @@ Image make_output(const Image& src, const Parameterization& dst, const OutputLay
 std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,
                                          double contrast, const std::vector<double>& power);
 
+/// Corner-sampled outputs (OpenEXR's lat-long and cube) hold texels twice: a lat-long's first and last columns,
+/// and a cube's edge texels, which lie on the cube's edges and corners and belong to two or three faces. Each
+/// copy covers only its own side of the texel's cell, so an area filter that integrates per copy gives twins
+/// different values (a seam). This gives every twin the solid-angle weighted mean of its copies: the average
+/// over the whole cell, total power unchanged. No-op for centre-sampled and other parameterizations.
+void merge_twin_texels(const Parameterization& dst, const SolidAngleTable& omega, Image& out);
+
 /// Adds the flux of each hot texel to `out`: the texel is cut into sub-cells with exact solid angles and each
 /// sub-cell's flux L x omega goes to the output texel that sees it (divided by that texel's solid angle), so their
 /// power is conserved to round-off whatever their size. Deterministic (serial accumulation in a fixed order).

@@ -256,6 +256,8 @@ Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Pa
     scatter_and_normalise<double>(s, dst, src_omega, dst_omega, hot, dst_to_src, progress, out);
   progress.add(1);
   splat_hot_texels(s, hot, src_omega, dst, dst_omega, dst_to_src, out);
+  // Each copy of a twin texel received only its own side of the seam or cube edge.
+  merge_twin_texels(dst, dst_omega, out);
   return out;
 }
 
