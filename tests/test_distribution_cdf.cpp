@@ -298,6 +298,31 @@ TEST(CdfDistribution2D, RejectsBadSizes) {
   EXPECT_THROW(CdfDistribution2D(nullptr, 1, 1), Error);
 }
 
+// A loaded CDF table is checked before use: a split index of 0 (the forward part holds at least cdf[0] = 0) or
+// past the end is refused with an error naming the blob, not searched out of bounds.
+TEST(CdfDistribution2D, LoadRefusesSplitIndicesOutOfRange) {
+  const std::vector<float> w = {1, 2, 3, 4, 5, 6, 0, 1, 9, 2, 2, 2};
+  const CdfDistribution2D built(w.data(), 4, 3);
+  BlobWriter writer;
+  built.save(writer);
+  const std::vector<std::byte> good = writer.flatten();
+  BlobReader reader(good.data(), good.size(), "t.envtbl: section cdf");
+  const CdfDistribution2D loaded(reader);
+  EXPECT_EQ(loaded.sample(Vec2(0.3, 0.7)).uv, built.sample(Vec2(0.3, 0.7)).uv);
+  for (std::int32_t bad : {0, -1, 4}) {  // the marginal split is the blob's last 8-byte word
+    std::vector<std::byte> blob = good;
+    std::memcpy(blob.data() + blob.size() - 8, &bad, sizeof bad);
+    BlobReader in(blob.data(), blob.size(), "t.envtbl: section cdf");
+    try {
+      CdfDistribution2D d(in);
+      ADD_FAILURE() << "split " << bad << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("t.envtbl: section cdf"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("split"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(CdfDistribution2D, DeterministicAcrossThreadCounts) {
   const int W = 1024, H = 512;  // above the parallel threshold
   std::vector<float> w(std::size_t(W) * H);

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -375,6 +376,26 @@ TEST(EnvTablesBake, CompensatedSubtractsTheMean) {
   EXPECT_EQ(constant.warnings().size(), 1u);
   EXPECT_EQ(constant.distribution(SamplingMethod::Cdf, true)->pdf(top),
             constant.distribution(SamplingMethod::Cdf)->pdf(top));
+}
+
+// direction_in_texel() is public (product sampling calls it): arguments out of range or NaN are clamped into the
+// grid and [0, kTexelOffsetMax], never read past the longitude table or give a NaN direction.
+TEST(EnvSamplingDirections, DirectionInTexelClampsItsArguments) {
+  for (auto [W, H] : {std::pair{32, 16}, std::pair{3000, 1500}}) {
+    SphereMap m = make("clamp", Kind::LatLong, W, H, 1.0f);
+    const EnvTables t = bake(m);
+    const SphericalDistribution& d = *t.distribution(SamplingMethod::Cdf);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const auto same = [](const Vec3& a, const Vec3& b) { return std::memcmp(&a, &b, sizeof(Vec3)) == 0; };
+    EXPECT_TRUE(same(d.direction_in_texel(3, 2, -1e-9, 0.5), d.direction_in_texel(3, 2, 0.0, 0.5)));
+    EXPECT_TRUE(same(d.direction_in_texel(3, 2, 0.5, -3.0), d.direction_in_texel(3, 2, 0.5, 0.0)));
+    EXPECT_TRUE(same(d.direction_in_texel(3, 2, 7.0, 0.5), d.direction_in_texel(3, 2, kTexelOffsetMax, 0.5)));
+    EXPECT_TRUE(same(d.direction_in_texel(-5, H + 3, 0.5, 0.5), d.direction_in_texel(0, H - 1, 0.5, 0.5)));
+    for (const Vec3& v : {d.direction_in_texel(3, 2, nan, nan), d.direction_in_texel(W, -1, 2.0, nan)}) {
+      EXPECT_TRUE(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z));
+      EXPECT_NEAR(v.length(), 1.0, 1e-12);
+    }
+  }
 }
 
 // The lat-long direction of a sample comes from a longitude table and short sin/cos polynomials (no trigonometry

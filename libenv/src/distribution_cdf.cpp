@@ -164,7 +164,8 @@ CdfDistribution2D::CdfDistribution2D(BlobReader& in) : Distribution2D(in) {
   marginal_ = in.table<float>(H + 1);
   marginal_split_ = in.scalar<std::int32_t>();
   in.finish();
-  const auto valid_split = [](std::int32_t split, std::size_t n) { return split >= 0 && std::size_t(split) <= n; };
+  // Entry 0 (cdf 0) is always stored forward, so a built table has split >= 1; the search relies on it.
+  const auto valid_split = [](std::int32_t split, std::size_t n) { return split >= 1 && std::size_t(split) <= n; };
   if (!valid_split(marginal_split_, H) ||
       !std::all_of(row_split_.begin(), row_split_.end(), [&](std::int32_t s) { return valid_split(s, W); }))
     throw Error(in.context() + ": CDF split index out of range");

@@ -154,6 +154,12 @@ template <bool kOneStep>
 }
 
 Vec3 SphericalDistribution::direction_in_texel(int x, int y, double fx, double fy) const {
+  // A public entry: out-of-range or NaN arguments are clamped (the longitude table and the row bounds assume them
+  // in range). The samplers use latlong_direction directly with values already in range.
+  x = std::clamp(x, 0, width() - 1);
+  y = std::clamp(y, 0, height() - 1);
+  fx = sampling::clamp_offset(fx);
+  fy = sampling::clamp_offset(fy);
   const double W = width();
   if (grid_ == Kind::Octahedral) {
     const Vec3 o = OctahedralMap::square_to_sphere(Vec2((x + fx) / W, (y + fy) / W));

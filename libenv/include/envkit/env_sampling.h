@@ -80,7 +80,7 @@ class SphericalDistribution {
 
   /// Direction of fractional position (fx, fy) in [0,1)^2 inside texel (x, y): the warp sample() applies after
   /// the 2D distribution chose the texel, uniform in solid angle inside the texel. For warps that choose texels
-  /// themselves (product sampling).
+  /// themselves (product sampling). Arguments outside the grid or [0, 1) (and NaN) are clamped into it.
   Vec3 direction_in_texel(int x, int y, double fx, double fy) const;
 
  private:

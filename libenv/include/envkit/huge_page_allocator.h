@@ -29,6 +29,8 @@ struct HugePageAllocator {
   HugePageAllocator(const HugePageAllocator<U>&) noexcept {}
 
   T* allocate(std::size_t n) {
+    // Small blocks come from ::operator new(bytes), aligned only to the default new alignment.
+    static_assert(alignof(T) <= __STDCPP_DEFAULT_NEW_ALIGNMENT__, "over-aligned types need another allocator");
     if (n > std::size_t(-1) / sizeof(T)) throw std::bad_alloc();
     return static_cast<T*>(detail::allocate_huge(n * sizeof(T)));
   }
