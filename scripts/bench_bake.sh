@@ -64,14 +64,14 @@ WORKDIR="$(cd "$WORKDIR" && pwd)"
 if [[ $REPORT_ONLY == 0 ]]; then
 [[ -x "$MAKETX" ]] || { echo "missing maketx (apt install openimageio-tools)" >&2; exit 1; }
 command -v valgrind >/dev/null || { echo "missing valgrind (apt install valgrind)" >&2; exit 1; }
-TARGETS=(envbake envinfo envprobe bench_env_sampling bench_distribution bench_precision callgrind_sample valgrind_hwy_stub)
+TARGETS=(envbake envinfo envprobe bench_env_sampling bench_distribution bench_precision callgrind_sample valgrind_hwy_shim)
 if [[ $NO_BUILD == 0 ]]; then
   echo "# building ${TARGETS[*]} in $BUILD" >&2
   cmake -S "$ROOT" -B "$BUILD" -G Ninja -DENVKIT_BUILD_RENDERER=OFF >/dev/null
   cmake --build "$BUILD" -j2 --target "${TARGETS[@]}" >/dev/null
 fi
 for t in "${TARGETS[@]}"; do
-  f="$BIN/$t"; [[ $t == valgrind_hwy_stub ]] && f="$BUILD/lib/lib$t.so"  # a preloaded library, not a program
+  f="$BIN/$t"; [[ $t == valgrind_hwy_shim ]] && f="$BUILD/lib/lib$t.so"  # a preloaded library, not a program
   [[ -f "$f" ]] || { echo "missing $f" >&2; exit 1; }
 done
 
@@ -135,7 +135,7 @@ log "# c. callgrind (N = $CG_N and 2N in one process per method and size; instru
 for W in "${CG_SIZES[@]}"; do
   for m in cdf alias hierarchical; do
     # The preloaded shim keeps libhwy (through OIIO) from executing rdtscp, which valgrind 3.19 cannot decode.
-    logged env "LD_PRELOAD=$BUILD/lib/libvalgrind_hwy_stub.so" \
+    logged env "LD_PRELOAD=$BUILD/lib/libvalgrind_hwy_shim.so" \
       valgrind --tool=callgrind --instr-atstart=no "--callgrind-out-file=$WORKDIR/cg_${m}_${W}.out" \
       "$BIN/callgrind_sample" "$m" both "$W" "$CG_N" --twice
   done
