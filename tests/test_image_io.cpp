@@ -721,3 +721,12 @@ TEST_F(ImageIoTest, ReportSummaryIsOneLine) {
   EXPECT_NE(s.find("lin_rec709"), std::string::npos) << s;
   EXPECT_EQ(s.find('\n'), std::string::npos);
 }
+
+// The names envconvert checks before reading are the ones write_image accepts (one table in libenv).
+TEST(ExrCompression, NamesAreRecognised) {
+  for (const char* name : {"none", "zip", "ZIP", "piz", "dwaa:45", "b44a"})
+    EXPECT_TRUE(envkit::is_exr_compression(name)) << name;
+  for (const char* name : {"", "zap", "jpeg", ":45", "zip2"})
+    EXPECT_FALSE(envkit::is_exr_compression(name)) << name;
+  EXPECT_NE(std::string(envkit::exr_compression_list()).find("dwab"), std::string::npos);
+}

@@ -18,7 +18,6 @@
 #include <filesystem>
 #include <optional>
 #include <string>
-#include <vector>
 
 namespace {
 
@@ -136,12 +135,9 @@ void check_combinations(Options& o) {
   }
   if (o.half && !has_extension(o.out, ".exr"))
     throw CLI::ValidationError("--half", "half floats need an OpenEXR (.exr) output");
-  if (!o.compression.empty() && has_extension(o.out, ".exr")) {
-    static const std::vector<std::string> exr = {"none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"};
-    if (std::find(exr.begin(), exr.end(), o.compression.substr(0, o.compression.find(':'))) == exr.end())
-      throw CLI::ValidationError("--compression", "'" + o.compression + "' is not an OpenEXR compression (none, rle, "
-                                 "zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)");
-  }
+  if (!o.compression.empty() && has_extension(o.out, ".exr") && !envkit::is_exr_compression(o.compression))
+    throw CLI::ValidationError("--compression", "'" + o.compression + "' is not an OpenEXR compression (" +
+                                                    envkit::exr_compression_list() + ")");
   if (!o.ball_centre.empty()) {
     const auto [x, y] = tools::parse_number_pair("--ball-centre", o.ball_centre);
     o.in.ball_cx = x;

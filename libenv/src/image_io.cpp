@@ -526,16 +526,22 @@ void write_pfm(const std::string& path, const std::string& file, const Image& da
   if (!out) fail(path, "cannot write: write error (disk full?)");
 }
 
-Imf::Compression exr_compression(const std::string& path, const std::string& name, float& dwa_level) {
+const std::map<std::string, Imf::Compression>& exr_compressions() {
   static const std::map<std::string, Imf::Compression> names = {
       {"none", Imf::NO_COMPRESSION}, {"rle", Imf::RLE_COMPRESSION},     {"zips", Imf::ZIPS_COMPRESSION},
       {"zip", Imf::ZIP_COMPRESSION}, {"piz", Imf::PIZ_COMPRESSION},     {"pxr24", Imf::PXR24_COMPRESSION},
       {"b44", Imf::B44_COMPRESSION}, {"b44a", Imf::B44A_COMPRESSION},   {"dwaa", Imf::DWAA_COMPRESSION},
       {"dwab", Imf::DWAB_COMPRESSION}};
-  const std::string base = lower(name.substr(0, name.find(':')));
-  const auto it = names.find(base.empty() ? "zip" : base);
-  if (it == names.end())
-    fail(path, "unknown OpenEXR compression '" + name + "' (none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)");
+  return names;
+}
+
+std::string exr_compression_base(const std::string& name) { return lower(name.substr(0, name.find(':'))); }
+
+Imf::Compression exr_compression(const std::string& path, const std::string& name, float& dwa_level) {
+  const std::string base = exr_compression_base(name);
+  const auto it = exr_compressions().find(base.empty() ? "zip" : base);
+  if (it == exr_compressions().end())
+    fail(path, "unknown OpenEXR compression '" + name + "' (" + exr_compression_list() + ")");
   if (const auto colon = name.find(':'); colon != std::string::npos && (base == "dwaa" || base == "dwab")) {
     try {
       dwa_level = std::stof(name.substr(colon + 1));
@@ -743,6 +749,10 @@ std::string ReadReport::summary() const {
   for (const auto& note : notes) s += "; " + note;
   return s;
 }
+
+bool is_exr_compression(const std::string& name) { return exr_compressions().count(exr_compression_base(name)) > 0; }
+
+const char* exr_compression_list() { return "none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab"; }
 
 Image read_image(const std::string& path, const ReadOptions& options, ReadReport* report_out) {
   ReadReport report;

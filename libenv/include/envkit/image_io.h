@@ -114,6 +114,11 @@ enum class PixelType {
   UInt16,  ///< sRGB-encoded (PNG, TIFF)
 };
 
+/// Whether `name` (case-insensitive, optionally with a level as in "dwaa:45") names an OpenEXR compression.
+bool is_exr_compression(const std::string& name);
+/// The OpenEXR compression names, comma separated, for messages.
+const char* exr_compression_list();
+
 struct WriteOptions {
   PixelType pixel_type = PixelType::Auto;
   /// OIIO compression name ("zip", "piz", "dwaa:45", "none", "jpeg:95", ...); empty = format default
