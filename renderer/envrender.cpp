@@ -48,6 +48,7 @@ struct Args {
   int light_samples = 1;
   int max_depth = 1;
   int product_resolution = 8;  // measured best (docs/bench_product.md)
+  double product_reuse_deg = 17.0;  // measured (docs/bench_product.md): about 0.3 rad
   int threads = 0;
   unsigned seed = 0;
   bool bake = false;
@@ -111,6 +112,7 @@ int run(const Args& a) {
   io.light_samples = a.light_samples;
   io.max_depth = a.max_depth;
   io.product_resolution = a.product_resolution;
+  io.product_reuse_angle = a.product_reuse_deg * (envkit::kPi / 180.0);
   const Integrator integrator(*scene.scene, *scene.light, io);
 
   RenderOptions ro;
@@ -137,6 +139,8 @@ int run(const Args& a) {
       {"envkit:bsdf_samples", std::to_string(a.bsdf_samples)},
       {"envkit:light_samples", std::to_string(a.light_samples)},
       {"envkit:max_depth", std::to_string(a.max_depth)},
+      {"envkit:product_resolution", std::to_string(a.product_resolution)},
+      {"envkit:product_reuse_deg", tools::fmt(a.product_reuse_deg, 3)},
       {"envkit:spp", std::to_string(stats.spp)},
       {"envkit:seed", std::to_string(a.seed)},
       {"envkit:seconds", tools::fmt(stats.seconds, 4)},
@@ -195,6 +199,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--product-resolution", a.product_resolution, "product sampling: coarse BSDF table size")
       ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  app.add_option("--product-reuse", a.product_reuse_deg,
+                 "product sampling: reuse a table while normal and view stay within this many degrees (and half "
+                 "the lobe's width); 0 = one table per shading point")
+      ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");
   app.add_option("--resolution", a.resolution, "override the camera resolution, WxH");

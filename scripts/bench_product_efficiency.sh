@@ -27,14 +27,15 @@ else
   configs=(
     "mis power 1+1|$SPP|--strategy mis --heuristic power"
     "mis power 1+4|$((SPP / 2))|--strategy mis --heuristic power --light-samples 4"
-    "product r8 M4|$((SPP / 4))|--strategy product --product-resolution 8 --light-samples 4"
+    "mis-compensated 1+1|$SPP|--strategy mis-compensated"
+    "product r8 M1|$SPP|--strategy product --product-resolution 8"
     "product r32 M1|$SPP|--strategy product --product-resolution 32"
-    "product r32 M4|$((SPP / 4))|--strategy product --product-resolution 32 --light-samples 4"
+    "product r8 M4|$((SPP / 4))|--strategy product --product-resolution 8 --light-samples 4"
     "product-mis r8 1+1|$SPP|--strategy product-mis --product-resolution 8"
-    "product-mis r8 1+4|$((SPP / 4))|--strategy product-mis --product-resolution 8 --light-samples 4"
-    "product-mis r16 1+4|$((SPP / 4))|--strategy product-mis --product-resolution 16 --light-samples 4"
+    "product-mis r8 1+1 no reuse|$SPP|--strategy product-mis --product-resolution 8 --product-reuse 0"
+    "product-mis r16 1+1|$SPP|--strategy product-mis --product-resolution 16"
     "product-mis r32 1+1|$SPP|--strategy product-mis --product-resolution 32"
-    "product-mis r32 1+4|$((SPP / 4))|--strategy product-mis --product-resolution 32 --light-samples 4"
+    "product-mis r8 1+4|$((SPP / 4))|--strategy product-mis --product-resolution 8 --light-samples 4"
   )
 fi
 config_args=()

@@ -16,6 +16,7 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputPart.h>
 #include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
 
 #include <cmath>
 
@@ -136,6 +137,37 @@ TEST_F(RenderCli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(envrender({"--strategy", "magic"}).code, 2);
   EXPECT_EQ(envrender({"--spp", "0"}).code, 2);
   EXPECT_EQ(envrender({"--light-method", "best"}).code, 2);
+  EXPECT_EQ(envrender({"--product-reuse", "-1"}).code, 2);
+  EXPECT_EQ(envrender({"--product-reuse", "91"}).code, 2);
+}
+
+// Product strategies with and without table reuse render finite, positive images that agree within their noise,
+// and the EXR records the product settings.
+TEST_F(RenderCli, ProductReuseRendersAndIsRecorded) {
+  const auto file = write("ok.json", scene());
+  double mean[2] = {0.0, 0.0};
+  int k = 0;
+  for (const char* reuse : {"0", "17"}) {
+    const fs::path out = dir_ / (std::string("product_") + reuse + ".exr");
+    const auto r = envrender({"--scene", file.string(), "-o", out.string(), "--spp", "64", "--strategy", "product-mis",
+                              "--product-reuse", reuse, "-q"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    Imf::MultiPartInputFile exr(out.string().c_str());
+    const auto* attr = exr.header(0).findTypedAttribute<Imf::StringAttribute>("envkit:product_reuse_deg");
+    ASSERT_NE(attr, nullptr);
+    EXPECT_EQ(std::stod(attr->value()), std::stod(reuse));
+    ASSERT_NE(exr.header(0).findTypedAttribute<Imf::StringAttribute>("envkit:product_resolution"), nullptr);
+    const Image beauty = read_image(out.string());
+    for (int y = 0; y < beauty.height; ++y)
+      for (int x = 0; x < beauty.width; ++x) {
+        const float g = beauty.at(x, y, 1);
+        ASSERT_TRUE(std::isfinite(g) && g > 0.0f);
+        mean[k] += g;
+      }
+    mean[k] /= double(beauty.width * beauty.height);
+    ++k;
+  }
+  EXPECT_NEAR(mean[1], mean[0], 0.05 * mean[0]);
 }
 
 TEST_F(RenderCli, MalformedJsonNamesTheLine) {

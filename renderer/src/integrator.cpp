@@ -65,7 +65,9 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (s == Strategy::Product || s == Strategy::ProductMis) {
     if (options_.product_resolution < 1) throw Error("--product-resolution must be >= 1");
     if (s == Strategy::Product && options_.light_samples < 1) throw Error("strategy product needs --light-samples >= 1");
-    product_ = std::make_unique<ProductSamplers>(light_, options_.product_resolution);
+    if (!(options_.product_reuse_angle >= 0.0) || !(options_.product_reuse_angle <= 0.5 * kPi))
+      throw Error("--product-reuse must be in [0, 90] degrees");
+    product_ = std::make_unique<ProductSamplers>(light_, options_.product_resolution, options_.product_reuse_angle);
   }
 }
 
@@ -197,17 +199,19 @@ Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng
       const int np = M;
       const int nb = options_.strategy == Strategy::ProductMis ? N : 0;
       ProductSampler& product = product_->get();
-      product.prepare(material, frame, wo);
+      if (!product.reusable(material, frame, wo)) product.prepare(material, frame, wo);
       for (int j = 0; j < np; ++j) {
         const Vec2 u = sampler.next_2d();
-        Vec3 wi_world, f_cos;
+        Vec3 wi_world;
         double p = 0.0;
-        if (!product.valid() || !product.sample(u, wi_world, p, f_cos) || !(p > 0.0) || (wi_world ^ ng) <= 0.0 ||
-            is_black(f_cos))
-          continue;
+        if (!product.valid() || !product.sample(u, wi_world, p) || !(p > 0.0) || (wi_world ^ ng) <= 0.0) continue;
+        // The BSDF of THIS point: a reused table was prepared at another one.
+        const Vec3 wi_local = frame.to_local(wi_world);
+        const Vec3 f_cos = material.eval(wo, wi_local);
+        if (is_black(f_cos)) continue;
         const Vec3 L = escaped_radiance(origin, wi_world);
         if (is_black(L)) continue;
-        const double w = nb > 0 ? mis_weight(np * p, nb * material.pdf(wo, frame.to_local(wi_world))) : 1.0;
+        const double w = nb > 0 ? mis_weight(np * p, nb * material.pdf(wo, wi_local)) : 1.0;
         sum += mul(f_cos, L) * (w / (np * p));
       }
       if (nb > 0) {

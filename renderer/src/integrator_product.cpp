@@ -5,17 +5,18 @@ namespace envkit::render {
 
 bool product_sampling_available() { return true; }
 
-ProductSamplers::ProductSamplers(const EnvironmentLight& light, int resolution)
+ProductSamplers::ProductSamplers(const EnvironmentLight& light, int resolution, double reuse_angle)
     : distribution_(light.distribution(SamplingMethod::Hierarchical, false)),
       rotation_(light.rotation()),
       resolution_(resolution) {
+  options_.reuse_angle = reuse_angle;
   // Construct one now so that a bad table (not a pyramid) fails before rendering starts.
-  local_.local() = std::make_unique<ProductSampler>(distribution_, rotation_, resolution_);
+  local_.local() = std::make_unique<ProductSampler>(distribution_, rotation_, resolution_, options_);
 }
 
 ProductSampler& ProductSamplers::get() const {
   std::unique_ptr<ProductSampler>& sampler = local_.local();
-  if (!sampler) sampler = std::make_unique<ProductSampler>(distribution_, rotation_, resolution_);
+  if (!sampler) sampler = std::make_unique<ProductSampler>(distribution_, rotation_, resolution_, options_);
   return *sampler;
 }
 

@@ -13,7 +13,8 @@ namespace envkit::render {
 class ProductSamplers {
  public:
   /// Throws Error when the light has no hierarchical table (product sampling descends its pyramid).
-  ProductSamplers(const EnvironmentLight& light, int resolution);
+  /// reuse_angle: ProductSampler::Options::reuse_angle (radians).
+  ProductSamplers(const EnvironmentLight& light, int resolution, double reuse_angle);
   /// This thread's sampler (created on first use).
   ProductSampler& get() const;
 
@@ -21,6 +22,7 @@ class ProductSamplers {
   const SphericalDistribution& distribution_;
   Mat3 rotation_;
   int resolution_;
+  ProductSampler::Options options_;
   mutable tbb::enumerable_thread_specific<std::unique_ptr<ProductSampler>> local_;
 };
 

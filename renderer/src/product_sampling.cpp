@@ -77,6 +77,9 @@ ProductSampler::ProductSampler(const SphericalDistribution& env_hierarchical, co
     : env_(env_hierarchical), pyramid_(require_pyramid(env_hierarchical)), world_from_table_(world_from_table),
       table_from_world_(transposed(world_from_table)), options_(options) {
   if (!(options_.floor_fraction > 0.0)) options_.floor_fraction = 0.02;
+  if (!(options_.reuse_angle > 0.0) || !std::isfinite(options_.reuse_angle)) options_.reuse_angle = 0.0;
+  options_.reuse_angle = std::min(options_.reuse_angle, 0.5 * kPi);
+  cos_reuse_ = 1.0;
   // Coarse level: node columns nearest to product_resolution in log2.
   const double target = std::log2(double(std::max(1, product_resolution)));
   coarse_level_ = pyramid_.levels();
@@ -99,6 +102,74 @@ ProductSampler::ProductSampler(const SphericalDistribution& env_hierarchical, co
   }
   bsdf_.assign(std::size_t(coarse_w_) * std::size_t(coarse_h_), 0.0);
   precompute_nodes();
+  if (env_.grid() == Kind::LatLong) {
+    const int W = env_.width(), H = env_.height();
+    for (int k = 0; k <= coarse_level_; ++k) {
+      const int span = 1 << k;
+      std::vector<Vec2> columns(std::size_t(pyramid_.level_width(k))), rows(std::size_t(pyramid_.level_height(k)));
+      for (std::size_t i = 0; i < columns.size(); ++i) {
+        const double x0 = double(i) * span, x1 = std::min(double(i + 1) * span, double(W));
+        const double lon = kPi - kTwoPi * (0.5 * (x0 + x1) / W);
+        columns[i] = Vec2(std::sin(lon), std::cos(lon));
+      }
+      for (std::size_t j = 0; j < rows.size(); ++j) {
+        const double y0 = double(j) * span, y1 = std::min(double(j + 1) * span, double(H));
+        const double theta = kPi * 0.5 * (y0 + y1) / H;
+        rows[j] = Vec2(std::sin(theta), std::cos(theta));
+      }
+      column_centres_.push_back(std::move(columns));
+      row_centres_.push_back(std::move(rows));
+    }
+  }
+}
+
+bool ProductSampler::reusable(const Material& m, const Frame& frame, const Vec3& wo_local) const {
+  if (!(options_.reuse_angle > 0.0) || !(cos_reuse_ < 1.0) || material_ != &m || !valid_) return false;
+  return (frame.n ^ frame_.n) >= cos_reuse_ && (frame.to_world(wo_local) ^ prepared_wo_world_) >= cos_reuse_;
+}
+
+double ProductSampler::lobe_value(const Vec3& wi) const {
+  if (!(wi.z > 0.0)) return 0.0;
+  if (lobe_proxy_scale_ > 0.0) {
+    const Vec3 h = (wo_local_ + wi).normalized();
+    const double t = h.z * h.z * (lobe_a2_ - 1.0) + 1.0;
+    const double b = lobe_proxy_scale_ * lobe_a2_ / (kPi * t * t);
+    return std::isfinite(b) ? b : 0.0;
+  }
+  const double b = mean_rgb(material_->eval(wo_local_, wi));
+  return b > 0.0 && std::isfinite(b) ? b : 0.0;
+}
+
+void ProductSampler::lobe_children(int k, int i, int j, double w[4]) const {
+  const std::vector<Vec2>& columns = column_centres_[std::size_t(k)];
+  const std::vector<Vec2>& rows = row_centres_[std::size_t(k)];
+  double env[4];
+  double any = 0.0;
+  for (int d = 0; d < 4; ++d) {
+    const int x = 2 * i + (d & 1), y = 2 * j + (d >> 1);
+    env[d] = pyramid_.node(k, x, y);
+    w[d] = 0.0;
+    if (!(env[d] > 0.0)) continue;
+    const Vec2 c = columns[std::size_t(x)], r = rows[std::size_t(y)];
+    const Vec3 d_table(c.x * r.x, r.y, c.y * r.x);
+    w[d] = env[d] * lobe_value(apply(local_from_table_, d_table));
+    any += w[d];
+  }
+  if (!(any > 0.0) || !std::isfinite(any))
+    for (int d = 0; d < 4; ++d) w[d] = env[d];
+}
+
+double ProductSampler::lobe_path_probability(int x, int y) const {
+  double p = 1.0;
+  for (int k = lobe_level_ - 1; k >= 0; --k) {
+    double w[4];
+    lobe_children(k, x >> (k + 1), y >> (k + 1), w);
+    const double sum = w[0] + w[1] + w[2] + w[3];
+    const int d = ((x >> k) & 1) + 2 * ((y >> k) & 1);
+    if (!(sum > 0.0) || !(w[d] > 0.0)) return 0.0;
+    p *= w[d] / sum;
+  }
+  return p;
 }
 
 void ProductSampler::precompute_nodes() {
@@ -158,6 +229,7 @@ void ProductSampler::precompute_nodes() {
       cone.centre = apply(world_from_table_, centre).normalized();
       cone.all_sphere = radius >= 0.5 * kPi || coarse_w_ * coarse_h_ <= 2;
       cone.sin_radius = cone.all_sphere ? 1.0 : std::sin(radius);
+      cone.radius = cone.all_sphere ? kPi : radius;
     }
 }
 
@@ -230,6 +302,11 @@ bool ProductSampler::prepare_lobe(const Material& m, const Frame& frame, const V
     proxy = mean_rgb(m.eval(wo, mirror)) * kPi * a2;
     if (!(proxy > 0.0) || !std::isfinite(proxy)) proxy = 0.0;
   }
+  lobe_a2_ = a2;
+  lobe_proxy_scale_ = proxy;
+  const Mat3 world_from_local(frame.s.x, frame.t.x, frame.n.x, frame.s.y, frame.t.y, frame.n.y, frame.s.z, frame.t.z,
+                              frame.n.z);
+  local_from_table_ = compose(transposed(world_from_local), world_from_table_);
   const Vec3 mirror_world = frame.to_world(mirror);
   const double node_half = 0.75 * span * texel;  // > half the node's angular diagonal away from the poles
   const double cos_cut = std::cos(std::min(kPi, radius + node_half));
@@ -241,8 +318,9 @@ bool ProductSampler::prepare_lobe(const Material& m, const Frame& frame, const V
       int i = col0 + c;
       if (i >= lw) i -= lw;
       const double x0 = double(i * span), x1 = double(std::min((i + 1) * span, W));
-      const Vec3 d = latlong_direction(0.5 * (x0 + x1), W, 0.5 * (z0 + z1));
-      const Vec3 dw = apply(world_from_table_, d);
+      const Vec2 cc = column_centres_[std::size_t(level)][std::size_t(i)];
+      const Vec2 rc = row_centres_[std::size_t(level)][std::size_t(j)];
+      const Vec3 dw = apply(world_from_table_, Vec3(cc.x * rc.x, rc.y, cc.y * rc.x));
       double b = 0.0;
       if ((dw ^ mirror_world) >= cos_cut) {
         const Vec3 wi = frame.to_local(dw);
@@ -302,6 +380,14 @@ void ProductSampler::prepare(const Material& m, const Frame& frame, const Vec3& 
   lobe_active_ = false;
   total_ = coarse_total_ = lobe_total_ = 0.0;
   for (auto& level : levels_) std::fill(level.begin(), level.end(), 0.0);
+  prepared_wo_world_ = frame.to_world(wo_local);
+  if (options_.reuse_angle > 0.0) {
+    const Vec3 mirror(-wo_local.x, -wo_local.y, wo_local.z);
+    const double peak = wo_local.z > 0.0 ? m.pdf(wo_local, mirror) : 0.0;
+    const double alpha = peak > 0.0 ? std::sqrt(1.0 / (4.0 * kPi * wo_local.z * peak)) : 0.0;
+    const double angle = std::min(options_.reuse_angle, options_.reuse_lobe_fraction * alpha);
+    cos_reuse_ = std::isfinite(angle) && angle > 0.0 ? std::cos(angle) : 1.0;
+  }
   if (!(wo_local.z > 0.0) || m.is_pure_delta() || !finite_nonzero(wo_local)) return;
 
   // A lobe narrower than the coarse nodes: its own finer level; the coarse table is then the floor alone.
@@ -316,7 +402,8 @@ void ProductSampler::prepare(const Material& m, const Frame& frame, const Vec3& 
   for (std::size_t node = 0; node < nodes; ++node) {
     const NodeCone& cone = node_cones_[node];
     // Node entirely below the shading horizon: angle(centre, n) >= 90 deg + radius <=> centre.n <= -sin(radius).
-    if (!cone.all_sphere && (cone.centre ^ frame.n) <= -cone.sin_radius) {
+    const double margin = cone.radius + options_.reuse_angle;
+    if (!cone.all_sphere && margin < 0.5 * kPi && (cone.centre ^ frame.n) <= -std::sin(margin)) {
       bsdf_[node] = -1.0;  // marks "no support"
       continue;
     }
@@ -387,6 +474,7 @@ bool ProductSampler::sample(Vec2 u, Vec3& wi_world, double& pdf_out) const {
   int i = 0, j = 0, dx = 0, dy = 0;
   double c[4];
   int start = coarse_level_;
+  bool lobe_path = false;
   const double t = ux * total_;
   if (lobe_active_ && t >= coarse_total_ && lobe_total_ > 0.0) {
     // Lobe part: a node of the lobe rectangle with probability b x env_node / lobe_total.
@@ -403,6 +491,7 @@ bool ProductSampler::sample(Vec2 u, Vec3& wi_world, double& pdf_out) const {
     i = lobe_col0_ + col;
     if (i >= pyramid_.level_width(lobe_level_)) i -= pyramid_.level_width(lobe_level_);
     start = lobe_level_;
+    lobe_path = options_.lobe_descent;
   } else {
     if (lobe_active_) ux = clamp_decision(std::min(t, coarse_total_) / coarse_total_);
     // Down the product pyramid to the coarse level.
@@ -413,12 +502,16 @@ bool ProductSampler::sample(Vec2 u, Vec3& wi_world, double& pdf_out) const {
       j = 2 * j + dy;
     }
   }
-  // Down the environment's own finer levels.
+  // Down the environment's own finer levels (the lobe part: weighted by the lobe at the children's centres).
   for (int k = start - 1; k >= 0; --k) {
-    c[0] = pyramid_.node(k, 2 * i, 2 * j);
-    c[1] = pyramid_.node(k, 2 * i + 1, 2 * j);
-    c[2] = pyramid_.node(k, 2 * i, 2 * j + 1);
-    c[3] = pyramid_.node(k, 2 * i + 1, 2 * j + 1);
+    if (lobe_path) {
+      lobe_children(k, i, j, c);
+    } else {
+      c[0] = pyramid_.node(k, 2 * i, 2 * j);
+      c[1] = pyramid_.node(k, 2 * i + 1, 2 * j);
+      c[2] = pyramid_.node(k, 2 * i, 2 * j + 1);
+      c[3] = pyramid_.node(k, 2 * i + 1, 2 * j + 1);
+    }
     if (!descend(c, ux, uy, dx, dy)) return false;
     i = 2 * i + dx;
     j = 2 * j + dy;
@@ -454,7 +547,17 @@ double ProductSampler::texel_pdf(int x, int y) const {
     if (!(env_coarse > 0.0)) return 0.0;
     q = pc * (leaf / env_coarse);
   }
-  if (lobe_active_) q += lobe_b(x, y) * leaf / total_;
+  if (lobe_active_) {
+    const double b = lobe_b(x, y);
+    if (b > 0.0) {
+      if (options_.lobe_descent) {
+        const int l = lobe_level_;
+        q += b * pyramid_.node(l, x >> l, y >> l) * lobe_path_probability(x, y) / total_;
+      } else {
+        q += b * leaf / total_;
+      }
+    }
+  }
   const double p = q / env_.texel_solid_angle(x, y);
   return std::isfinite(p) ? p : 0.0;
 }

@@ -21,7 +21,10 @@
 ///           technique must cover what the compensated table leaves out).
 ///  - product, product-mis: BSDF x cos x environment product sampling (product_sampling.h, Clarberg 2008) with
 ///           M samples, alone or under MIS (same heuristic, multi-sample model) with N BSDF samples. Uses the
-///           hierarchical table; --product-resolution sets the coarse BSDF table.
+///           hierarchical table; --product-resolution sets the coarse BSDF table. A table serves the following
+///           shading points of the same material while their normal and view direction stay within
+///           --product-reuse of the prepared ones (and half the lobe's width); the BSDF is always evaluated at
+///           the point itself, so only the sampling density is shared.
 /// Delta lobes (perfect mirror): no light sample can hit them, so every strategy follows them by BSDF sampling
 /// with weight 1 (pure-delta materials take exactly one BSDF sample, whatever N and M say).
 /// No NaN or Inf leaves radiance(): a non-finite estimate (never expected) is replaced by 0 and counted.
@@ -58,6 +61,8 @@ struct IntegratorOptions {
   int light_samples = 1;
   int max_depth = 1;            ///< scattering events per path (1 = direct only)
   int product_resolution = 8;   ///< passed to the product sampler (coarse BSDF table size)
+  /// Product table reuse (radians, 0 = a table per shading point): ProductSampler::Options::reuse_angle.
+  double product_reuse_angle = 0.3;
 };
 
 class ProductSamplers;  // per-thread ProductSampler instances (product_sampling.h)

@@ -26,11 +26,21 @@
 ///     lobe_nodes nodes across the cone; coarser while the rectangle of nodes covering the cone in (theta, phi)
 ///     holds more than max_lobe_nodes) with b_l per node: eval at the node centre, or (lobe_proxy, default)
 ///     eval(wo, r) x pi alpha_eff^2 x D_GGX(h; alpha_eff), the lobe's shape up to Fresnel and masking at ~1/5 the
-///     cost; nodes farther than the cone plus their half diagonal get 0. The sampled density is the mixture
-///         pdf(w) ~ env_leaf(x, y) / Omega(x, y) x (floor(coarse node) + b_l(lobe node)),
-///     drawn by choosing the coarse pyramid or the lobe's node list (binary search of its cumulative b x env)
-///     with u.x, then descending the environment's levels below the chosen node. Unbiasedness is unchanged:
-///     the floor keeps pdf > 0 on every node that touches the hemisphere, whatever b_l is.
+///     cost; nodes farther than the cone plus their half diagonal get 0. Below the lobe level (lobe_descent,
+///     default) each child is chosen in proportion to env_child x b(child's centre) (the same proxy), so the
+///     sample follows the lobe down to the texels; the sampled density is the mixture
+///         pdf(w) ~ floor(coarse node) x env_leaf(x, y) / Omega(x, y)
+///                + b_l(lobe node) x env_node(l) x prod_k P_k(child on the path to (x, y)) / Omega(x, y),
+///     P_k = env x b of that child over the sum of its siblings' (env alone when no sibling has b > 0; without
+///     lobe_descent P_k is env alone and the product telescopes to env_leaf / env_node(l)). It is drawn by
+///     choosing the coarse pyramid or the lobe's node list (binary search of its cumulative b x env) with u.x,
+///     then descending below the chosen node; pdf() walks the same path (4 lobe values per level). Unbiasedness
+///     is unchanged: the floor keeps pdf > 0 on every node that touches the hemisphere, whatever b_l is.
+///  Table reuse (Options::reuse_angle > 0): reusable() lets a prepared table serve later shading points of the
+///     same material whose normal and world view direction stay within min(reuse_angle, reuse_lobe_fraction x
+///     alpha_eff) of the prepared ones; the density is the prepared one (a valid density anywhere), and nodes
+///     count as below the horizon only when they lie below it by the margin reuse_angle, so pdf > 0 wherever
+///     eval can be positive at any such point. The caller evaluates the BSDF at its own point.
 /// Sampling: u is warped down the product pyramid exactly as distribution_pyramid.cpp does (column pair by u.x,
 /// then child by u.y, re-uniformised and clamped with sampling::clamp_decision at every level), then down the
 /// environment's own levels c-1 .. 0 with its node sums, then uniformly in solid angle inside the texel
@@ -48,17 +58,18 @@
 /// Unbiasedness: pdf > 0 wherever eval(wo, wi) x importance > 0 (the floor on every node above the horizon).
 /// Pure delta materials (the mirror) have no product: prepare() leaves the sampler invalid; use BSDF sampling.
 ///
-/// Cost (measured, tests/bench/bench_product.cpp, 2048 x 1024 env, shared 2-core machine, CPU time): prepare for
-/// a glossy conductor (alpha 0.1) without lobe refinement ~4 us at 8 columns, ~17 us at 16, ~19 us at 32
-/// (S = 1), ~75 us at 64, ~1.3 ms at 256 (a diffuse material ~3x less); with lobe refinement (default, ~21 lobe
-/// nodes) ~1.6 us at 8, ~1.9 us at 16, ~5.2 us at 32; sample ~0.2-0.4 us whatever the resolution (plain hierarchical environment sampling:
-/// ~0.19 us); pdf ~0.15 us. Prepare once per shading point, then draw several samples.
-/// Variance per sample of f_cos L / pdf (without lobe refinement), gold-like conductor under a 1024 x 512 sky + 3000x sun, lobe near the
-/// sun (alpha 0.05 / 0.1 / 0.3): BSDF sampling 2018 / 6293 / 9348, environment sampling 84.5 / 25.3 / 13.5,
-/// product at 16 columns 6.3 / 2.0 / 0.30, at 32 columns 2.4 / 0.96 / 0.23, at 64 columns 0.33 / 0.28 / 0.058.
-/// Rendered efficiency against power MIS (glossy spheres, docs/bench_product.md): below 1x; on a smooth sky a
-/// piecewise-constant table cannot match VNDF sampling of a narrow lobe (variance per sample 20-300x BSDF
-/// sampling's at alpha 0.05), so product wins only where a bright source sits in the lobe.
+/// Cost (measured 2026-12-01, tests/bench/bench_product.cpp, 2048 x 1024 env, shared 2-core machine, CPU time,
+/// defaults: lobe refinement with descent, extent 6, 8 nodes across): prepare for a glossy conductor (alpha 0.1,
+/// ~62 lobe nodes) 1.3 us at 4 columns, 1.6 us at 8, 2.8 us at 16, 12 us at 32, 68 us at 64 (no lobe level),
+/// 1.1 ms at 256; a diffuse material 0.8 us at 8. Sample ~0.6 us down a lobe (descent), ~0.15-0.2 us otherwise
+/// (plain hierarchical environment sampling: ~0.16 us); pdf ~0.31 us down a lobe, ~0.1 us otherwise. Prepare
+/// once per shading point (or reuse, below), then draw several samples.
+/// Variance per sample of f_cos L / pdf, conductor under a 512 x 256 sky without sun, alpha 0.02 / 0.05, 8 columns
+/// (test LobeDescentLowersTheVarianceOfNarrowLobes): env-only descent below the lobe level 0.25 / 0.16, lobe
+/// descent 0.057 / 0.012.
+/// Rendered efficiency against power MIS 1+1 (glossy spheres, docs/bench_product.md, 2026-12-01): product-mis at
+/// 8 columns with table reuse 0.93-1.02x (geomean of 6 spheres, alpha 0.05-0.3; 1.1-1.4x on the narrow
+/// conductors, 0.7-0.8x on the narrow plastic), 1.9x on the sunny probe's highlights; without reuse 0.61-0.65x.
 /// Not thread-safe: one sampler per thread (it reuses its buffers); the environment distribution it refers to must outlive it.
 #include <envkit/env_sampling.h>
 #include <envkit/render/frame.h>
@@ -84,14 +95,26 @@ class ProductSampler {  // one per thread; reuses its buffers
     double floor_fraction = 0.02;  ///< floor of b, relative to the mean b over nodes above the horizon
     /// Lobe refinement (lat-long tables only; 0 disables it): a lobe narrower than the coarse nodes gets its own
     /// finer level with about this many nodes across the lobe's cone diameter.
-    int lobe_nodes = 4;
+    int lobe_nodes = 8;
     /// Lobe cone half-angle = 2 atan(lobe_extent x alpha_eff) around the mirror direction, alpha_eff =
     /// sqrt(1 / (4 pi cos_o pdf(wo, mirror))) (the GGX alpha for a GGX lobe sampled by visible normals).
-    double lobe_extent = 3.0;
+    double lobe_extent = 6.0;
     int max_lobe_nodes = 256;  ///< coarser lobe level while the lobe rectangle holds more nodes than this
     /// Lobe nodes use the GGX D(h) of alpha_eff scaled to eval at the mirror direction instead of eval
     /// (cheaper; the same shape up to Fresnel and masking; any positive b keeps the estimator unbiased).
     bool lobe_proxy = true;
+    /// Below the lobe level, choose each child in proportion to env x the lobe's value at the child's centre
+    /// (the same proxy or eval) instead of env alone, so that the sample follows a lobe narrower than the lobe
+    /// nodes down to the texels. pdf() walks the same path (one lobe evaluation per child and level).
+    bool lobe_descent = true;
+    /// Table reuse (radians, 0 = off): a table prepared at one shading point may serve later points of the same
+    /// material whose normal and view direction (world) lie within this angle (reusable()); nodes count as below
+    /// the horizon only when they lie below it by this margin, so the density stays positive wherever eval can
+    /// be positive at any of those points.
+    double reuse_angle = 0.0;
+    /// ... and within this fraction of the prepared lobe's width alpha_eff (radians), whichever is smaller: a
+    /// narrow lobe moves out of its own table sooner.
+    double reuse_lobe_fraction = 0.5;
   };
 
   /// env_hierarchical: a SphericalDistribution whose distribution() is a PyramidDistribution2D (Error otherwise).
@@ -105,6 +128,10 @@ class ProductSampler {  // one per thread; reuses its buffers
   /// material, no light above the horizon): sample() then returns false and pdf() 0.
   void prepare(const Material& m, const Frame& frame, const Vec3& wo_local);
   bool valid() const { return valid_; }
+  /// True when the table prepared last may serve this shading point (Options::reuse_angle > 0, same material,
+  /// normal and world view direction within reuse_angle of the prepared ones). The density is then the prepared
+  /// one; evaluate the BSDF at the new point (sample()'s f_cos is for the prepared point).
+  bool reusable(const Material& m, const Frame& frame, const Vec3& wo_local) const;
 
   /// Warps u in [0,1)^2 (clamped) to a world direction with its density per steradian (> 0). False when not
   /// valid().
@@ -129,6 +156,7 @@ class ProductSampler {  // one per thread; reuses its buffers
   struct NodeCone {
     Vec3 centre;           ///< world direction of the node's centre
     double sin_radius = 1;  ///< sin of an upper bound of the angle from centre to any direction of the node
+    double radius = kPi;    ///< that bound (radians)
     bool all_sphere = false;  ///< the bound reaches 90 degrees: the node always touches the hemisphere
   };
 
@@ -144,6 +172,13 @@ class ProductSampler {  // one per thread; reuses its buffers
   double lobe_b(int x, int y) const;
   /// Density per steradian of texel (x, y) (the pdf of every direction inside it).
   double texel_pdf(int x, int y) const;
+  /// The lobe's value (proxy or mean eval) for a local direction; 0 below the horizon.
+  double lobe_value(const Vec3& wi_local) const;
+  /// Lobe descent: weights of the four children (level k) of node (i, j) of level k + 1: env x lobe value at
+  /// the child's centre, or env alone when no child has a positive lobe value.
+  void lobe_children(int k, int i, int j, double w[4]) const;
+  /// Lobe descent: probability of reaching texel (x, y) from its lobe-level node.
+  double lobe_path_probability(int x, int y) const;
 
   const SphericalDistribution& env_;
   const PyramidDistribution2D& pyramid_;
@@ -169,10 +204,17 @@ class ProductSampler {  // one per thread; reuses its buffers
   int lobe_level_ = 0, lobe_row0_ = 0, lobe_rows_ = 0, lobe_col0_ = 0, lobe_cols_ = 0;
   double lobe_total_ = 0.0;
   std::vector<double> lobe_b_, lobe_cdf_;
+  double lobe_a2_ = 0.0, lobe_proxy_scale_ = 0.0;  // proxy: alpha_eff^2 and its scale (0: evaluate the BSDF)
+  Mat3 local_from_table_;
+  // Lobe descent (lat-long): table-frame centre of the nodes of each level <= coarse: (sin lon, cos lon) per
+  // column and (sin theta, cos theta) per row.
+  std::vector<std::vector<Vec2>> column_centres_, row_centres_;
   bool valid_ = false;
   const Material* material_ = nullptr;
   Frame frame_;
   Vec3 wo_local_;
+  Vec3 prepared_wo_world_;
+  double cos_reuse_ = 1.0;
 };
 
 }  // namespace envkit::render
