@@ -203,6 +203,34 @@ TEST_P(Product, ChiSquareUnderSunProbe) {
   (void)tests;
 }
 
+// Mean and variance per sample of f_cos L / pdf (channel 0) over n samples at the prepared shading point.
+/// pdf_mismatches counts samples whose pdf() differs from the drawn pdf by more than 1e-6 relative.
+struct Moments {
+  double mean = 0.0, variance = 0.0;
+  std::size_t pdf_mismatches = 0;
+};
+Moments product_moments(const ProductSampler& ps, const TestEnv& env, std::size_t n, std::uint64_t seed) {
+  Moments m;
+  const Mat3 table_from_world = transposed(kWorldFromTable);
+  std::mt19937_64 rng(seed);
+  double s = 0.0, s2 = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    Vec3 wi, f;
+    double pdf = 0.0, value = 0.0;
+    if (ps.sample(Vec2(uniform53(rng), uniform53(rng)), wi, pdf, f)) {
+      if (!(std::abs(ps.pdf(wi) - pdf) <= 1e-6 * pdf)) ++m.pdf_mismatches;
+      int x = 0, y = 0;
+      env.dist->texel_of(apply(table_from_world, wi), x, y);
+      value = f.x * env.L(x, y) / pdf;
+    }
+    s += value;
+    s2 += value * value;
+  }
+  m.mean = s / double(n);
+  m.variance = std::max(0.0, s2 / double(n) - m.mean * m.mean);
+  return m;
+}
+
 // E[f_cos L / pdf] equals sum over texels of L x (integral of f_cos over the texel) within 4 sigma (+ 0.2% for the
 // quadrature), for several resolutions; and for a glossy lobe the product estimator has lower variance than plain
 // environment sampling (resolution 1).
@@ -216,28 +244,14 @@ TEST_P(Product, UnbiasedAgainstQuadrature) {
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x)
       reference += env.L(x, y) * texel_integral(*material, frame, wo, x, y, W, H, kWorldFromTable, 24);
-  const Mat3 table_from_world = transposed(kWorldFromTable);
   double variance_env = 0.0, variance_product = 0.0;
   for (int resolution : {1, 8, 32, 64}) {
     SCOPED_TRACE("resolution " + std::to_string(resolution));
     ProductSampler ps(*env.dist, kWorldFromTable, resolution);
     ps.prepare(*material, frame, wo);
     constexpr std::size_t n = 200000;
-    std::mt19937_64 rng(77);
-    double s = 0.0, s2 = 0.0;
-    for (std::size_t k = 0; k < n; ++k) {
-      Vec3 wi, f;
-      double pdf = 0.0, value = 0.0;
-      if (ps.sample(Vec2(uniform53(rng), uniform53(rng)), wi, pdf, f)) {
-        int x = 0, y = 0;
-        env.dist->texel_of(apply(table_from_world, wi), x, y);
-        value = f.x * env.L(x, y) / pdf;
-      }
-      s += value;
-      s2 += value * value;
-    }
-    const double mean = s / double(n);
-    const double var = std::max(0.0, s2 / double(n) - mean * mean);
+    const Moments m = product_moments(ps, env, n, 77);
+    const double mean = m.mean, var = m.variance;
     const double sigma = std::sqrt(var / double(n));
     EXPECT_NEAR(mean, reference, 4.0 * sigma + 2e-3 * reference)
         << "mean " << mean << " reference " << reference << " sigma " << sigma;
@@ -369,7 +383,6 @@ TEST(ProductSampler, WhiteFurnaceLatLongAndOctahedral) {
 TEST(ProductSampler, LobeRefinementIsConsistentAndUnbiased) {
   const int W = 256, H = 128;
   const TestEnv env = make_env(W, H, 300.0, kSunDir, 2.0);
-  const Mat3 table_from_world = transposed(kWorldFromTable);
   const std::vector<std::function<std::unique_ptr<Material>()>> materials = {
       [] { return make_conductor(Vec3(0.2, 0.4, 1.4), Vec3(3.9, 2.4, 1.6), 0.05); },
       [] { return make_plastic(Vec3(0.5, 0.3, 0.2), 0.1, 1.5); }};
@@ -405,46 +418,13 @@ TEST(ProductSampler, LobeRefinementIsConsistentAndUnbiased) {
             for (int x = 0; x < W; ++x)
               reference += env.L(x, y) * texel_integral(*material, frame, wo, x, y, W, H, kWorldFromTable, 6);
           constexpr std::size_t n = 100000;
-          std::mt19937_64 rng(99);
-          double s = 0.0, s2 = 0.0;
-          for (std::size_t k = 0; k < n; ++k) {
-            Vec3 wi, f;
-            double pdf = 0.0, value = 0.0;
-            if (ps.sample(Vec2(uniform53(rng), uniform53(rng)), wi, pdf, f)) {
-              ASSERT_NEAR(ps.pdf(wi), pdf, 1e-6 * pdf);
-              int x = 0, y = 0;
-              env.dist->texel_of(apply(table_from_world, wi), x, y);
-              value = f.x * env.L(x, y) / pdf;
-            }
-            s += value;
-            s2 += value * value;
-          }
-          const double mean = s / double(n);
-          const double sigma = std::sqrt(std::max(0.0, s2 / double(n) - mean * mean) / double(n));
+          const Moments m = product_moments(ps, env, n, 99);
+          EXPECT_EQ(m.pdf_mismatches, 0u);
+          const double mean = m.mean, sigma = std::sqrt(m.variance / double(n));
           EXPECT_NEAR(mean, reference, 5.0 * sigma + 1e-2 * reference)
               << "proxy " << proxy << " descent " << descent << " theta_o " << theta_o << " sigma " << sigma;
         }
   EXPECT_GT(active, 12);  // the narrow lobes do take the lobe path
-}
-
-// Per-sample variance of f_cos L / pdf (channel 0) at one shading point, n samples.
-double product_variance(const ProductSampler& ps, const TestEnv& env, int n, std::uint64_t seed) {
-  const Mat3 table_from_world = transposed(kWorldFromTable);
-  std::mt19937_64 rng(seed);
-  double s = 0.0, s2 = 0.0;
-  for (int k = 0; k < n; ++k) {
-    Vec3 wi, f;
-    double pdf = 0.0, v = 0.0;
-    if (ps.sample(Vec2(uniform53(rng), uniform53(rng)), wi, pdf, f)) {
-      int x = 0, y = 0;
-      env.dist->texel_of(apply(table_from_world, wi), x, y);
-      v = f.x * env.L(x, y) / pdf;
-    }
-    s += v;
-    s2 += v * v;
-  }
-  const double mean = s / n;
-  return std::max(0.0, s2 / n - mean * mean);
 }
 
 // Lobe descent is what lets a lobe narrower than the lobe nodes be followed down to the texels: for GGX alpha
@@ -463,7 +443,7 @@ TEST(ProductSampler, LobeDescentLowersTheVarianceOfNarrowLobes) {
       ps.prepare(*conductor, frame, wo_at(30.0));
       ASSERT_TRUE(ps.valid());
       ASSERT_GE(ps.lobe_level(), 0);
-      variance[descent] = product_variance(ps, env, 100000, 5);
+      variance[descent] = product_moments(ps, env, 100000, 5).variance;
     }
     std::printf("[ alpha %.2f ] variance per sample: env-only descent %.4g, lobe descent %.4g\n", alpha, variance[0],
                 variance[1]);
