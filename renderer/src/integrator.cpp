@@ -73,6 +73,10 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
 
 Integrator::~Integrator() = default;
 
+void Integrator::begin_pixel() const {
+  if (product_) product_->begin_pixel();
+}
+
 double Integrator::mis_weight(double a, double b) const {
   if (options_.heuristic == Heuristic::Power) {
     a *= a;

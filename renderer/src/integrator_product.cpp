@@ -20,4 +20,10 @@ ProductSampler& ProductSamplers::get() const {
   return *sampler;
 }
 
+void ProductSamplers::begin_pixel() const {
+  bool exists = false;
+  std::unique_ptr<ProductSampler>& sampler = local_.local(exists);
+  if (exists && sampler) sampler->stop_reuse();
+}
+
 }  // namespace envkit::render

@@ -17,6 +17,8 @@ class ProductSamplers {
   ProductSamplers(const EnvironmentLight& light, int resolution, double reuse_angle);
   /// This thread's sampler (created on first use).
   ProductSampler& get() const;
+  /// A pixel starts on this thread: its sampler stops reusing the previous pixel's table.
+  void begin_pixel() const;
 
  private:
   const SphericalDistribution& distribution_;

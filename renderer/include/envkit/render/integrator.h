@@ -23,8 +23,8 @@
 ///           M samples, alone or under MIS (same heuristic, multi-sample model) with N BSDF samples. Uses the
 ///           hierarchical table; --product-resolution sets the coarse BSDF table. A table serves the following
 ///           shading points of the same material while their normal and view direction stay within
-///           --product-reuse of the prepared ones (and half the lobe's width); the BSDF is always evaluated at
-///           the point itself, so only the sampling density is shared.
+///           --product-reuse of the prepared ones (and half the lobe's width), within one pixel (begin_pixel());
+///           the BSDF is always evaluated at the point itself, so only the sampling density is shared.
 /// Delta lobes (perfect mirror): no light sample can hit them, so every strategy follows them by BSDF sampling
 /// with weight 1 (pure-delta materials take exactly one BSDF sample, whatever N and M say).
 /// No NaN or Inf leaves radiance(): a non-finite estimate (never expected) is replaced by 0 and counted.
@@ -75,6 +75,10 @@ class Integrator {
 
   /// Radiance along a camera ray.
   Vec3 radiance(const Ray& ray, Sampler& sampler) const;
+  /// Call before the samples of each pixel (render.cpp does): per-thread state such as a reusable product table
+  /// never crosses pixels, so a pixel's value depends only on its own samples, not on the thread schedule, the
+  /// tiles or the crop.
+  void begin_pixel() const;
   /// Direct environment light D(x, wo) leaving a shading point (exposed for tests). frame.n is the shading
   /// normal on the side of wo; geometric_normal is on the same side.
   Vec3 direct(const Vec3& position, const Frame& frame, const Vec3& geometric_normal, const Vec3& wo_local,

@@ -68,8 +68,9 @@
 /// (test LobeDescentLowersTheVarianceOfNarrowLobes): env-only descent below the lobe level 0.25 / 0.16, lobe
 /// descent 0.057 / 0.012.
 /// Rendered efficiency against power MIS 1+1 (glossy spheres, docs/bench_product.md, 2026-12-01): product-mis at
-/// 8 columns with table reuse 0.93-1.02x (geomean of 6 spheres, alpha 0.05-0.3; 1.1-1.4x on the narrow
-/// conductors, 0.7-0.8x on the narrow plastic), 1.9x on the sunny probe's highlights; without reuse 0.61-0.65x.
+/// 8 columns with table reuse within each pixel 0.92-0.96x (geomean of 6 spheres, alpha 0.05-0.3; 1.2x on the
+/// narrowest conductor, 0.6x on the narrow plastic), 1.75x on the sunny probe's highlights; without reuse
+/// 0.59-0.62x.
 /// Not thread-safe: one sampler per thread (it reuses its buffers); the environment distribution it refers to must outlive it.
 #include <envkit/env_sampling.h>
 #include <envkit/render/frame.h>
@@ -132,6 +133,9 @@ class ProductSampler {  // one per thread; reuses its buffers
   /// normal and world view direction within reuse_angle of the prepared ones). The density is then the prepared
   /// one; evaluate the BSDF at the new point (sample()'s f_cos is for the prepared point).
   bool reusable(const Material& m, const Frame& frame, const Vec3& wo_local) const;
+  /// Ends reuse: reusable() is false until the next prepare() (the integrator calls it when a pixel starts, so
+  /// that tables never cross pixels and images do not depend on which pixel a thread rendered before).
+  void stop_reuse() { cos_reuse_ = 1.0; }
 
   /// Warps u in [0,1)^2 (clamped) to a world direction with its density per steradian (> 0). False when not
   /// valid().
