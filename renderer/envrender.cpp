@@ -201,8 +201,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   app.add_option("--product-reuse", a.product_reuse_deg,
-                 "product sampling: reuse a table while normal and view stay within this many degrees (and half "
-                 "the lobe's width); 0 = one table per shading point")
+                 "product sampling: within one pixel's samples, reuse a table while normal and view stay within "
+                 "this many degrees (and half the lobe's width); 0 = one table per shading point")
       ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");

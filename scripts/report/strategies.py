@@ -27,9 +27,10 @@ ALL_CONFIGS = [
     ("product r8", ["--strategy", "product", "--product-resolution", "8"]),
     ("product r32", ["--strategy", "product", "--product-resolution", "32"]),
     ("product r128", ["--strategy", "product", "--product-resolution", "128"]),
+    ("product-mis r8", ["--strategy", "product-mis", "--product-resolution", "8"]),
     ("product-mis r32", ["--strategy", "product-mis", "--product-resolution", "32"]),
 ]
-QUICK_SKIP = {"mis-power 3+1", "mis-power 2+2", "product r128"}
+QUICK_SKIP = {"mis-power 3+1", "mis-power 2+2", "product r128", "product-mis r8"}
 SMOKE_KEEP = {"bsdf", "light hierarchical", BASE, "product-mis r32"}
 CONFIGS = [c for c in ALL_CONFIGS if MODE == "full" or (MODE == "quick" and c[0] not in QUICK_SKIP)
            or (MODE == "smoke" and c[0] in SMOKE_KEEP)]
