@@ -41,6 +41,17 @@ LoadedScene default_scene_with(const std::string& probe_json, int width, int hei
   return load_scene_text(text, "default-variant.json", options);
 }
 
+/// The default scene with its probe replaced by probe_json and the material entry `from` by `to`, at w x h.
+LoadedScene default_scene_replacing(const std::string& probe_json, const std::string& from, const std::string& to,
+                                    int width, int height, const std::string& name) {
+  std::string text = replace(default_scene_json(), R"("probe": "default", "size": [1024, 512])", probe_json);
+  text = replace(text, from, to);
+  SceneLoadOptions options;
+  options.width = width;
+  options.height = height;
+  return load_scene_text(text, name, options);
+}
+
 struct Named {
   std::string name;
   IntegratorOptions options;
@@ -160,14 +171,9 @@ TEST(RenderStrategies, NoNonFiniteValuesUnderAMillionSun) {
 TEST(RenderStrategies, MirrorSphereUnderTheSunInEveryStrategy) {
   // A mirror sphere in the default scene's place of the matte one: every strategy renders it identically, since
   // delta lobes are followed by BSDF sampling with weight 1 whatever the strategy.
-  std::string text = replace(default_scene_json(), R"("probe": "default", "size": [1024, 512])",
-                             R"("probe": "default", "size": [256, 128])");
-  text = replace(text, R"("matte":    {"type": "diffuse", "albedo": [0.75, 0.3, 0.2]})",
-                 R"("matte":    {"type": "mirror", "reflectance": [0.9, 0.9, 0.9]})");
-  SceneLoadOptions options;
-  options.width = 48;
-  options.height = 24;
-  const LoadedScene scene = load_scene_text(text, "mirror.json", options);
+  const LoadedScene scene = default_scene_replacing(
+      R"("probe": "default", "size": [256, 128])", R"("matte":    {"type": "diffuse", "albedo": [0.75, 0.3, 0.2]})",
+      R"("matte":    {"type": "mirror", "reflectance": [0.9, 0.9, 0.9]})", 48, 24, "mirror.json");
   RenderOptions ro;
   ro.spp = 4;
   ro.crop = Crop{20, 4, 28, 10};  // the mirror sphere (behind the middle glossy one)
@@ -193,14 +199,9 @@ TEST(RenderStrategies, MirrorSphereUnderTheSunInEveryStrategy) {
 TEST(RenderStrategies, CropAndThreadCountDoNotChangePixels) {
   // A glossy ground: neighbouring pixels have the same normal and nearly the same view, so a product table would
   // be shared between them if reuse crossed pixels (a diffuse ground's table would not even change).
-  std::string text = replace(default_scene_json(), R"("probe": "default", "size": [1024, 512])",
-                             R"("probe": "overcast", "size": [64, 32])");
-  text = replace(text, R"("ground":   {"type": "diffuse", "albedo": [0.45, 0.45, 0.42]})",
-                 R"("ground":   {"type": "conductor", "roughness": 0.3})");
-  SceneLoadOptions load;
-  load.width = 24;
-  load.height = 12;
-  const LoadedScene scene = load_scene_text(text, "glossy-ground.json", load);
+  const LoadedScene scene = default_scene_replacing(
+      R"("probe": "overcast", "size": [64, 32])", R"("ground":   {"type": "diffuse", "albedo": [0.45, 0.45, 0.42]})",
+      R"("ground":   {"type": "conductor", "roughness": 0.3})", 24, 12, "glossy-ground.json");
   IntegratorOptions product;
   product.strategy = Strategy::ProductMis;
   ASSERT_GT(product.product_reuse_angle, 0.0);

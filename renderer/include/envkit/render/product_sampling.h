@@ -130,8 +130,9 @@ class ProductSampler {  // one per thread; reuses its buffers
   void prepare(const Material& m, const Frame& frame, const Vec3& wo_local);
   bool valid() const { return valid_; }
   /// True when the table prepared last may serve this shading point (Options::reuse_angle > 0, same material,
-  /// normal and world view direction within reuse_angle of the prepared ones). The density is then the prepared
-  /// one; evaluate the BSDF at the new point (sample()'s f_cos is for the prepared point).
+  /// normal and world view direction within min(reuse_angle, reuse_lobe_fraction x alpha_eff) of the prepared
+  /// ones). The density is then the prepared one; evaluate the BSDF at the new point (sample()'s f_cos is for
+  /// the prepared point).
   bool reusable(const Material& m, const Frame& frame, const Vec3& wo_local) const;
   /// Ends reuse: reusable() is false until the next prepare() (the integrator calls it when a pixel starts, so
   /// that tables never cross pixels and images do not depend on which pixel a thread rendered before).
