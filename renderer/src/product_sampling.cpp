@@ -24,6 +24,15 @@ const PyramidDistribution2D& require_pyramid(const SphericalDistribution& env) {
   return *p;
 }
 
+/// The GGX alpha of a lobe that a visible-normal sampler draws with the material's peak density at the mirror
+/// direction: sqrt(1 / (4 pi cos_o pdf(wo, mirror))); 0 when that density is 0 or not finite (wo.z > 0).
+double effective_alpha(const Material& m, const Vec3& wo) {
+  const double peak = m.pdf(wo, Vec3(-wo.x, -wo.y, wo.z));
+  if (!(peak > 0.0) || !std::isfinite(peak)) return 0.0;
+  const double alpha = std::sqrt(1.0 / (4.0 * kPi * wo.z * peak));
+  return std::isfinite(alpha) ? alpha : 0.0;
+}
+
 /// The scalar the product table uses for an RGB BSDF value.
 inline double mean_rgb(const Vec3& v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
 
@@ -79,7 +88,7 @@ ProductSampler::ProductSampler(const SphericalDistribution& env_hierarchical, co
   if (!(options_.floor_fraction > 0.0)) options_.floor_fraction = 0.02;
   if (!(options_.reuse_angle > 0.0) || !std::isfinite(options_.reuse_angle)) options_.reuse_angle = 0.0;
   options_.reuse_angle = std::min(options_.reuse_angle, 0.5 * kPi);
-  cos_reuse_ = 1.0;
+  if (!(options_.reuse_lobe_fraction > 0.0) || !std::isfinite(options_.reuse_lobe_fraction)) options_.reuse_angle = 0.0;
   // Coarse level: node columns nearest to product_resolution in log2.
   const double target = std::log2(double(std::max(1, product_resolution)));
   coarse_level_ = pyramid_.levels();
@@ -124,7 +133,7 @@ ProductSampler::ProductSampler(const SphericalDistribution& env_hierarchical, co
 }
 
 bool ProductSampler::reusable(const Material& m, const Frame& frame, const Vec3& wo_local) const {
-  if (!(options_.reuse_angle > 0.0) || !(cos_reuse_ < 1.0) || material_ != &m || !valid_) return false;
+  if (!(cos_reuse_ < 1.0) || material_ != &m || !valid_) return false;  // cos_reuse_ < 1 only with reuse on
   return (frame.n ^ frame_.n) >= cos_reuse_ && (frame.to_world(wo_local) ^ prepared_wo_world_) >= cos_reuse_;
 }
 
@@ -233,16 +242,15 @@ void ProductSampler::precompute_nodes() {
     }
 }
 
-bool ProductSampler::prepare_lobe(const Material& m, const Frame& frame, const Vec3& wo, double& floor) {
+bool ProductSampler::prepare_lobe(const Material& m, const Frame& frame, const Vec3& wo, double alpha,
+                                  double& floor) {
   lobe_active_ = false;
   lobe_total_ = 0.0;
   if (options_.lobe_nodes <= 0 || coarse_level_ == 0 || coarse_w_ * coarse_h_ <= 1 || env_.grid() != Kind::LatLong)
     return false;
   // Lobe: a cone around the mirror direction whose width follows the peak sampling density there.
+  if (!(alpha > 0.0)) return false;
   const Vec3 mirror(-wo.x, -wo.y, wo.z);
-  const double peak = m.pdf(wo, mirror);
-  if (!(peak > 0.0) || !std::isfinite(peak)) return false;
-  const double alpha = std::sqrt(1.0 / (4.0 * kPi * wo.z * peak));
   const double radius = 2.0 * std::atan(options_.lobe_extent * alpha);
   if (!(radius < 0.45 * kPi)) return false;
   const int W = env_.width(), H = env_.height();
@@ -380,19 +388,18 @@ void ProductSampler::prepare(const Material& m, const Frame& frame, const Vec3& 
   lobe_active_ = false;
   total_ = coarse_total_ = lobe_total_ = 0.0;
   for (auto& level : levels_) std::fill(level.begin(), level.end(), 0.0);
-  prepared_wo_world_ = frame.to_world(wo_local);
-  if (options_.reuse_angle > 0.0) {
-    const Vec3 mirror(-wo_local.x, -wo_local.y, wo_local.z);
-    const double peak = wo_local.z > 0.0 ? m.pdf(wo_local, mirror) : 0.0;
-    const double alpha = peak > 0.0 ? std::sqrt(1.0 / (4.0 * kPi * wo_local.z * peak)) : 0.0;
-    const double angle = std::min(options_.reuse_angle, options_.reuse_lobe_fraction * alpha);
-    cos_reuse_ = std::isfinite(angle) && angle > 0.0 ? std::cos(angle) : 1.0;
-  }
+  cos_reuse_ = 1.0;
   if (!(wo_local.z > 0.0) || m.is_pure_delta() || !finite_nonzero(wo_local)) return;
+  const double alpha = effective_alpha(m, wo_local);  // the lobe's width, for refinement and reuse
+  if (options_.reuse_angle > 0.0) {
+    prepared_wo_world_ = frame.to_world(wo_local);
+    const double angle = std::min(options_.reuse_angle, options_.reuse_lobe_fraction * alpha);
+    if (angle > 0.0) cos_reuse_ = std::cos(angle);
+  }
 
   // A lobe narrower than the coarse nodes: its own finer level; the coarse table is then the floor alone.
   double lobe_floor = 0.0;
-  const bool lobe = prepare_lobe(m, frame, wo_local, lobe_floor);
+  const bool lobe = prepare_lobe(m, frame, wo_local, alpha, lobe_floor);
 
   // BSDF table: mean over the node's points of mean_rgb(eval), on nodes that can see above the horizon.
   const int S2 = options_.points_per_axis * options_.points_per_axis;

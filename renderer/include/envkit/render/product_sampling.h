@@ -172,7 +172,8 @@ class ProductSampler {  // one per thread; reuses its buffers
   void product_children(int m, int i, int j, double c[4]) const;
   /// Lobe refinement: chooses the level and rectangle and fills lobe_b_ / lobe_cdf_; false = use the coarse
   /// table alone (wide lobe). floor: the b floor of the coarse table in lobe mode.
-  bool prepare_lobe(const Material& m, const Frame& frame, const Vec3& wo_local, double& floor);
+  /// alpha: the lobe's effective GGX alpha (effective_alpha in product_sampling.cpp; 0 = no lobe).
+  bool prepare_lobe(const Material& m, const Frame& frame, const Vec3& wo_local, double alpha, double& floor);
   /// b of the lobe node containing texel (x, y) (0 outside the lobe rectangle or without lobe).
   double lobe_b(int x, int y) const;
   /// Density per steradian of texel (x, y) (the pdf of every direction inside it).
