@@ -1,4 +1,6 @@
 // envprobe: writes analytic environments (closed-form power) and the built-in default probe.
+#include "common/cli.h"
+
 #include <envkit/atomic_file.h>
 #include <envkit/convention.h>
 #include <envkit/envmap.h>
@@ -25,6 +27,12 @@ namespace {
 using envkit::Error;
 using envkit::Vec3;
 namespace probes = envkit::probes;
+namespace tools = envkit::tools;
+
+// Radiance and colour components: finite, >= 0 and representable in a float file.
+constexpr double kMaxRadiance = 3.4e38;
+// Checker probe: cell integrals over the whole map; 2^31 is a few seconds on one core.
+constexpr double kMaxCheckerPieces = 2147483648.0;
 
 const char* kExamples = R"(Examples:
   envprobe default -o sky.exr                           built-in outdoor sky, 1024x512 lat-long
@@ -46,36 +54,21 @@ Azimuth is the lat-long longitude: 0 = +Z (image centre), 90 = +X, -90 = -X. Ele
 The total power printed is the closed form (numerical for the default probe); the written map's own power
 (sum of L x texel solid angle) is printed next to it.)";
 
-Vec3 parse_rgb(const std::string& option, const std::string& text) {
+Vec3 parse_rgb(const std::string& option, const std::string& text, double lo = 0.0, double hi = kMaxRadiance) {
   std::vector<double> v;
   std::stringstream ss(text);
   std::string item;
-  while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      v.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      throw Error(option + ": '" + text + "' is not a number or R,G,B");
-    }
-  }
+  while (std::getline(ss, item, ',')) v.push_back(tools::parse_number(option, item, lo, hi));
   if (v.size() == 1) return Vec3(v[0]);
   if (v.size() == 3) return Vec3(v[0], v[1], v[2]);
   throw Error(option + ": '" + text + "' must be one number or R,G,B");
 }
 
-std::pair<int, int> parse_pair(const std::string& option, const std::string& text, char sep) {
+std::pair<int, int> parse_pair(const std::string& option, const std::string& text, char sep, int lo, int hi) {
   const auto pos = text.find(sep);
-  try {
-    if (pos == std::string::npos) throw std::invalid_argument(text);
-    std::size_t u1 = 0, u2 = 0;
-    const std::string a = text.substr(0, pos), b = text.substr(pos + 1);
-    const int x = std::stoi(a, &u1), y = std::stoi(b, &u2);
-    if (u1 != a.size() || u2 != b.size()) throw std::invalid_argument(text);
-    return {x, y};
-  } catch (const std::exception&) {
-    throw Error(option + ": '" + text + "' must be two integers like 3" + sep + "4");
-  }
+  if (pos == std::string::npos) throw Error(option + ": '" + text + "' must be two integers like 3" + sep + "4");
+  return {int(tools::parse_integer(option, text.substr(0, pos), lo, hi)),
+          int(tools::parse_integer(option, text.substr(pos + 1), lo, hi))};
 }
 
 std::string rgb_text(const Vec3& v) {
@@ -146,6 +139,8 @@ envkit::ParamSpec make_spec(const Args& a) {
     }
     if (w < 1 || h < 1 || w > 65536 || h > 65536)
       throw Error("--size: '" + a.size + "': width and height must be in [1, 65536]");
+    // RGBA floats, the rasterizer's copy and the file encoder's: about 48 bytes per texel.
+    tools::check_image_size("--size", a.size, std::string(envkit::kind_name(kind)) + " map", w, h, 48.0);
     spec.width = static_cast<int>(w), spec.height = static_cast<int>(h);
   }
   if (!a.grid.empty()) {
@@ -173,27 +168,34 @@ std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, co
     else if (a.form == "quadratic") form = probes::GradientProbe::Form::Quadratic;
     else throw Error("--form: '" + a.form + "' must be upper or quadratic");
     return std::make_unique<probes::GradientProbe>(rgb("--base", a.base, Vec3(0.2, 0.25, 0.3)),
-                                                   rgb("--gain", a.gain, Vec3(0.3, 0.5, 1.0)), form);
+                                                   (a.gain.empty() ? Vec3(0.3, 0.5, 1.0) : parse_rgb("--gain", a.gain, -kMaxRadiance, kMaxRadiance)), form);
   }
   if (a.kind == "sun") {
     Vec3 dir = probes::direction_from_elevation_azimuth(elevation, azimuth);
     if (!a.direction.empty()) {
       if (app.count("--elevation-deg") || app.count("--azimuth-deg"))
         throw Error("--direction: give either a direction or elevation/azimuth, not both");
-      dir = parse_rgb("--direction", a.direction);
+      dir = parse_rgb("--direction", a.direction, -1e30, 1e30);
+      if (!(dir.x != 0.0 || dir.y != 0.0 || dir.z != 0.0)) throw Error("--direction: must not be 0,0,0");
     }
     return std::make_unique<probes::SunProbe>(dir, probes::radians(a.radius_deg), rgb("--radiance", a.radiance, Vec3(3e4)),
                                               rgb("--sky", a.sky, Vec3(0.05)));
   }
   if (a.kind == "texel") {
     if (a.texel.empty()) throw Error("--texel: required for kind 'texel' (e.g. --texel 10,5)");
-    const auto [i, j] = parse_pair("--texel", a.texel, ',');
+    const auto [i, j] = parse_pair("--texel", a.texel, ',', 0, 65535);
     return std::make_unique<probes::TexelProbe>(map, i, j, rgb("--radiance", a.radiance, Vec3(1000.0)),
                                                 rgb("--floor", a.floor, Vec3(0.0)));
   }
   if (a.kind == "checker") {
-    const auto [nt, np] = a.cells.empty() ? std::pair<int, int>{8, 16} : parse_pair("--cells", a.cells, ',');
-    if (nt < 1 || np < 1) throw Error("--cells: '" + a.cells + "': both counts must be >= 1");
+    const auto [nt, np] = a.cells.empty() ? std::pair<int, int>{8, 16} : parse_pair("--cells", a.cells, ',', 1, 1 << 20);
+    // Every texel integrates the cells its footprint covers: about (n_theta + H)(n_phi + W) cell pieces in all.
+    const double pieces = (double(nt) + map.height()) * (double(np) + map.width());
+    if (pieces > kMaxCheckerPieces)
+      throw Error("--cells: '" + a.cells + "' on a " + std::to_string(map.width()) + " x " +
+                  std::to_string(map.height()) + " map means about " + tools::fmt(pieces, 3) +
+                  " cell integrals (limit " + tools::fmt(kMaxCheckerPieces, 3) +
+                  "): a texel cannot show that many cells; use fewer cells");
     return std::make_unique<probes::CheckerProbe>(nt, np, rgb("--color-a", a.color_a, Vec3(0.8)),
                                                   rgb("--color-b", a.color_b, Vec3(0.1)));
   }
@@ -215,6 +217,11 @@ std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, co
 
 int run(const Args& a, const CLI::App& app) {
   check_options(app, a.kind);
+  // The preview is a second output: it must not replace the radiance map (or vice versa).
+  std::vector<std::string> outputs = envkit::face_paths(a.output);
+  if (!a.preview.empty()) outputs.push_back(a.preview);
+  envkit::check_distinct_outputs(outputs);
+  for (const std::string& out : outputs) envkit::check_output_path(out, {}, true);
   const envkit::ParamSpec spec = make_spec(a);
   const std::unique_ptr<envkit::Parameterization> map = envkit::make_parameterization(spec);
   const std::unique_ptr<probes::Probe> probe = make_probe(a, app, *map);
@@ -241,6 +248,8 @@ int run(const Args& a, const CLI::App& app) {
   so.write.pixel_type = a.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
   so.write.metadata["envkit:probe"] = probe->describe();
   so.write.metadata["envkit:probe_power"] = rgb_text(power);
+  // The map and its preview are one output: both or neither (also on a signal, a full disk or ulimit -f).
+  envkit::OutputGroup group;
   envkit::save_envmap(a.output, env, so);
   const envkit::Image& image_out = env.image;
   if (!a.preview.empty()) {
@@ -253,6 +262,8 @@ int run(const Args& a, const CLI::App& app) {
     envkit::write_image(a.preview, preview);
   }
 
+  // The report is composed before the files are committed: nothing after the commit can fail.
+  std::ostringstream report;
   const std::optional<Vec3> irradiance = probe->upward_irradiance();
   if (a.json) {
     nlohmann::json j;
@@ -272,18 +283,20 @@ int run(const Args& a, const CLI::App& app) {
       features.push_back({{"solid_angle", f.target}, {"sampled", f.sampled}, {"scale", f.scale},
                           {"missed", f.missed}, {"lost", f.lost}});
     j["features"] = features;
-    std::cout << j.dump(2) << "\n";
+    report << tools::json_text(j) << "\n";
   } else {
-    std::cout << "probe: " << probe->describe() << "\n"
-              << "map: " << map->describe() << "\n"
-              << "total power (" << (probe->power_is_closed_form() ? "closed form" : "numerical")
-              << "): " << rgb_text(power) << "\n"
-              << "map power (sum L x texel solid angle): " << rgb_text(map_power) << "\n";
-    if (irradiance) std::cout << "upward irradiance (+Y plane): " << rgb_text(*irradiance) << "\n";
+    report << "probe: " << probe->describe() << "\n"
+           << "map: " << map->describe() << "\n"
+           << "total power (" << (probe->power_is_closed_form() ? "closed form" : "numerical")
+           << "): " << rgb_text(power) << "\n"
+           << "map power (sum L x texel solid angle): " << rgb_text(map_power) << "\n";
+    if (irradiance) report << "upward irradiance (+Y plane): " << rgb_text(*irradiance) << "\n";
     for (const probes::FeatureStats& f : stats.features)
-      if (f.lost) std::cout << "warning: a feature lies where the map holds no data; its flux is missing\n";
-    std::cout << "wrote " << a.output << "\n";
+      if (f.lost) report << "warning: a feature lies where the map holds no data; its flux is missing\n";
+    report << "wrote " << a.output << (a.preview.empty() ? "" : " and " + a.preview) << "\n";
   }
+  group.commit();
+  std::cout << report.str();
   return 0;
 }
 
@@ -298,7 +311,7 @@ int main(int argc, char** argv) {
   app.add_option("--param", a.param, "parameterization: latlong, cube, mirrorball, angular, octahedral, paraboloid")
       ->capture_default_str();
   app.add_option("--size", a.size, "WxH, or N = natural size (lat-long 2N x N, cube faces N); default 1024x512");
-  app.add_option("--convention", a.convention, "envkit, openexr, hdrshop, angmap-cal, blender, gl")->capture_default_str();
+  app.add_option("--convention", a.convention, envkit::tools::convention_choices())->capture_default_str();
   app.add_option("--grid", a.grid, "centre | corner (lat-long and cube; default from the convention)");
   app.add_option("--layout", a.layout, "cube layout: vstrip, hstrip, hcross, vcross");
   app.add_option("--basis", a.basis, "cube face basis: envkit | gl");
@@ -308,34 +321,32 @@ int main(int argc, char** argv) {
   app.add_option("--base", a.base, "R or R,G,B: gradient base");
   app.add_option("--gain", a.gain, "R or R,G,B: gradient gain");
   app.add_option("--form", a.form, "gradient form: upper (max(y,0)) | quadratic (y^2)")->capture_default_str();
-  app.add_option("--radius-deg", a.radius_deg, "sun angular radius, degrees")->capture_default_str();
-  app.add_option("--elevation-deg", a.elevation_deg, "sun elevation, degrees")->capture_default_str();
-  app.add_option("--azimuth-deg", a.azimuth_deg, "sun azimuth, degrees (0 = +Z, 90 = +X)")->capture_default_str();
+  app.add_option("--radius-deg", a.radius_deg, "sun angular radius, degrees")
+      ->check(tools::number_in(0.0, 90.0, true))
+      ->capture_default_str();
+  app.add_option("--elevation-deg", a.elevation_deg, "sun elevation, degrees")
+      ->check(tools::number_in(-90.0, 90.0))
+      ->capture_default_str();
+  app.add_option("--azimuth-deg", a.azimuth_deg, "sun azimuth, degrees (0 = +Z, 90 = +X)")
+      ->check(tools::number_in(-360.0, 360.0))
+      ->capture_default_str();
   app.add_option("--direction", a.direction, "x,y,z: sun direction instead of elevation/azimuth");
   app.add_option("--texel", a.texel, "i,j: the lit texel of the output map");
   app.add_option("--cells", a.cells, "n_theta,n_phi: checker cells (default 8,16)");
   app.add_option("--color-a", a.color_a, "R or R,G,B: checker colour of cell (0, 0) (default 0.8)");
   app.add_option("--color-b", a.color_b, "R or R,G,B: the other checker colour (default 0.1)");
-  app.add_option("--seed", a.seed, "default probe: cloud seed")->capture_default_str();
-  app.add_option("--cloud-cover", a.cloud_cover, "default probe: cloud cover in [0, 1]")->capture_default_str();
+  app.add_option("--seed", a.seed, "default probe: cloud seed")
+      ->transform(tools::integer_in(0, 4294967295LL))
+      ->capture_default_str();
+  app.add_option("--cloud-cover", a.cloud_cover, "default probe: cloud cover in [0, 1]")
+      ->check(tools::number_in(0.0, 1.0))
+      ->capture_default_str();
   app.add_flag("--alpha", a.alpha, "add an alpha (coverage) channel; automatic for maps with empty texels");
   app.add_flag("--half", a.half, "write half floats (values above 65504 are clamped)");
   app.add_option("--preview", a.preview, "also write a tone-mapped preview (e.g. .png)");
-  app.add_option("--exposure", a.exposure, "preview exposure in stops (the sky of the default probe is ~1-1.6)")->capture_default_str();
+  app.add_option("--exposure", a.exposure, "preview exposure in stops (the sky of the default probe is ~1-1.6)")
+      ->check(tools::number_in(-64.0, 64.0))
+      ->capture_default_str();
   app.add_flag("--json", a.json, "print the report as JSON");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;  // usage errors exit 2, like every other tool
-  }
-  envkit::install_temp_cleanup_on_signal();  // SIGINT/SIGTERM during a write leave no temp file (issue 7)
-  try {
-    return run(a, app);
-  } catch (const Error& e) {
-    std::cerr << "envprobe: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "envprobe: " << e.what() << "\n";
-    return 1;
-  }
+  return tools::run_cli(app, argc, argv, [&] { return run(a, app); });
 }

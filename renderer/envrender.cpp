@@ -15,6 +15,8 @@
 
 namespace {
 
+namespace tools = envkit::tools;
+
 constexpr const char* kExamples = R"(
 Examples:
   envrender                                        the built-in default scene -> envrender.exr + envrender.png
@@ -145,14 +147,11 @@ int run(const Args& a) {
       {"envkit:seed", std::to_string(a.seed)},
       {"envkit:seconds", tools::fmt(stats.seconds, 4)},
       {"envkit:environment", scene.environment_description}};
+  // The EXR and its preview are one output: both appear, or neither (also on a signal, a full disk or ulimit -f).
+  envkit::OutputGroup outputs;
   film.write_exr(a.output, meta);
-  try {
-    film.write_preview(png);
-  } catch (...) {
-    std::error_code ec;
-    std::filesystem::remove(a.output, ec);  // no partial output
-    throw;
-  }
+  film.write_preview(png);
+  outputs.commit();
   if (!a.quiet) {
     std::ostringstream msg;
     msg << "wrote " << a.output << " and " << png << " (" << film.width() << "x" << film.height() << ", "
@@ -173,9 +172,9 @@ int main(int argc, char** argv) {
   app.add_option("--scene", a.scene, "JSON scene file (docs/SCENE_FORMAT.md); default: the built-in scene")
       ->check([](const std::string& path) { return path.empty() ? std::string("empty path") : std::string(); });
   app.add_option("-o,--output", a.output, "output EXR (the PNG preview goes next to it)")->capture_default_str();
-  app.add_option("--spp", a.spp, "samples per pixel")->check(CLI::Range(1, 1 << 24))->capture_default_str();
+  app.add_option("--spp", a.spp, "samples per pixel")->transform(tools::integer_in(1, 1 << 24))->capture_default_str();
   app.add_option("--time", a.time, "render for this many seconds instead of --spp (passes of 1 spp)")
-      ->check(CLI::PositiveNumber);
+      ->check(tools::number_in(0.0, 1e6, true));
   app.add_option("--strategy", a.strategy, "bsdf|light|mis|mis-compensated|product|product-mis")
       ->check(CLI::IsMember({"bsdf", "light", "mis", "mis-compensated", "product", "product-mis"}))
       ->capture_default_str();
@@ -189,25 +188,25 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"multi", "one"}))
       ->capture_default_str();
   app.add_option("--bsdf-samples", a.bsdf_samples, "BSDF samples per shading point (N)")
-      ->check(CLI::Range(0, 1024))
+      ->transform(tools::integer_in(0, 1024))
       ->capture_default_str();
   app.add_option("--light-samples", a.light_samples, "light (or product) samples per shading point (M)")
-      ->check(CLI::Range(0, 1024))
+      ->transform(tools::integer_in(0, 1024))
       ->capture_default_str();
   app.add_option("--max-depth", a.max_depth, "scattering events per path (1 = direct light only)")
-      ->check(CLI::Range(1, 64))
+      ->transform(tools::integer_in(1, 64))
       ->capture_default_str();
   app.add_option("--product-resolution", a.product_resolution, "product sampling: coarse BSDF table size")
-      ->check(CLI::Range(1, 4096))
+      ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
   app.add_option("--product-reuse", a.product_reuse_deg,
                  "product sampling: within one pixel's samples, reuse a table while normal and view stay within "
                  "this many degrees (and half the lobe's width); 0 = one table per shading point")
-      ->check(CLI::Range(0.0, 90.0))
+      ->check(tools::number_in(0.0, 90.0))
       ->capture_default_str();
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");
   app.add_option("--resolution", a.resolution, "override the camera resolution, WxH");
-  app.add_option("--seed", a.seed, "sampler seed")->capture_default_str();
+  app.add_option("--seed", a.seed, "sampler seed")->transform(tools::integer_in(0, 4294967295LL))->capture_default_str();
   app.add_flag("-f,--force", a.force, "allow the output (or its PNG preview) to replace an input file");
   app.add_flag("--bake", a.bake, "bake missing or stale sampling tables in memory instead of failing");
   envkit::tools::add_threads_option(app, a.threads);

@@ -19,7 +19,36 @@ PACKAGES=(
   python3 python3-matplotlib python3-numpy  # report plots
   clang libclang-rt-14-dev                  # sanitizer and fuzzer builds
   valgrind                                  # callgrind instruction counts in benchmarks
+  # Python module envkit (python/, docs/PYTHON.md): pybind11 bindings, their tests, the dask batch runner
+  python3-dev python3-pybind11 pybind11-dev  # headers of Debian's python3 and pybind11 (CMake config)
+  python3-pytest                            # python/tests, run by CTest
+  python3-distributed                       # python3 -m envkit.batch on a dask.distributed cluster
+  # HEALPix parameterization
+  libhealpix-cxx-dev                        # HEALPix pixel geometry (Healpix_Base: xyf2loc, vec2pix, RING/NESTED)
+  python3-healpy                            # independent HEALPix implementation the tests compare against
+  # envprefilter (real-time IBL outputs)
+  nodejs                                    # runs ktx-parse, the independent KTX2 reader of the container tests (brings npm)
+  # The three.js viewer (web/) and its test: Debian's Chromium renders the page headless, WebGL on SwiftShader
+  # (bundled with the package; no GPU, no display server, no browser download)
+  chromium
+  blender blender-data                      # Cycles, the renderer peer of scripts/bench_cycles.sh; blender-data's HDRIs
 )
+
+# npm packages, each folder pinned by its package-lock.json: tests/js (ktx-parse, the independent KTX2 reader) and
+# web/ (three, the viewer's renderer). Skipped where the package is already installed.
+install_js_packages() {
+  local root dir package entry
+  root="$(cd "$(dirname "$0")/.." && pwd)"
+  command -v npm >/dev/null 2>&1 || return 0
+  for entry in "tests/js:ktx-parse" "web:three"; do
+    dir="$root/${entry%%:*}"
+    package="${entry#*:}"
+    if [ -f "$dir/package-lock.json" ] && [ ! -d "$dir/node_modules/$package" ]; then
+      echo "install-deps: npm ci in ${entry%%:*}"
+      (cd "$dir" && npm ci --no-audit --no-fund)
+    fi
+  done
+}
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -30,6 +59,7 @@ done
 
 if [ "${#missing[@]}" -eq 0 ]; then
   echo "install-deps: all ${#PACKAGES[@]} packages present"
+  install_js_packages
   exit 0
 fi
 
@@ -39,3 +69,4 @@ echo "install-deps: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+install_js_packages

@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -271,4 +273,95 @@ TEST_F(AtomicFileTest, IgnoredSignalStaysIgnored) {
   ::waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status)) << "the child was killed by the ignored signal";
   EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+TEST_F(AtomicFileTest, OutputGroupCommitsEveryFileOrNone) {
+  write_text(path("a.exr"), "old a");
+  {
+    // A writer that fails after others committed: nothing of the group appears, the old file is untouched.
+    envkit::OutputGroup group;
+    {
+      AtomicOutput a(path("a.exr"));
+      write_text(a.temp_path(), "new a");
+      a.commit();
+    }
+    {
+      AtomicOutput b(path("b.exr"));
+      write_text(b.temp_path(), "new b");
+      b.commit();
+    }
+    EXPECT_EQ(read_text(path("a.exr")), "old a") << "deferred until the group commits";
+    EXPECT_FALSE(fs::exists(path("b.exr")));
+  }  // destroyed uncommitted
+  EXPECT_EQ(read_text(path("a.exr")), "old a");
+  EXPECT_EQ(listing(), std::vector<std::string>{"a.exr"}) << "no temp file survives an uncommitted group";
+
+  envkit::OutputGroup group;
+  for (const char* name : {"a.exr", "b.exr", "c.exr"}) {
+    AtomicOutput out(path(name));
+    write_text(out.temp_path(), std::string("new ") + name);
+    out.commit();
+  }
+  group.commit();
+  EXPECT_EQ(read_text(path("a.exr")), "new a.exr");
+  EXPECT_EQ(read_text(path("c.exr")), "new c.exr");
+  std::vector<std::string> names = listing();
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"a.exr", "b.exr", "c.exr"})) << "no backup or temp file left";
+}
+
+TEST_F(AtomicFileTest, OutputGroupRollsBackWhenARenameFails) {
+  write_text(path("a.exr"), "old a");
+  envkit::OutputGroup group;
+  {
+    AtomicOutput a(path("a.exr"));
+    write_text(a.temp_path(), "new a");
+    a.commit();
+    AtomicOutput b(path("b.exr"));
+    write_text(b.temp_path(), "new b");
+    b.commit();
+  }
+  // b.exr becomes a non-empty directory before the group commits: its rename fails after a.exr's succeeded.
+  fs::create_directories(dir_ / "b.exr" / "x");
+  try {
+    group.commit();
+    FAIL() << "the rename over a directory must fail";
+  } catch (const Error& e) {
+    EXPECT_TRUE(starts_with(e.what(), path("b.exr") + ": cannot write: ")) << e.what();
+  }
+  EXPECT_EQ(read_text(path("a.exr")), "old a") << "the committed file is rolled back to its old contents";
+  std::vector<std::string> names = listing();
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"a.exr", "b.exr"})) << "no backup or temp file left";
+}
+
+TEST_F(AtomicFileTest, FileSizeLimitFailsTheCommitInsteadOfKillingTheProcess) {
+  const std::string target = path("big.exr");
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    AtomicOutput out(target);  // installs the SIGXFSZ handler
+    const struct rlimit rl{1024, 1024};
+    ::setrlimit(RLIMIT_FSIZE, &rl);
+    std::ofstream(out.temp_path()) << std::string(8192, 'x');  // cut at 1024 bytes: EFBIG, SIGXFSZ
+    try {
+      out.commit();
+      ::_exit(1);
+    } catch (const Error& e) {
+      if (std::string(e.what()) != target + ": cannot write: file size limit exceeded (ulimit -f)") ::_exit(2);
+    }
+    ::_exit(fs::exists(target) || fs::exists(out.temp_path()) ? 3 : 0);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: committed, 2: wrong message, 3: a file was left";
+}
+
+TEST_F(AtomicFileTest, MessagesNameTargetsNotTempFiles) {
+  AtomicOutput out(path("sky.exr"));
+  AtomicOutput bare(path("o_+X"));
+  EXPECT_EQ(envkit::without_temp_names("Failed to write \"" + out.temp_path() + "\". File too large."),
+            "Failed to write \"" + path("sky.exr") + "\". File too large.");
+  EXPECT_EQ(envkit::without_temp_names(bare.temp_path() + ": no file extension"), path("o_+X") + ": no file extension");
+  EXPECT_EQ(envkit::without_temp_names("plain message"), "plain message");
 }

@@ -8,21 +8,19 @@
 //
 // Also here: tools interrupted by SIGTERM / SIGINT in the middle of a long write leave neither the output nor a
 // temporary file (libenv's signal cleanup is tested in-process by test_atomic_file; this runs the real tools).
-#include "cli_support.h"
-
+#include <OpenImageIO/imageio.h>
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/image.h>
 #include <envkit/image_io.h>
 #include <envkit/latlong.h>
-
-#include <OpenImageIO/imageio.h>
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/mount.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -33,11 +31,15 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <random>
 #include <regex>
 #include <set>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "cli_support.h"
 
 extern char** environ;
 
@@ -120,8 +122,8 @@ void write_table(const fs::path& p) {
 /// (camera.zoom, line 2), `unknown_material` (shapes[0] uses 'gold', line 8), `missing_mesh` (shapes[1] is
 /// nowhere.obj, line 9), `no_tables` (no 'tables' key, line 3), `huge` (camera resolution 1000000 x 1000000).
 void write_scene(const fs::path& p, const std::string& variant) {
-  static const std::set<std::string> variants = {"image",       "probe",            "malformed",    "no_tables",
-                                                 "unknown_key", "unknown_material", "missing_mesh", "huge"};
+  static const std::set<std::string> variants = {
+      "image", "probe", "malformed", "no_tables", "unknown_key", "unknown_material", "missing_mesh", "huge"};
   if (!variants.count(variant)) throw std::runtime_error("unknown scene variant '" + variant + "'");
   const bool probe = variant == "probe";
   const std::string resolution = variant == "huge" ? "[1000000, 1000000]" : "[4, 2]";
@@ -136,7 +138,10 @@ void write_scene(const fs::path& p, const std::string& variant) {
   text += "    \"white\": {\"type\": \"diffuse\", \"albedo\": 0.5}\n  },\n  \"shapes\": [\n";
   text += R"(    {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": ")" +
           std::string(variant == "unknown_material" ? "gold" : "white") + "\"}";
-  if (variant == "missing_mesh") text += ",\n" R"(    {"type": "mesh", "file": "nowhere.obj", "material": "white"})";
+  if (variant == "missing_mesh")
+    text +=
+        ",\n"
+        R"(    {"type": "mesh", "file": "nowhere.obj", "material": "white"})";
   text += "\n  ]\n}\n";
   spit(p, text);
   if (probe) return;
@@ -154,8 +159,10 @@ void generate(const fs::path& p, const std::string& gen) {
   const std::string head = gen.substr(0, colon), arg = colon == std::string::npos ? "" : gen.substr(colon + 1);
   if (head == "truncate" || head == "corrupt" || head == "corrupt_header" || head == "table_version") {
     const fs::path tmp = p.parent_path() / (".gen" + p.extension().string());
-    if (arg == "latlong") write_tagged(tmp, smooth(64, 32), "latlong", /*uncompressed=*/head == "truncate");
-    else generate(tmp, head == "table_version" ? "table" : arg);
+    if (arg == "latlong")
+      write_tagged(tmp, smooth(64, 32), "latlong", /*uncompressed=*/head == "truncate");
+    else
+      generate(tmp, head == "table_version" ? "table" : arg);
     std::string bytes = slurp(tmp);
     fs::remove(tmp);
     if (head == "table_version") {  // table_version:N: the uint32 format version after the 8-byte magic
@@ -228,6 +235,7 @@ void generate(const fs::path& p, const std::string& gen) {
   if (head == "text") return spit(p, arg);
   if (head == "empty") return spit(p, "");
   if (head == "dir") return (void)fs::create_directories(p);
+  if (head == "fifo") return (void)(fs::remove(p), ::mkfifo(p.c_str(), 0600));
   if (head == "file") return (void)fs::copy_file(kCorpusDir / "files" / arg, p, fs::copy_options::overwrite_existing);
   throw std::runtime_error("unknown generator '" + gen + "'");
 }
@@ -337,8 +345,8 @@ TEST_P(BadInput, FailsCleanly) {
   if (!c.stderr_regex.empty()) {
     ASSERT_FALSE(lines.empty()) << "no message on stderr";
     const std::string expected = substitute(c.stderr_regex, work);
-    EXPECT_TRUE(std::regex_search(lines[0], std::regex(expected))) << "first stderr line:\n  " << lines[0]
-                                                                    << "\ndoes not match\n  " << expected;
+    EXPECT_TRUE(std::regex_search(lines[0], std::regex(expected)))
+        << "first stderr line:\n  " << lines[0] << "\ndoes not match\n  " << expected;
   }
 
   std::set<std::string> after = listing(work);
@@ -377,8 +385,8 @@ class InterruptedWrite : public ::testing::Test {
   /// Starts `tool args` (stdout/stderr to files outside dir_), waits until `ready` says so (polling every
   /// millisecond, at most `limit`), sends `sig`, and returns the wait status. `seen` tells whether `ready` fired
   /// before the process exited by itself.
-  int run_and_signal(const std::string& tool, const std::vector<std::string>& args,
-                     const std::function<bool()>& ready, int sig, bool& seen) {
+  int run_and_signal(const std::string& tool, const std::vector<std::string>& args, const std::function<bool()>& ready,
+                     int sig, bool& seen) {
     const std::string program = std::string(ENVKIT_BIN_DIR) + "/" + tool;
     std::vector<std::string> all{program};
     all.insert(all.end(), args.begin(), args.end());
@@ -430,6 +438,46 @@ class InterruptedWrite : public ::testing::Test {
   }
   std::set<std::string> names() const { return listing(dir_); }
 
+  /// Runs `tool args` in `dir` with a file size limit (RLIMIT_FSIZE, `ulimit -f`) of `limit` bytes; returns the
+  /// wait status and the tool's stderr.
+  int run_with_file_limit(const std::string& tool, const std::vector<std::string>& args, rlim_t limit,
+                          std::string& err_text) {
+    const std::string program = std::string(ENVKIT_BIN_DIR) + "/" + tool;
+    const std::string err = (dir_.parent_path() / (dir_.filename().string() + ".limit.err")).string();
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(fd, 2);
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, 1);
+      const struct rlimit rl { limit, limit };
+      ::setrlimit(RLIMIT_FSIZE, &rl);
+      std::vector<std::string> all{program};
+      all.insert(all.end(), args.begin(), args.end());
+      std::vector<char*> argv;
+      for (auto& a : all) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(program.c_str(), argv.data());
+      ::_exit(127);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    std::ifstream in(err);
+    err_text.assign(std::istreambuf_iterator<char>(in), {});
+    std::error_code ec;
+    fs::remove(err, ec);
+    return status;
+  }
+
+  /// Files the atomic writers leave only while they run: temp files and the backups of a group commit.
+  bool leftovers(const fs::path& dir) const {
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+      const std::string name = e.path().filename().string();
+      if (name.find(".tmp-") != std::string::npos || name.find(".bak-") != std::string::npos) return true;
+    }
+    return false;
+  }
+
   fs::path dir_;
 };
 
@@ -438,10 +486,11 @@ TEST_F(InterruptedWrite, SigtermDuringTheWriteLeavesNoOutputAndNoTempFile) {
   for (int sig : {SIGTERM, SIGINT}) {
     SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGINT");
     bool seen = false;
-    const int status = run_and_signal("envconvert",
-                                      {(dir_ / "in.exr").string(), "-o", (dir_ / "out.exr").string(), "--to",
-                                       "latlong", "--size", "2048", "--filter", "nearest", "-q"},
-                                      [&] { return temp_file_present(); }, sig, seen);
+    const int status = run_and_signal(
+        "envconvert",
+        {(dir_ / "in.exr").string(), "-o", (dir_ / "out.exr").string(), "--to", "latlong", "--size", "2048", "--filter",
+         "nearest", "-q"},
+        [&] { return temp_file_present(); }, sig, seen);
     ASSERT_TRUE(seen) << "envconvert finished (status " << status << ") before its temp file was seen";
     EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << "status " << status;
     EXPECT_EQ(names(), std::set<std::string>{"in.exr"}) << "a partial output or a temp file was left";
@@ -450,10 +499,11 @@ TEST_F(InterruptedWrite, SigtermDuringTheWriteLeavesNoOutputAndNoTempFile) {
 
 TEST_F(InterruptedWrite, SigtermWhileWritingSixFacesLeavesNoFace) {
   bool seen = false;
-  const int status = run_and_signal("envconvert",
-                                    {(dir_ / "in.exr").string(), "-o", (dir_ / "face_%.exr").string(), "--to", "cube",
-                                     "--size", "1024", "--filter", "nearest", "-q"},
-                                    [&] { return temp_file_present(); }, SIGTERM, seen);
+  const int status = run_and_signal(
+      "envconvert",
+      {(dir_ / "in.exr").string(), "-o", (dir_ / "face_%.exr").string(), "--to", "cube", "--size", "1024", "--filter",
+       "nearest", "-q"},
+      [&] { return temp_file_present(); }, SIGTERM, seen);
   ASSERT_TRUE(seen) << "envconvert finished (status " << status << ") before a temp file was seen";
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << "status " << status;
   EXPECT_EQ(names(), std::set<std::string>{"in.exr"}) << "faces or temp files were left";
@@ -474,11 +524,150 @@ TEST_F(InterruptedWrite, SigtermDuringResamplingLeavesNothing) {
 
 TEST_F(InterruptedWrite, SigtermDuringEnvprobeWriteLeavesNothing) {
   bool seen = false;
-  const int status = run_and_signal("envprobe", {"gradient", "-o", (dir_ / "probe.exr").string(), "--size", "4096x2048"},
-                                    [&] { return temp_file_present(); }, SIGTERM, seen);
+  const int status = run_and_signal(
+      "envprobe", {"gradient", "-o", (dir_ / "probe.exr").string(), "--size", "4096x2048"},
+      [&] { return temp_file_present(); }, SIGTERM, seen);
   if (!seen) GTEST_SKIP() << "envprobe finished (status " << status << ") before its temp file was seen";
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << "status " << status;
   EXPECT_EQ(names(), std::set<std::string>{"in.exr"});
+}
+
+// Multi-file outputs, interrupted at random moments: EXR + PNG preview (envrender, envprobe --preview), the
+// --export-exr set (envinfo), six cube faces (envconvert). After SIGINT or SIGTERM at any moment, the directory
+// holds either every output or none, and never a temp or backup file. The moments are drawn from [0, 1.2 x the
+// command's own duration] with a fixed seed, so the commit itself is hit as often as the computing before it. The
+// duration is the shortest run seen so far (a first run with cold caches or beside a busy test is slower), and
+// trials go on until at least two of them interrupted the command, so a slow first run cannot leave the test
+// without an interrupted trial.
+struct MultiOutput {
+  std::string name, tool;
+  std::vector<std::string> args;
+};
+
+std::vector<MultiOutput> multi_outputs(const fs::path& dir) {
+  const std::string d = dir.string() + "/";
+  return {
+      {"envrender EXR+PNG", "envrender", {"--resolution", "64x36", "--spp", "2", "--bake", "-q", "-o", d + "r.exr"}},
+      {"envinfo --export-exr", "envinfo", {d + "t.envtbl", "--export-exr", d + "x"}},
+      {"six cube faces", "envconvert", {d + "in.exr", "-o", d + "face_%.exr", "--to", "cube", "--size", "128", "-q"}},
+      {"envprobe + preview",
+       "envprobe",
+       {"gradient", "-o", d + "p.exr", "--preview", d + "p.png", "--size", "256x128"}},
+  };
+}
+
+std::set<std::string> minus(const std::set<std::string>& a, const std::set<std::string>& b) {
+  std::set<std::string> out;
+  for (const auto& x : a)
+    if (!b.count(x)) out.insert(x);
+  return out;
+}
+
+TEST_F(InterruptedWrite, SignalsAtRandomMomentsLeaveMultiFileOutputsAllOrNothing) {
+  ASSERT_EQ(
+      envkit::test::run_tool("envbake", {(dir_ / "in.exr").string(), "-o", (dir_ / "t.envtbl").string(), "-q"}, dir_)
+          .code,
+      0);
+  const std::set<std::string> baseline = names();
+  std::mt19937 rng(14);
+  for (const MultiOutput& m : multi_outputs(dir_)) {
+    SCOPED_TRACE(m.name);
+    // Two undisturbed runs: what "all" is, and how long the command takes once its files are in the page cache.
+    double seconds = 1e9;
+    std::set<std::string> all;
+    for (int warm = 0; warm < 2; ++warm) {
+      const auto t0 = std::chrono::steady_clock::now();
+      bool seen = false;
+      const int status = run_and_signal(
+          m.tool, m.args, [] { return false; }, SIGTERM, seen);
+      seconds = std::min(seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "status " << status;
+      all = minus(names(), baseline);
+      ASSERT_GE(all.size(), 2u) << "a multi-file output";
+      for (const auto& f : all) fs::remove(dir_ / f);
+    }
+    int interrupted = 0;
+    for (int trial = 0; trial < 16 && (trial < 4 || interrupted < 2); ++trial) {
+      const double delay = std::uniform_real_distribution<double>(0.0, 1.2 * seconds)(rng);
+      const int sig = trial % 2 ? SIGINT : SIGTERM;
+      const auto start = std::chrono::steady_clock::now();
+      bool seen = false;
+      const int status = run_and_signal(
+          m.tool, m.args,
+          [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > delay; }, sig,
+          seen);
+      const std::set<std::string> produced = minus(names(), baseline);
+      EXPECT_FALSE(leftovers(dir_)) << "trial " << trial << ": a temp or backup file was left";
+      if (seen && WIFSIGNALED(status)) {
+        ++interrupted;
+        EXPECT_EQ(WTERMSIG(status), sig);
+        EXPECT_TRUE(produced.empty() || produced == all)
+            << "trial " << trial << " after " << delay << " s: " << produced.size() << " of " << all.size()
+            << " outputs";
+      } else {
+        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "status " << status;
+        EXPECT_EQ(produced, all) << "a run that finished wrote every output";
+        seconds = std::min(seconds, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      }
+      for (const auto& f : produced) fs::remove(dir_ / f);
+    }
+    EXPECT_GE(interrupted, 2) << "trials that interrupted the command";
+  }
+}
+
+// The file size limit (ulimit -f, SIGXFSZ): the write fails (EFBIG) instead of the process being killed, and the
+// command exits 1 with one line naming an output, leaving no output and no temp file.
+TEST_F(InterruptedWrite, FileSizeLimitLeavesNoOutput) {
+  ASSERT_EQ(
+      envkit::test::run_tool("envbake", {(dir_ / "in.exr").string(), "-o", (dir_ / "t.envtbl").string(), "-q"}, dir_)
+          .code,
+      0);
+  const std::set<std::string> baseline = names();
+  for (const MultiOutput& m : multi_outputs(dir_)) {
+    SCOPED_TRACE(m.name);
+    std::string err;
+    const int status = run_with_file_limit(m.tool, m.args, 4096, err);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << "status " << status << ": " << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_NE(err.find(dir_.string()), std::string::npos) << "names the output: " << err;
+    EXPECT_EQ(names(), baseline) << err;
+    EXPECT_FALSE(leftovers(dir_));
+  }
+}
+
+// A full disk (ENOSPC) on a 192 KiB tmpfs: same promise. Mounting needs root; without it the same scenario runs
+// under a file size limit, so the clause is still exercised.
+TEST_F(InterruptedWrite, FullDiskLeavesNoOutput) {
+  const fs::path full = dir_ / "full";
+  fs::create_directories(full);
+  write_tagged(full / "in.exr", smooth(64, 32), "latlong");
+  // The input must fit: copy it in before the disk is full, then fill the rest by the outputs.
+  const bool mounted = ::mount("tmpfs", full.c_str(), "tmpfs", 0, "size=192k") == 0;
+  if (mounted) write_tagged(full / "in.exr", smooth(64, 32), "latlong");
+  const std::set<std::string> before = listing(full);
+  const std::vector<std::vector<std::string>> commands = {
+      {"envconvert", (full / "in.exr").string(), "-o", (full / "face_%.exr").string(), "--to", "cube", "--size", "256",
+       "-q"},
+      {"envrender", "--resolution", "400x225", "--spp", "1", "--bake", "-q", "-o", (full / "r.exr").string()},
+  };
+  for (const auto& c : commands) {
+    SCOPED_TRACE(c[0] + (mounted ? " on a full tmpfs" : " under a file size limit"));
+    std::string err;
+    int status = 0;
+    if (mounted) {
+      const envkit::test::CommandResult r =
+          envkit::test::run_tool(c[0], std::vector<std::string>(c.begin() + 1, c.end()), dir_);
+      status = r.code == 1 ? 0x100 : -1;
+      err = r.err;
+    } else {
+      status = run_with_file_limit(c[0], std::vector<std::string>(c.begin() + 1, c.end()), 65536, err);
+    }
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << err;
+    EXPECT_NE(err.find(full.string()), std::string::npos) << "names the output: " << err;
+    EXPECT_EQ(listing(full), before) << err;
+    EXPECT_FALSE(leftovers(full));
+  }
+  if (mounted) ::umount(full.c_str());
 }
 
 }  // namespace

@@ -11,7 +11,12 @@
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -19,6 +24,27 @@ namespace fs = std::filesystem;
 using envkit::test::CommandResult;
 
 namespace {
+
+/// envsample's CSV (header u0,u1,x,y,z,pdf,texel_x,texel_y): the header line and the rows, 8 numbers each.
+struct SampleCsv {
+  std::string header;
+  std::vector<std::array<double, 8>> rows;
+};
+
+SampleCsv read_sample_csv(const std::string& path) {
+  SampleCsv csv;
+  std::istringstream in(envkit::test::read_text(path));
+  std::getline(in, csv.header);
+  for (std::string line; std::getline(in, line);) {
+    std::array<double, 8> v{};
+    char comma;
+    std::istringstream ls(line);
+    ls >> v[0];
+    for (int k = 1; k < 8; ++k) ls >> comma >> v[k];
+    csv.rows.push_back(v);
+  }
+  return csv;
+}
 
 class TablesCli : public ::testing::Test {
  protected:
@@ -87,23 +113,14 @@ TEST_F(TablesCli, BakeDescribeSampleEndToEnd) {
   // CSV: the pdf column is the tables' pdf of the direction column; directions are unit vectors.
   ok("envsample", {path("sky.envtbl"), "-n", "500", "--method", "cdf", "-o", path("s.csv"), "-q"});
   const envkit::EnvTables t = envkit::EnvTables::load(path("sky.envtbl"));
-  std::istringstream csv(envkit::test::read_text(path("s.csv")));
-  std::string line;
-  std::getline(csv, line);
-  EXPECT_EQ(line, "u0,u1,x,y,z,pdf,texel_x,texel_y");
-  int rows = 0;
-  while (std::getline(csv, line)) {
-    double v[8];
-    char comma;
-    std::istringstream ls(line);
-    ls >> v[0];
-    for (int k = 1; k < 8; ++k) ls >> comma >> v[k];
+  const SampleCsv csv = read_sample_csv(path("s.csv"));
+  EXPECT_EQ(csv.header, "u0,u1,x,y,z,pdf,texel_x,texel_y");
+  for (const auto& v : csv.rows) {
     const envkit::Vec3 dir(v[2], v[3], v[4]);
     EXPECT_NEAR(dir.length(), 1.0, 1e-12);
     EXPECT_NEAR(v[5] / t.distribution(envkit::SamplingMethod::Cdf)->pdf(dir), 1.0, 1e-9);
-    ++rows;
   }
-  EXPECT_EQ(rows, 500);
+  EXPECT_EQ(csv.rows.size(), 500u);
 
   // Same seed, same samples; the picture formats write.
   ok("envsample", {path("sky.envtbl"), "-n", "500", "--method", "cdf", "-o", path("t.csv"), "-q"});
@@ -145,6 +162,67 @@ TEST_F(TablesCli, ResolutionAndOctahedral) {
   EXPECT_EQ(j["grid"], "octahedral");
   EXPECT_EQ(j["width"], 32);
   EXPECT_TRUE(j["bake"].contains("resampled_from"));
+}
+
+TEST_F(TablesCli, HealpixTablesEndToEnd) {
+  ok("envconvert", {path("sky.exr"), "-o", path("hp.exr"), "--to", "healpix", "--size", "8", "-q"});
+  const CommandResult bake = ok("envbake", {path("hp.exr"), "-o", path("hp.envtbl"), "--param", "healpix", "--json"});
+  const auto j = nlohmann::json::parse(bake.out);
+  EXPECT_EQ(j["grid"], "healpix");
+  EXPECT_EQ(j["width"], 32);
+  EXPECT_EQ(j["height"], 24);
+  EXPECT_FALSE(j["bake"].contains("resampled_from")) << "a HEALPix map is baked on its own texels";
+
+  const CommandResult info = ok("envinfo", {path("hp.envtbl")});
+  EXPECT_NE(info.out.find("healpix 32 x 24 (N_side 8"), std::string::npos) << info.out;
+
+  // CSV: pdf column = the tables' pdf of the direction, the texel columns = the texel the direction lies in.
+  ok("envsample", {path("hp.envtbl"), "-n", "500", "--method", "hierarchical", "-o", path("s.csv"), "-q"});
+  const envkit::EnvTables t = envkit::EnvTables::load(path("hp.envtbl"));
+  const envkit::SphericalDistribution& d = *t.distribution(envkit::SamplingMethod::Hierarchical);
+  const SampleCsv csv = read_sample_csv(path("s.csv"));
+  for (const auto& v : csv.rows) {
+    const envkit::Vec3 dir(v[2], v[3], v[4]);
+    EXPECT_NEAR(v[5] / d.pdf(dir), 1.0, 1e-9);
+    int x = -1, y = -1;
+    d.texel_of(dir, x, y);
+    EXPECT_EQ(x, int(v[6]));
+    EXPECT_EQ(y, int(v[7]));
+  }
+  EXPECT_EQ(csv.rows.size(), 500u);
+  // The density picture converges to the pdf.
+  ok("envsample", {path("hp.envtbl"), "-n", "200000", "-o", path("d.exr"), "--width", "64", "-q"});
+  const envkit::Image density = envkit::read_image(path("d.exr"));
+  double r_sum = 0.0, g_sum = 0.0;
+  for (std::size_t i = 0; i < density.texel_count(); ++i) {
+    r_sum += density.pixels[3 * i];
+    g_sum += density.pixels[3 * i + 1];
+  }
+  EXPECT_NEAR(r_sum / g_sum, 1.0, 0.05);
+
+  // A lat-long source is resampled onto N_side = --size; --resolution must be a HEALPix size too.
+  const CommandResult r = ok("envbake", {path("sky.exr"), "-o", path("r.envtbl"), "--param", "healpix", "--size", "4",
+                                         "--resolution", "8x6", "--json"});
+  const auto k = nlohmann::json::parse(r.out);
+  EXPECT_EQ(k["grid_width"], 16);
+  EXPECT_EQ(k["width"], 8);
+  EXPECT_TRUE(k["bake"].contains("resampled_from"));
+}
+
+TEST_F(TablesCli, HealpixBadSizesAreRefused) {
+  // A usage error: the importance resolution of a HEALPix table is 4M x 3M.
+  const CommandResult r =
+      tool("envbake", {path("sky.exr"), "-o", path("z.envtbl"), "--param", "healpix", "--resolution", "16x16"});
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("4M x 3M"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("z.envtbl")));
+  // An image tagged HEALPix whose size no HEALPix image has: one line naming the file.
+  envkit::Image bad(40, 20, 3);
+  envkit::WriteOptions wo;
+  wo.metadata["envkit:parameterization"] = "healpix";
+  envkit::write_image(path("bad_hp.exr"), bad, wo);
+  fails("envbake", {path("bad_hp.exr"), "-o", path("bad.envtbl"), "--param", "healpix"}, "bad_hp.exr",
+        "4 N_side x 3 N_side");
 }
 
 TEST_F(TablesCli, BadInputsAreOneLineErrorsWithoutOutput) {
@@ -201,4 +279,81 @@ TEST_F(TablesCli, AllBlackMapBakesUniformTablesWithAWarning) {
   const envkit::EnvTables t = envkit::EnvTables::load(path("black.envtbl"));
   const envkit::DirectionSample s = t.distribution(envkit::SamplingMethod::Hierarchical)->sample(envkit::Vec2(0.5, 0.5));
   EXPECT_NEAR(s.pdf, t.distribution(envkit::SamplingMethod::Hierarchical)->pdf(s.direction), 1e-12);
+}
+
+// Values no bake produces, written behind valid checksums (the file is resealed after the patch): the loader's value
+// validation must refuse them with one line naming the file, before any sampler runs into NaN, negative or zero
+// nodes, broken CDFs or alias coins that disagree with the weights. envsample draws with each method.
+TEST_F(TablesCli, HostileValuesBehindValidChecksumsAreRefused) {
+  ok("envbake", {path("sky.exr"), "-o", path("sky.envtbl"), "--tables", "cdf,alias,hierarchical", "-q"});
+  std::vector<std::byte> baked;
+  {
+    std::ifstream f(path("sky.envtbl"), std::ios::binary);
+    const std::vector<char> bytes((std::istreambuf_iterator<char>(f)), {});
+    baked.resize(bytes.size());
+    std::memcpy(baked.data(), bytes.data(), bytes.size());
+  }
+  const auto section = [&](const std::string& name) {
+    for (const envkit::TableFileSection& s : envkit::table_file_sections(baked))
+      if (s.name == name) return s;
+    ADD_FAILURE() << "no section " << name;
+    return envkit::TableFileSection{};
+  };
+  struct Case {
+    std::string method, section;
+    std::size_t align, shift;  // the patched float: at (size / 2) rounded down to `align`, plus `shift`
+    float value;
+  };
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<Case> cases = {
+      {"hierarchical", "hierarchical", 4, 0, nan},  {"hierarchical", "hierarchical", 4, 0, -1.0f},
+      {"hierarchical", "hierarchical", 4, 0, 0.0f}, {"hierarchical", "hierarchical", 4, 0, 1e30f},
+      {"cdf", "cdf", 4, 0, nan},                    {"cdf", "cdf", 4, 0, -0.25f},
+      {"cdf", "cdf", 4, 0, 2.0f},                   {"alias", "alias", 16, 8, 0.0f},  // a texel's weight
+      {"alias", "alias", 16, 0, nan},                                                   // a texel's coin
+      {"alias", "alias", 16, 0, 0.75f},  // a coin outside [-1/2, 1/2]
+      {"cdf", "importance", 4, 0, -5.0f},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.section + " value " + std::to_string(c.value));
+    std::vector<std::byte> file = baked;
+    const envkit::TableFileSection s = section(c.section);
+    const std::size_t at = s.offset + (s.size / 2) / c.align * c.align + c.shift;
+    std::memcpy(file.data() + at, &c.value, sizeof(float));
+    envkit::reseal_table_file(file);
+    {
+      std::ofstream f(path("patched.envtbl"), std::ios::binary | std::ios::trunc);
+      f.write(reinterpret_cast<const char*>(file.data()), std::streamsize(file.size()));
+    }
+    fails("envsample", {path("patched.envtbl"), "-o", path("s.csv"), "--method", c.method, "-n", "64"},
+          path("patched.envtbl"), "invalid");
+  }
+  // The untouched file, resealed, still loads: the validation refuses values, not valid tables.
+  std::vector<std::byte> same = baked;
+  envkit::reseal_table_file(same);
+  EXPECT_EQ(same, baked);
+  ok("envsample", {path("sky.envtbl"), "-o", path("ok.csv"), "--method", "alias", "-n", "64", "-q"});
+}
+
+// File names are bytes: a name that is not UTF-8 must not make a JSON report fail (nor leave an output behind).
+// The JSON shows U+FFFD for the invalid byte.
+TEST_F(TablesCli, NonUtf8FileNamesInJsonReports) {
+  const std::string name = path("sky\xff.exr");
+  fs::copy_file(path("sky.exr"), name);
+  const CommandResult bake = ok("envbake", {name, "-o", path("t\xfe.envtbl"), "--json", "-q"});
+  const nlohmann::json b = nlohmann::json::parse(bake.out);
+  EXPECT_EQ(b.at("source").at("path").get<std::string>(), path("sky\xEF\xBF\xBD.exr"));
+  const CommandResult info = ok("envinfo", {name, "--json"});
+  EXPECT_EQ(nlohmann::json::parse(info.out).at("file").get<std::string>(), path("sky\xEF\xBF\xBD.exr"));
+  const CommandResult tables = ok("envinfo", {path("t\xfe.envtbl"), "--json"});
+  EXPECT_EQ(nlohmann::json::parse(tables.out).at("file").get<std::string>(), path("t\xEF\xBF\xBD.envtbl"));
+  const CommandResult diff = ok("envdiff", {name, name, "--json"});
+  EXPECT_NO_THROW((void)nlohmann::json::parse(diff.out));
+  const CommandResult probe = ok("envprobe", {"constant", "-o", path("p\xff.exr"), "--size", "16x8", "--json"});
+  EXPECT_EQ(nlohmann::json::parse(probe.out).at("output").get<std::string>(), path("p\xEF\xBF\xBD.exr"));
+  EXPECT_TRUE(fs::exists(path("p\xff.exr")));
+  const CommandResult merge = ok("envmerge", {name, "-o", path("m\xff.exr"), "--size", "8", "--json", "-q"});
+  EXPECT_EQ(nlohmann::json::parse(merge.out).at("output").get<std::string>(), path("m\xEF\xBF\xBD.exr"));
+  EXPECT_EQ(nlohmann::json::parse(merge.out).at("captures").at(0).at("file").get<std::string>(),
+            path("sky\xEF\xBF\xBD.exr"));
 }

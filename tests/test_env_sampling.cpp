@@ -1,30 +1,30 @@
 // Sampling directions from baked tables (env_sampling.h, env_tables.h): chi-square on the sphere for every
 // method and grid on the catalogue of maps, pdf consistency, inversion, extremes, file round trips.
-#include "chi2.h"
-
 #include <envkit/color.h>
 #include <envkit/env_tables.h>
-#include <envkit/param_factory.h>
 #include <envkit/envmap.h>
+#include <envkit/healpix.h>
 #include <envkit/latlong.h>
 #include <envkit/octahedral.h>
+#include <envkit/param_factory.h>
 #include <envkit/probes.h>
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
+
+#include "chi2.h"
 
 using namespace envkit;
 
 namespace {
 
-/// A radiance map for the catalogue: grey values on a lat-long or octahedral grid.
+/// A radiance map for the catalogue: grey values on a lat-long, octahedral or HEALPix grid.
 struct SphereMap {
   std::string name;
   Kind grid = Kind::LatLong;
@@ -41,9 +41,10 @@ SphereMap make(std::string name, Kind grid, int w, int h, float value = 0.0f) {
 
 std::vector<SphereMap> catalogue() {
   std::vector<SphereMap> maps;
-  for (Kind grid : {Kind::LatLong, Kind::Octahedral}) {
-    const std::string g = grid == Kind::LatLong ? "latlong_" : "octa_";
-    const int W = grid == Kind::LatLong ? 32 : 16, H = 16;
+  for (Kind grid : {Kind::LatLong, Kind::Octahedral, Kind::HEALPix}) {
+    const std::string g = grid == Kind::LatLong ? "latlong_" : grid == Kind::Octahedral ? "octa_" : "healpix_";
+    // HEALPix: N_side 4 (16 x 12); the sun map doubles it to N_side 8.
+    const int W = grid == Kind::LatLong ? 32 : 16, H = grid == Kind::HEALPix ? 12 : 16;
     maps.push_back(make(g + "constant", grid, W, H, 1.0f));
     {
       SphereMap m = make(g + "one_bright_texel", grid, W, H, 0.0f);
@@ -81,6 +82,13 @@ std::vector<SphereMap> catalogue() {
     m.sub = 8;
     maps.push_back(m);
   }
+  {
+    // N_side 1: one texel per base pixel, dark and lit ones in every row of cells.
+    SphereMap m = make("healpix_nside1", Kind::HEALPix, 4, 3);
+    m.radiance = {1, 5, 0, 2, 0, 3, 7, 0, 4, 0, 0.5f, 6};
+    m.sub = 8;
+    maps.push_back(m);
+  }
   return maps;
 }
 
@@ -88,6 +96,7 @@ void PrintTo(const SphereMap& m, std::ostream* os) { *os << m.name; }
 
 std::unique_ptr<Parameterization> grid_param(Kind grid, int w, int h) {
   if (grid == Kind::Octahedral) return std::make_unique<OctahedralMap>(w);
+  if (grid == Kind::HEALPix) return std::make_unique<HealpixMap>(w / 4);
   return std::make_unique<LatLongMap>(w, h);
 }
 

@@ -30,8 +30,11 @@ std::vector<Case> all_cases() {
   std::vector<Case> cases;
   for (const auto& size : std::vector<std::pair<int, int>>{{1, 1}, {2, 1}, {3, 3}, {7, 5}, {64, 32}, {4096, 2048}}) {
     const int w = size.first, h = size.second;  // plain variables: clang 14 cannot capture structured bindings
-    for (TexelGrid g : {TexelGrid::Centre, TexelGrid::Corner}) {
-      cases.push_back({"latlong" + std::to_string(w) + "x" + std::to_string(h) + (g == TexelGrid::Corner ? "c" : ""),
+    for (TexelGrid g : {TexelGrid::Centre, TexelGrid::Corner, TexelGrid::CornerRows}) {
+      cases.push_back({"latlong" + std::to_string(w) + "x" + std::to_string(h) +
+                           (g == TexelGrid::Corner       ? "c"
+                            : g == TexelGrid::CornerRows ? "r"
+                                                         : ""),
                        [=] { return std::make_unique<LatLongMap>(w, h, g); }});
     }
   }
@@ -109,6 +112,7 @@ TEST(Parameterizations, SolidAnglesSumTo4PiWithin1e6Relative) {
 TEST(Parameterizations, LargeMapsSumTo4Pi) {
   EXPECT_NEAR(sum_solid_angles(LatLongMap(4096, 2048)) / kFourPi, 1.0, 1e-6);
   EXPECT_NEAR(sum_solid_angles(LatLongMap(4096, 2048, TexelGrid::Corner)) / kFourPi, 1.0, 1e-6);
+  EXPECT_NEAR(sum_solid_angles(LatLongMap(4096, 2048, TexelGrid::CornerRows)) / kFourPi, 1.0, 1e-6);
   EXPECT_NEAR(sum_solid_angles(OctahedralMap(4096)) / kFourPi, 1.0, 1e-6);
   // One 4096^2 face of a cube holds exactly a sixth of the sphere.
   const CubeMap cube(4096);
@@ -134,6 +138,7 @@ TEST(Parameterizations, TexelSolidAngleMatchesSphericalPolygonQuadrature) {
   std::vector<std::unique_ptr<Parameterization>> maps;
   maps.push_back(std::make_unique<LatLongMap>(16, 8));
   maps.push_back(std::make_unique<LatLongMap>(15, 9, TexelGrid::Corner));
+  maps.push_back(std::make_unique<LatLongMap>(14, 9, TexelGrid::CornerRows));
   maps.push_back(std::make_unique<CubeMap>(5));
   maps.push_back(std::make_unique<CubeMap>(5, CubeLayout::HorizontalCross, CubeBasis::GL, TexelGrid::Corner));
   maps.push_back(std::make_unique<OctahedralMap>(8));
@@ -453,6 +458,13 @@ TEST(ResolveTap, LatLongWrapsAndClamps) {
   i = 17; j = 2;  // one past the duplicated column 16 == column 0, so column 1
   ASSERT_TRUE(corner.resolve_tap(16, 2, i, j));
   EXPECT_EQ(i, 1);
+  // Corner rows keep the full period of centre-sampled columns: no column is duplicated.
+  LatLongMap rows(16, 9, TexelGrid::CornerRows);
+  i = 16;
+  j = 9;
+  ASSERT_TRUE(rows.resolve_tap(15, 8, i, j));
+  EXPECT_EQ(i, 0);
+  EXPECT_EQ(j, 8);
 }
 
 TEST(ResolveTap, OctahedralFoldIsContinuous) {

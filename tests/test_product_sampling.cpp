@@ -324,6 +324,17 @@ TEST(ProductSampler, InvalidInputs) {
   std::vector<float> w(32 * 16, 1.0f);
   const SphericalDistribution cdf(Kind::LatLong, std::make_shared<CdfDistribution2D>(w.data(), 32, 16));
   EXPECT_THROW(ProductSampler(cdf, identity3(), 8), Error);
+  // HEALPix tables: its layout puts base pixels side by side that are not neighbours on the sphere, so node
+  // bounds would be wrong; refused with the reason rather than sampled with a bias.
+  std::vector<float> hw(16 * 12, 1.0f);
+  const SphericalDistribution healpix(Kind::HEALPix, std::make_shared<PyramidDistribution2D>(hw.data(), 16, 12));
+  std::string message;
+  try {
+    ProductSampler refused(healpix, identity3(), 8);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("needs a latlong or octahedral table, not healpix"), std::string::npos) << message;
 }
 
 // White furnace on both bake grids: a constant environment L = 1 and a diffuse albedo rho give E[f_cos L / pdf]

@@ -5,6 +5,7 @@
 
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
+#include <envkit/healpix.h>
 #include <envkit/image_io.h>
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
@@ -257,6 +258,29 @@ TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
   fs::remove(dir_ / "baked.png");
   expect_error(stale, {"sky.exr", "no compensated hierarchical distribution", "--bake"},
                {"--strategy", "mis-compensated"});
+}
+
+TEST_F(RenderCli, HealpixTablesLightMisAndRefuseProduct) {
+  // A HEALPix map (envkit metadata says so) and tables baked on its own texels.
+  WriteOptions wo;
+  wo.metadata["envkit:parameterization"] = "healpix";
+  write_image((dir_ / "hp.exr").string(), probes::rasterize(probes::ConstantProbe(Vec3(0.5)), HealpixMap(4)), wo);
+  const auto baked = test::run_tool(
+      "envbake", {(dir_ / "hp.exr").string(), "-o", (dir_ / "hp.envtbl").string(), "--param", "healpix", "-q"}, dir_);
+  ASSERT_EQ(baked.code, 0) << baked.err;
+  const auto file = write("hp.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                           R"("image": "hp.exr", "tables": "hp.envtbl")"));
+  const fs::path out = dir_ / "out.exr";
+  for (const char* strategy : {"light", "mis"}) {
+    const auto r =
+        envrender({"--scene", file.string(), "-o", out.string(), "--spp", "1", "--strategy", strategy, "-q"});
+    EXPECT_EQ(r.code, 0) << strategy << ": " << r.err;
+    fs::remove(out);
+    fs::remove(dir_ / "out.png");
+  }
+  // Product sampling bounds pyramid nodes by image rectangles, which the 4x3 HEALPix layout does not keep whole.
+  for (const char* strategy : {"product", "product-mis"})
+    expect_error(file, {"hp.envtbl", "needs a latlong or octahedral table, not healpix"}, {"--strategy", strategy});
 }
 
 TEST_F(RenderCli, SceneFilesShippedInTheRepositoryLoad) {

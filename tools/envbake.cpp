@@ -20,11 +20,17 @@ using envkit::Kind;
 
 const char* kFooter = R"(What is baked: importance = luminance (the working space's weights, Rec.709 primaries
 by default), average or max of the colour channels, times the exact solid angle of each texel. Maps that
-are not an envkit lat-long (or octahedral with --param octahedral) are first resampled onto one with the
-flux-conserving area filter, applying their convention and rotation: the tables live in world directions.
---size N: bake grid N (lat-long 2N x N, octahedral N x N); default: the input's grid, or as many texels.
+are not an envkit lat-long (or octahedral with --param octahedral, HEALPix with --param healpix) are first
+resampled onto one with the flux-conserving area filter, applying their convention and rotation: the
+tables live in world directions.
+--param healpix: tables on the HEALPix image grid itself (4 N_side x 3 N_side, twelve base pixels, every
+  texel one equal-area HEALPix pixel): a HEALPix map is baked without resampling. envrender's product
+  strategies need a latlong or octahedral table.
+--size N: bake grid N (lat-long 2N x N, octahedral N x N, healpix N_side = N: 4N x 3N); default: the
+  input's grid, or as many texels.
 --resolution WxH: bake the importance at a lower resolution (area-filtered): smaller, faster tables,
-  less exact importance (a speed/memory vs accuracy knob; rendering stays unbiased).
+  less exact importance (a speed/memory vs accuracy knob; rendering stays unbiased). Octahedral: WxW;
+  healpix: 4M x 3M.
 --conservative: each texel's importance is the max over its 3x3 neighbourhood, so radiance looked up
   with a bilinear filter is never non-zero where the pdf is zero.
 --tables: any of cdf, alias, hierarchical (or pyramid), compensated. compensated adds the MIS-compensated
@@ -36,6 +42,7 @@ Examples:
   envbake sky.exr -o sky_small.envtbl --resolution 512x256 --tables hierarchical
   envbake sky.exr -o sky.envtbl --tables cdf,alias,hierarchical,compensated --importance max
   envbake cube.exr -o cube.envtbl --param octahedral --size 1024
+  envbake hp.exr -o hp.envtbl --param healpix
 
 Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 usage error.)";
 
@@ -68,6 +75,7 @@ void parse_resolution(const std::string& text, envkit::BakeOptions& b) {
   std::stringstream ss(text);
   if (!(ss >> w >> x >> h) || (x != 'x' && x != 'X') || (ss >> extra) || w < 1 || h < 1)
     throw CLI::ValidationError("--resolution", "expected WxH with positive integers, got '" + text + "'");
+  tools::check_image_size("--resolution", text, "an importance map", w, h, 40.0);
   b.importance_width = w;
   b.importance_height = h;
 }
@@ -80,11 +88,16 @@ int run(Options& o) {
   parse_tables(o.tables, b);
   if (!o.resolution.empty()) parse_resolution(o.resolution, b);
   if (o.size > 0) {
-    b.height = o.size;
-    b.width = b.grid == Kind::LatLong ? 2 * o.size : o.size;
+    b.height = b.grid == Kind::HEALPix ? 3 * o.size : o.size;
+    b.width = b.grid == Kind::LatLong ? 2 * o.size : b.grid == Kind::HEALPix ? 4 * o.size : o.size;
+    // Importance, CDF, alias and pyramid tables: about 40 bytes per texel while baking.
+    tools::check_image_size("--size", std::to_string(o.size), "a bake grid", b.width, b.height, 40.0);
   }
   if (b.grid == Kind::Octahedral && b.importance_width != b.importance_height)
     throw CLI::ValidationError("--resolution", "an octahedral importance map is square (WxW)");
+  if (b.grid == Kind::HEALPix && (b.importance_width % 4 != 0 || b.importance_width * 3 != b.importance_height * 4))
+    throw CLI::ValidationError("--resolution",
+                               "a HEALPix importance map is 4M x 3M (M = its N_side), not " + o.resolution);
   if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
 
   const std::vector<std::string> inputs = tools::input_paths(o.in.path);
@@ -110,7 +123,7 @@ int run(Options& o) {
     j["output"] = o.out;
     j["seconds"] = seconds;
     for (const auto& [name, bytes] : t.table_bytes()) j["bytes"][name] = bytes;
-    std::cout << j.dump(2) << "\n";
+    std::cout << tools::json_text(j) << "\n";
   } else if (!o.quiet) {
     std::cout << o.out << ": " << envkit::kind_name(t.grid()) << " " << t.width() << " x " << t.height() << ", "
               << envkit::importance_name(t.importance_mode()) << " importance"
@@ -136,13 +149,13 @@ int main(int argc, char** argv) {
       ->type_name("MODE")
       ->check(CLI::IsMember({"luminance", "average", "max"}))
       ->capture_default_str();
-  app.add_option("--param", o.param, "bake grid: latlong or octahedral")
+  app.add_option("--param", o.param, "bake grid: latlong, octahedral or healpix")
       ->type_name("KIND")
-      ->check(CLI::IsMember({"latlong", "octahedral"}))
+      ->check(CLI::IsMember({"latlong", "octahedral", "healpix"}))
       ->capture_default_str();
-  app.add_option("--size", o.size, "bake grid size N (latlong 2N x N, octahedral N x N)")
+  app.add_option("--size", o.size, "bake grid size N (latlong 2N x N, octahedral N x N, healpix 4N x 3N)")
       ->type_name("N")
-      ->check(CLI::Range(1, 1 << 16));
+      ->transform(tools::integer_in(1, 1 << 16));
   app.add_option("--resolution", o.resolution, "importance resolution (area-filtered down), e.g. 1024x512")
       ->type_name("WxH");
   app.add_option("--tables", o.tables, "tables to bake: cdf,alias,hierarchical,compensated")

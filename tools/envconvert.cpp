@@ -9,14 +9,19 @@
 #include <envkit/error.h>
 #include <envkit/filter.h>
 #include <envkit/image_io.h>
+#include <envkit/map_size.h>
 #include <envkit/param_factory.h>
 #include <envkit/resample.h>
+#include <envkit/solid_angle_table.h>
+#include <envkit/view.h>
+#include <envkit/view_spec.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <optional>
+#include <sstream>
 #include <string>
 
 namespace {
@@ -24,16 +29,25 @@ namespace {
 namespace fs = std::filesystem;
 namespace tools = envkit::tools;
 using envkit::Kind;
+using envkit::Vec3;
 
 const char* kFooter = R"(KIND and size for --size N: latlong 2N x N, cube faces N x N, mirrorball N x N,
-angular N x N, octahedral N x N, paraboloid 2N x N.
+angular N x N, octahedral N x N, paraboloid 2N x N, healpix 4N x 3N (N = N_side: the 12 base pixels as
+N x N squares, 4 per row: north, equatorial, south), perspective and fisheye N wide, N / --aspect high.
+Camera views (--to perspective|fisheye; or --from one when --to is a map): --view-dir x,y,z or yaw,pitch
+(degrees; yaw about +Y from +Z towards +X), --roll, --fov (perspective: across the width, or the height with
+--fov-axis v; fisheye: across the image circle, up to 360), --lens. A view is recorded in the output's
+metadata (envkit:view) and re-read from it; directions a view does not see come out with alpha 0.
 Cube layouts L: vstrip (N x 6N, faces +X -X +Y -Y +Z -Z top to bottom), hstrip (6N x N), hcross (4N x 3N),
 vcross (3N x 4N). A '%' in OUT writes six face files, '%' replaced by +X, -X, +Y, -Y, +Z, -Z (as exrenvmap
 does); a '%' in IN reads six faces.
 Without --from the input's parameterization comes from envkit or OpenEXR metadata, else from the aspect
 ratio (2:1 latlong, 1:1 angular or octahedral, 1:6 6:1 4:3 3:4 cube), and the guess is printed.
 Conventions (--convention, --from-convention): envkit (default), openexr (exrenvmap: corner-sampled,
-N x 6N cube; writes the envmap attribute), hdrshop, angmap-cal, blender, gl (GL/KTX cube faces).
+N x 6N cube; writes the envmap attribute), hdrshop, angmap-cal, blender, gl (GL/Vulkan/KTX cube faces; also
+Filament's cmgen), threejs, directx (DDS cubes), unity, mitsuba (Mitsuba 3 envmap), pbrt (pbrt-v4 equal-area
+octahedral), renderman (OIIO z-up). Files without envkit metadata take it from OIIO's oiio:updirection and
+oiio:sampleborder tags, which outputs carry where they apply.
 --rotate R: the output shows the input environment rotated by R = Ry(yaw) Rx(pitch) Rz(roll): what the
 input shows in direction d, the output shows in direction R d (yaw about +Y, the up axis).
 --filter area integrates over each output texel and conserves power; nearest/bilinear/bicubic sample at
@@ -51,13 +65,24 @@ Examples:
   envconvert probe.hdr -o sky.exr --to latlong --from angular --from-convention hdrshop
   envconvert ball.jpg -o sky.exr --to latlong --from mirrorball --ball-centre 1012,998 --ball-radius 880
   envconvert sky.exr -o blender.exr --to latlong --convention blender --rotate 90,0,0
+  envconvert sky.exr -o pbrt_sky.exr --to octahedral --convention pbrt --size 1024
+      the equal-area square pbrt-v4's ImageInfiniteLight reads (+Z up)
   envconvert sky.exr -o fixed.exr --to latlong --fix-nonfinite zero
+  envconvert sky.exr -o sky_hpx.exr --to healpix --size 256
+      HEALPix N_side 256 (1024 x 768), every texel 4 pi / (12 N_side^2) sr
+  envconvert sky.exr -o view.exr --to perspective --view-dir 30,10 --fov 60 --aspect 1.5 --size 960
+      a 960 x 640 pinhole view 30 degrees left of +Z, 10 up, 60 degrees wide (area filter: no aliasing)
+  envconvert fish.exr -o sky.exr --to latlong --from fisheye --lens equisolid --fov 185 --view-dir 0,90
+      embed a fisheye photograph looking up into a lat-long (alpha 0 where the lens does not see)
 
 Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 usage error.)";
 
 struct Options {
   tools::InputSpec in;
   std::string out, to, layout, filter = "area", convention, rotate, fix_nonfinite, ball_centre, compression;
+  std::string view_dir, lens, fov_axis;
+  std::optional<double> roll, fov;
+  double aspect = 1.0;
   int size = 0, threads = 0;
   bool half = false, force = false, quiet = false, progress = false;
 };
@@ -78,7 +103,7 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--size", o.size,
                  "natural size N (default: about the input's texel density, a multiple of 8 from 64 up)")
       ->type_name("N")
-      ->check(CLI::Range(1, 1 << 17));
+      ->transform(tools::integer_in(1, 1 << 17));
   app.add_option("--filter", o.filter, std::string("resampling filter: ") + tools::kFilterChoices)
       ->type_name("F")
       ->check(tools::filter_validator())
@@ -110,7 +135,24 @@ void add_options(CLI::App& app, Options& o) {
       ->type_name("X,Y");
   app.add_option("--ball-radius", o.in.ball_radius, "mirror-ball photograph: ball radius in pixels")
       ->type_name("R")
-      ->check(CLI::PositiveNumber);
+      ->check(tools::number_in(0.0, 1e7, true));
+  app.add_option("--view-dir", o.view_dir, "camera view: where it looks, x,y,z or yaw,pitch in degrees (default 0,0,1)")
+      ->type_name("D");
+  app.add_option("--roll", o.roll, "camera view: roll in degrees (the camera turned counter-clockwise)")
+      ->type_name("DEG")
+      ->check(tools::number_in(-1e6, 1e6));
+  app.add_option("--fov", o.fov, "camera view: field of view in degrees (default 90; fisheye 180)")
+      ->type_name("DEG")
+      ->check(tools::number_in(0.0, 360.0, true));
+  app.add_option("--fov-axis", o.fov_axis, "perspective: the extent --fov spans, h (width, default) or v (height)")
+      ->type_name("h|v")
+      ->check(CLI::IsMember({"h", "v"}));
+  app.add_option("--lens", o.lens, "fisheye lens: equidistant (default), equisolid, orthographic, stereographic")
+      ->type_name("L")
+      ->check(tools::lens_validator());
+  app.add_option("--aspect", o.aspect, "camera view output: width / height (default 1)")
+      ->type_name("A")
+      ->check(tools::number_in(1e-3, 1e3));
   app.add_flag("-f,--force", o.force, "allow OUT to overwrite IN");
   app.add_flag("-q,--quiet", o.quiet, "print only warnings and errors (no description, no progress)");
   app.add_flag("--progress", o.progress, "always show a progress bar (default: on a terminal, for large maps)");
@@ -121,6 +163,35 @@ bool has_extension(const std::string& path, const std::string& ext) {
   std::string e = fs::path(path).extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return e == ext;
+}
+
+// The camera view the --view-dir/--roll/--fov/--lens options describe.
+envkit::ViewParams view_params(const Options& o, Kind kind) {
+  envkit::ViewParams v;
+  v.fov_degrees = o.fov.value_or(envkit::default_fov_degrees(kind));
+  v.roll_degrees = o.roll.value_or(0.0);
+  if (!o.fov_axis.empty()) v.fov_axis = o.fov_axis == "v" ? envkit::FovAxis::Vertical : envkit::FovAxis::Horizontal;
+  if (!o.lens.empty()) v.lens = envkit::parse_lens(o.lens);
+  if (!o.view_dir.empty()) {
+    std::vector<double> c;
+    std::istringstream in(o.view_dir);
+    for (std::string item; std::getline(in, item, ',');) {
+      try {
+        c.push_back(std::stod(item));
+      } catch (const std::exception&) {
+        throw CLI::ValidationError("--view-dir", "'" + o.view_dir + "' is not x,y,z or yaw,pitch");
+      }
+    }
+    if (c.size() == 2) v.forward = envkit::direction_from_yaw_pitch(c[0], c[1]);
+    else if (c.size() == 3 && Vec3(c[0], c[1], c[2]).length() > 0.0) v.forward = Vec3(c[0], c[1], c[2]);
+    else throw CLI::ValidationError("--view-dir", "'" + o.view_dir + "' is not x,y,z (non-zero) or yaw,pitch");
+  }
+  try {
+    envkit::check_view(kind, v);
+  } catch (const envkit::Error& e) {
+    throw CLI::ValidationError("--fov/--lens", e.what());
+  }
+  return v;
 }
 
 // Combinations CLI11 cannot express, reported as usage errors (exit 2) before any file is touched.
@@ -135,6 +206,11 @@ void check_combinations(Options& o) {
   }
   if (o.half && !has_extension(o.out, ".exr"))
     throw CLI::ValidationError("--half", "half floats need an OpenEXR (.exr) output");
+  // Only OpenEXR and TIFF writers take a compression; for other formats it would be silently ignored.
+  if (!o.compression.empty() && !has_extension(o.out, ".exr") && !has_extension(o.out, ".tif") &&
+      !has_extension(o.out, ".tiff"))
+    throw CLI::ValidationError("--compression", "applies to OpenEXR (.exr) and TIFF (.tif) outputs only, not '" +
+                                                    fs::path(o.out).filename().string() + "'");
   if (!o.compression.empty() && has_extension(o.out, ".exr") && !envkit::is_exr_compression(o.compression))
     throw CLI::ValidationError("--compression", "'" + o.compression + "' is not an OpenEXR compression (" +
                                                     envkit::exr_compression_list() + ")");
@@ -148,32 +224,33 @@ void check_combinations(Options& o) {
     throw CLI::ValidationError("--ball-centre/--ball-radius",
                                "describe a mirror-ball photograph: add --from mirrorball");
   if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
+  const auto is_view = [](Kind k) { return k == Kind::Perspective || k == Kind::Fisheye; };
+  const bool view_given = !o.view_dir.empty() || o.roll || o.fov || !o.lens.empty() || !o.fov_axis.empty();
+  const bool from_view = !o.in.from.empty() && is_view(envkit::parse_kind(o.in.from));
+  if ((view_given || o.aspect != 1.0) && !is_view(to) && !from_view)
+    throw CLI::ValidationError("--view-dir/--roll/--fov/--lens/--aspect",
+                               "describe a camera view: add --to (or --from) perspective|fisheye");
+  if (o.aspect != 1.0 && !is_view(to)) throw CLI::ValidationError("--aspect", "applies to --to perspective|fisheye");
+  if (view_given && !is_view(to)) o.in.view = view_params(o, envkit::parse_kind(o.in.from));
 }
 
-// Texels that hold data: all but those outside a ball's disk or in the blank cells of a cross.
-std::size_t data_texels(const envkit::Image& image, const envkit::Parameterization& param) {
-  const envkit::TexelSource source(image, param);
-  if (source.fully_covered()) return image.texel_count();
-  std::size_t n = 0;
-  for (std::size_t t = 0; t < image.texel_count(); ++t) n += source.covered(t) ? 1 : 0;
-  return n;
-}
-
-// Natural size whose map holds about `texels` texels with data: the input's texel density. The share of
-// texels with data per N^2 is measured on a small map of the output kind (6 for a cube, ~pi/4 for a ball).
-int matching_size(std::size_t texels, Kind kind, const envkit::Convention& conv,
-                  std::optional<envkit::CubeLayout> layout) {
-  constexpr int probe_n = 64;
-  const auto probe = envkit::make_parameterization(envkit::spec_for(kind, probe_n, conv, layout));
-  const envkit::Image blank(probe->width(), probe->height(), 1);
-  const double per_n2 = double(data_texels(blank, *probe)) / (double(probe_n) * probe_n);
-  const double n = std::sqrt(double(texels) / per_n2);
-  const long rounded = n >= 64.0 ? 8 * std::lround(n / 8.0) : std::lround(n);  // 1182.4 -> 1184, 9.4 -> 9
-  return static_cast<int>(std::clamp(rounded, 1L, long(1) << 17));
+// The output image, the resampler's footprint tables and the encoder's copy: about 32 bytes per texel.
+void check_output_size(Kind kind, int n, const envkit::Convention& conv, std::optional<envkit::CubeLayout> layout) {
+  const envkit::ParamSpec spec = envkit::spec_for(kind, 1, conv, layout);
+  int w = 0, h = 0;
+  envkit::natural_image_size(kind, n, spec.layout, w, h);
+  tools::check_image_size("--size", std::to_string(n), std::string(envkit::kind_name(kind)) + " output", w, h, 32.0);
 }
 
 int convert(Options& o) {
   check_combinations(o);
+  if (o.size > 0) {  // before anything is read: an impossible size is a usage error, not a late "out of memory"
+    std::optional<envkit::CubeLayout> layout;
+    if (envkit::is_face_pattern(o.out)) layout = envkit::CubeLayout::VerticalStrip;
+    else if (!o.layout.empty()) layout = envkit::parse_layout(o.layout);
+    check_output_size(envkit::parse_kind(o.to), o.size, envkit::convention(o.convention.empty() ? "envkit" : o.convention),
+                      layout);
+  }
   // Nothing is read before the paths are known to be sane: no surprises after a long conversion.
   envkit::install_temp_cleanup_on_signal();
   const std::vector<std::string> inputs = tools::input_paths(o.in.path);
@@ -192,10 +269,17 @@ int convert(Options& o) {
   std::optional<envkit::CubeLayout> layout;
   if (envkit::is_face_pattern(o.out)) layout = envkit::CubeLayout::VerticalStrip;
   else if (!o.layout.empty()) layout = envkit::parse_layout(o.layout);
-  const int n = o.size > 0 ? o.size : matching_size(data_texels(in.map.image, *in.map.param), kind, conv, layout);
+  const auto spec_of_size = [&](int n) {
+    if (kind == Kind::Perspective || kind == Kind::Fisheye)
+      return envkit::view_spec(kind, n, o.aspect, view_params(o, kind), conv);
+    return envkit::spec_for(kind, n, conv, layout);
+  };
+  const int n =
+      o.size > 0 ? o.size : envkit::matching_natural_size(envkit::data_texel_count(in.map.image, *in.map.param), spec_of_size);
+  check_output_size(kind, n, conv, layout);
 
   envkit::EnvMap out;
-  out.param = envkit::make_parameterization(envkit::spec_for(kind, n, conv, layout));
+  out.param = envkit::make_parameterization(spec_of_size(n));
   out.convention = conv.name;
 
   envkit::ResampleOptions ro;
@@ -227,7 +311,7 @@ int convert(Options& o) {
 
 int main(int argc, char** argv) {
   CLI::App app("Converts an environment map between parameterizations (lat-long, cube, mirror ball, angular,\n"
-               "octahedral, dual paraboloid), conventions and orientations.",
+               "octahedral, dual paraboloid, HEALPix, perspective and fisheye views), conventions and orientations.",
                "envconvert");
   Options options;
   add_options(app, options);

@@ -1,13 +1,11 @@
-// envdiff: compares two environment maps of any parameterizations and conventions. B is resampled onto A's
-// texels (A's parameterization and orientation), then errors are averaged over A's texels weighted by solid
-// angle, so the numbers measure the environments, not their layouts.
+// envdiff: compares two environment maps of any parameterizations and conventions (envkit::compare_maps,
+// map_compare.h: B resampled onto A's texels, errors weighted by solid angle) and prints the result.
 #include "common/cli.h"
 #include "common/input.h"
 
 #include <envkit/error.h>
 #include <envkit/filter.h>
-#include <envkit/resample.h>
-#include <envkit/solid_angle_table.h>
+#include <envkit/map_compare.h>
 
 #include <nlohmann/json.hpp>
 
@@ -50,97 +48,7 @@ struct Options {
   bool json = false;
 };
 
-struct MaxError {
-  double value = 0;
-  int i = -1, j = -1, channel = -1;
-  envkit::Vec3 direction;
-};
-
-struct Comparison {
-  double rmse = 0, relmse = 0, compared_solid_angle = 0;
-  MaxError max;
-  std::vector<std::string> channels;
-  std::vector<double> power_a, power_b, power_rel;
-  double power_max_rel = 0;
-};
-
-// Colour channels of a map; a single channel is broadcast against the other map's channels.
-std::vector<int> colour_channels(const envkit::Image& img) {
-  std::vector<int> cs;
-  for (int c = 0; c < img.channels; ++c)
-    if (c != img.alpha_channel) cs.push_back(c);
-  return cs;
-}
-
-double relative_difference(double a, double b) {
-  if (a == b) return 0.0;
-  return a == 0.0 ? std::numeric_limits<double>::infinity() : std::abs(b - a) / std::abs(a);
-}
-
-Comparison compare(const tools::LoadedInput& a, const tools::LoadedInput& b, envkit::Filter filter) {
-  const envkit::EnvMap& A = a.map;
-  envkit::ResampleOptions ro;
-  ro.filter = filter;
-  const envkit::Image R = envkit::resample(b.map.ref(), *A.param, A.to_world(), ro);
-  const std::vector<int> ca = colour_channels(A.image), cb = colour_channels(R);
-  if (ca.size() != cb.size() && ca.size() != 1 && cb.size() != 1)
-    envkit::fail(b.path, std::to_string(cb.size()) + " colour channels cannot be compared with the " +
-                             std::to_string(ca.size()) + " of " + a.path);
-  const std::size_t n = std::max(ca.size(), cb.size());
-  // Where B has no data (a coverage channel the resampling added), the texel is not compared.
-  const int coverage = b.map.image.alpha_channel < 0 ? R.alpha_channel : -1;
-
-  Comparison cmp;
-  for (std::size_t k = 0; k < n; ++k)
-    cmp.channels.push_back(ca.size() == n ? A.image.channel_names[ca[k]] : R.channel_names[cb[k]]);
-  const envkit::SolidAngleTable omega(*A.param);
-  double se = 0, rel = 0, weight = 0;
-  for (int j = 0; j < A.image.height; ++j) {
-    for (int i = 0; i < A.image.width; ++i) {
-      double w = omega(i, j);
-      if (coverage >= 0) w *= R.at(i, j, coverage);
-      if (w <= 0.0) continue;
-      weight += w;
-      for (std::size_t k = 0; k < n; ++k) {
-        const double ref = A.image.at(i, j, ca[std::min(k, ca.size() - 1)]);
-        const double img = R.at(i, j, cb[std::min(k, cb.size() - 1)]);
-        const double d = img - ref;
-        se += w * d * d;
-        rel += w * d * d / (ref * ref + 1e-2);
-        if (std::abs(d) > cmp.max.value) cmp.max = {std::abs(d), i, j, int(k), {}};
-      }
-    }
-  }
-  if (weight > 0.0) {
-    cmp.rmse = std::sqrt(se / (weight * double(n)));
-    cmp.relmse = rel / (weight * double(n));
-  }
-  cmp.compared_solid_angle = weight;
-  if (cmp.max.i >= 0) {
-    envkit::Vec3 d;
-    A.param->to_direction(envkit::Vec2(cmp.max.i + 0.5, cmp.max.j + 0.5), d);
-    cmp.max.direction = envkit::apply(A.to_world(), d);
-  }
-
-  // Power of each map on its own texels: resampling does not enter the flux comparison.
-  const std::vector<double> pa = envkit::total_power(A.image, *A.param);
-  const std::vector<double> pb = envkit::total_power(b.map.image, *b.map.param);
-  const std::vector<int> cb_own = colour_channels(b.map.image);
-  for (std::size_t k = 0; k < n; ++k) {
-    cmp.power_a.push_back(pa[ca[std::min(k, ca.size() - 1)]]);
-    cmp.power_b.push_back(pb[cb_own[std::min(k, cb_own.size() - 1)]]);
-    cmp.power_rel.push_back(relative_difference(cmp.power_a.back(), cmp.power_b.back()));
-    cmp.power_max_rel = std::max(cmp.power_max_rel, cmp.power_rel.back());
-  }
-  return cmp;
-}
-
-double metric_value(const Comparison& c, const std::string& metric) {
-  if (metric == "rmse") return c.rmse;
-  if (metric == "max") return c.max.value;
-  if (metric == "power") return c.power_max_rel;
-  return c.relmse;
-}
+using Comparison = envkit::MapComparison;
 
 json comparison_json(const Options& o, const tools::LoadedInput& a, const tools::LoadedInput& b, const Comparison& c,
                      double value, bool failed) {
@@ -202,10 +110,10 @@ int diff(Options& o) {
   tools::report_input(a, true);
   const tools::LoadedInput b = tools::load_input(o.b);
   tools::report_input(b, true);
-  const Comparison c = compare(a, b, envkit::parse_filter(o.filter));
-  const double value = metric_value(c, o.metric);
+  const Comparison c = envkit::compare_maps(a.map, b.map, envkit::parse_filter(o.filter), a.path, b.path);
+  const double value = envkit::comparison_metric(c, o.metric);
   const bool failed = o.fail_above && !(value <= *o.fail_above);  // NaN fails
-  if (o.json) std::cout << comparison_json(o, a, b, c, value, failed).dump(2) << "\n";
+  if (o.json) std::cout << tools::json_text(comparison_json(o, a, b, c, value, failed)) << "\n";
   else print_text(o, a, b, c, value, failed);
   return failed ? tools::kExitThreshold : tools::kExitOk;
 }
@@ -227,7 +135,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--fail-above", o.fail_above, "exit 3 when the metric exceeds X")
       ->type_name("X")
-      ->check(CLI::NonNegativeNumber);
+      ->check(tools::number_in(0.0, 1e300));
   tools::add_threads_option(app, o.threads);
   app.add_flag("--json", o.json, "print one JSON object instead of the table");
   app.footer(kFooter);

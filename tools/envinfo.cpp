@@ -1,25 +1,30 @@
 // envinfo: describes an environment map: file, pixels, parameterization, power and value statistics.
 // Non-finite values are reported, never fatal: the map is read with NaN/Inf replaced by 0 and counted.
-#include "common/cli.h"
-#include "common/input.h"
-
+#include <envkit/atomic_file.h>
 #include <envkit/distribution_pyramid.h>
 #include <envkit/env_tables.h>
 #include <envkit/error.h>
+#include <envkit/exr_cube_mips.h>
 #include <envkit/filter.h>
 #include <envkit/image_io.h>
+#include <envkit/ktx2.h>
+#include <envkit/map_stats.h>
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
-
-#include <nlohmann/json.hpp>
+#include <envkit/sun.h>
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+
+#include "common/cli.h"
+#include "common/input.h"
 
 namespace {
 
@@ -53,40 +58,8 @@ struct Options {
   std::string export_exr;
 };
 
-struct ChannelStats {
-  std::string name;
-  double power = 0, mean_radiance = 0, min = 0, max = 0, texel_mean = 0;
-};
-
-struct MapStats {
-  double solid_angle = 0;  // of the texels with data
-  std::vector<ChannelStats> channels;
-};
-
-MapStats map_stats(const envkit::EnvMap& map) {
-  const envkit::Image& img = map.image;
-  const int C = img.channels;
-  MapStats s;
-  s.solid_angle = envkit::SolidAngleTable(*map.param).total();
-  const std::vector<double> power = envkit::total_power(img, *map.param);
-  const envkit::TexelSource source(img, *map.param);
-  std::vector<double> lo(C, std::numeric_limits<double>::infinity()), hi(C, -lo[0]), sum(C, 0.0);
-  std::size_t count = 0;
-  for (std::size_t t = 0; t < img.texel_count(); ++t) {
-    if (!source.covered(t)) continue;
-    ++count;
-    const float* px = img.pixels.data() + t * C;
-    for (int c = 0; c < C; ++c) {
-      lo[c] = std::min(lo[c], double(px[c]));
-      hi[c] = std::max(hi[c], double(px[c]));
-      sum[c] += px[c];
-    }
-  }
-  for (int c = 0; c < C; ++c)
-    s.channels.push_back({img.channel_names[c], power[c], power[c] / envkit::kFourPi, count ? lo[c] : 0.0,
-                          count ? hi[c] : 0.0, count ? sum[c] / double(count) : 0.0});
-  return s;
-}
+using envkit::ChannelStats;
+using envkit::MapStats;
 
 json stats_json(const envkit::Image& img, const MapStats& s) {
   json channels = json::array();
@@ -103,7 +76,57 @@ json stats_json(const envkit::Image& img, const MapStats& s) {
   return channels;
 }
 
-void print_text(const tools::LoadedInput& in, const MapStats& s) {
+// A multi-level OpenEXR file (envprefilter's mip-mapped cube): its levels and the GGX chain's attributes, since the
+// statistics below describe level 0 only.
+std::optional<envkit::ExrLevels> exr_levels(const tools::LoadedInput& in) {
+  if (in.report.format != "openexr" || envkit::is_face_pattern(in.path)) return std::nullopt;
+  std::optional<envkit::ExrLevels> levels = envkit::read_exr_levels(in.path);
+  if (levels && levels->sizes.size() < 2) return std::nullopt;
+  return levels;
+}
+
+// The sun as envinfo reports it: direction as elevation above the horizon and azimuth (0 = +Z, 90 = +X, the
+// convention of envprobe's --azimuth-deg), in degrees.
+double elevation_deg(const envkit::Vec3& d) { return std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / envkit::kPi; }
+double azimuth_deg(const envkit::Vec3& d) { return std::atan2(d.x, d.z) * 180.0 / envkit::kPi; }
+
+json sun_json(const std::optional<envkit::SunEstimate>& sun) {
+  if (!sun) return nullptr;
+  return {{"direction", {sun->direction.x, sun->direction.y, sun->direction.z}},
+          {"elevation_deg", elevation_deg(sun->direction)},
+          {"azimuth_deg", azimuth_deg(sun->direction)},
+          {"angular_radius_deg", sun->angular_radius * 180.0 / envkit::kPi},
+          {"solid_angle", sun->solid_angle},
+          {"texels", sun->texels},
+          {"radiance", sun->radiance},
+          {"power", sun->power},
+          {"power_share", sun->power_share},
+          {"clipped", sun->clipped},
+          {"clipped_texels", sun->clipped_texels}};
+}
+
+std::string sun_text(const std::optional<envkit::SunEstimate>& sun) {
+  if (!sun) return "none (no small region outshines the map and carries >= 1% of its light)";
+  return "elevation " + tools::fmt(elevation_deg(sun->direction), 4) + " deg, azimuth " +
+         tools::fmt(azimuth_deg(sun->direction), 4) + " deg (0 = +Z, 90 = +X), radius " +
+         tools::fmt(sun->angular_radius * 180.0 / envkit::kPi, 3) + " deg (" + std::to_string(sun->texels) +
+         " texels), radiance " + tools::fmt(sun->radiance[0], 4) + ", " + tools::fmt(sun->radiance[1], 4) + ", " +
+         tools::fmt(sun->radiance[2], 4) + ", " + tools::fmt(100.0 * sun->power_share, 3) + "% of the light";
+}
+
+void warn_if_clipped(const tools::LoadedInput& in, const std::optional<envkit::SunEstimate>& sun) {
+  if (sun && sun->clipped)
+    tools::warn(in.path + ": the sun is clipped flat (" + std::to_string(sun->clipped_texels) + " of its " +
+                std::to_string(sun->texels) +
+                " texels share its maximum value): the map holds too little of its power");
+}
+
+std::string meta(const envkit::Image& img, const std::string& key) {
+  const auto it = img.metadata.find(key);
+  return it == img.metadata.end() ? "" : it->second;
+}
+
+void print_text(const tools::LoadedInput& in, const MapStats& s, const std::optional<envkit::SunEstimate>& sun) {
   const envkit::Image& img = in.map.image;
   const envkit::ReadReport& r = in.report;
   auto row = [](const std::string& key, const std::string& value) {
@@ -123,7 +146,19 @@ void print_text(const tools::LoadedInput& in, const MapStats& s) {
                         std::to_string(r.posinf_count) + " +Inf, " + std::to_string(r.neginf_count) + " -Inf)" +
                         (r.nonfinite_count() ? ", read as 0" : ""));
   row("negative", std::to_string(r.negative_count));
+  row("sun", sun_text(sun));
   for (const auto& note : r.notes) row("note", note);
+  if (const auto levels = exr_levels(in)) {
+    std::string sizes;
+    for (const auto& [w, h] : levels->sizes)
+      sizes += (sizes.empty() ? "" : " ") + std::to_string(w) + "x" + std::to_string(h);
+    row("levels", std::to_string(levels->sizes.size()) + " (" + levels->mode + ", rounding " + levels->rounding +
+                      "): " + sizes + "; statistics of level 0");
+    if (!meta(img, "envkit:ibl_levels").empty())
+      row("GGX chain", meta(img, "envkit:ibl_levels") + " prefiltered levels, mapping " +
+                           meta(img, "envkit:ibl_roughness_mapping") + ", roughness " +
+                           meta(img, "envkit:ibl_roughness"));
+  }
 
   std::cout << "\n" << tools::pad("channel", 10);
   for (const char* h : {"power", "mean radiance", "min", "max", "texel mean"}) std::cout << tools::rpad(h, 15);
@@ -141,14 +176,24 @@ void print_text(const tools::LoadedInput& in, const MapStats& s) {
 int describe_envmap(Options& o) {
   o.in.nonfinite = envkit::NonFinitePolicy::Zero;  // report NaN/Inf, don't fail on them
   const tools::LoadedInput in = tools::load_input(o.in);
-  const MapStats stats = map_stats(in.map);
+  const MapStats stats = envkit::map_statistics(in.map);
+  const std::optional<envkit::SunEstimate> sun = envkit::detect_sun(in.map);
+  warn_if_clipped(in, sun);
   if (o.json) {
     json j = tools::input_json(in);
     j["solid_angle"] = stats.solid_angle;
     j["statistics"] = stats_json(in.map.image, stats);
-    std::cout << j.dump(2) << "\n";
+    j["sun"] = sun_json(sun);
+    if (const auto levels = exr_levels(in)) {
+      j["levels"] = {{"mode", levels->mode}, {"rounding", levels->rounding}, {"sizes", levels->sizes}};
+      if (!meta(in.map.image, "envkit:ibl_levels").empty())
+        j["ggx_chain"] = {{"prefiltered_levels", meta(in.map.image, "envkit:ibl_levels")},
+                          {"mapping", meta(in.map.image, "envkit:ibl_roughness_mapping")},
+                          {"roughness", meta(in.map.image, "envkit:ibl_roughness")}};
+    }
+    std::cout << tools::json_text(j) << "\n";
   } else {
-    print_text(in, stats);
+    print_text(in, stats, sun);
   }
   return tools::kExitOk;
 }
@@ -157,6 +202,7 @@ int describe_envmap(Options& o) {
 // Mode: a table file.
 
 bool is_table_file(const std::string& path) {
+  if (std::error_code ec; !std::filesystem::is_regular_file(path, ec)) return false;  // a FIFO would block here
   std::ifstream f(path, std::ios::binary);
   char magic[8] = {};
   return f.read(magic, 8) && std::memcmp(magic, "ENVKTBL", 8) == 0;
@@ -173,10 +219,13 @@ void export_tables(const envkit::EnvTables& t, const std::string& prefix) {
   const std::size_t n = std::size_t(W) * H;
   envkit::WriteOptions wo;
   wo.metadata["envkit:source"] = t.source_path();
+  // Every image or none: the set is committed at the end as one group (also on a signal, a full disk, ulimit -f).
+  envkit::OutputGroup group;
+  std::vector<std::string> written;
   const auto write = [&](const std::string& name, const envkit::Image& image) {
     const std::string path = prefix + "_" + name + ".exr";
     envkit::write_image(path, image, wo);
-    tools::info("wrote " + path);
+    written.push_back(path);
   };
   write("importance", scalar_image(W, H, {t.importance().begin(), t.importance().end()}));
 
@@ -216,6 +265,17 @@ void export_tables(const envkit::EnvTables& t, const std::string& prefix) {
       write("level" + std::to_string(k), scalar_image(lw, lh, level));
     }
   }
+  group.commit();
+  for (const std::string& path : written) tools::info("wrote " + path);
+}
+
+/// "latlong 2048 x 1024"; HEALPix tables also name N_side, since the image size alone reads like a cube cross.
+std::string table_grid_description(const envkit::EnvTables& t) {
+  std::string text =
+      std::string(envkit::kind_name(t.grid())) + " " + std::to_string(t.width()) + " x " + std::to_string(t.height());
+  if (t.grid() == envkit::Kind::HEALPix)
+    text += " (N_side " + std::to_string(t.width() / 4) + ", 12 base pixels, equal-area texels)";
+  return text;
 }
 
 int describe_tables(const Options& o) {
@@ -224,15 +284,15 @@ int describe_tables(const Options& o) {
     json j = json::parse(t.descriptor());
     j["file"] = o.in.path;
     for (const auto& [name, bytes] : t.table_bytes()) j["bytes"][name] = bytes;
-    std::cout << j.dump(2) << "\n";
+    std::cout << tools::json_text(j) << "\n";
   } else {
     const auto row = [](const std::string& key, const std::string& value) {
       std::cout << tools::pad(key, 28) << value << "\n";
     };
     const json d = json::parse(t.descriptor());
-    row("file", o.in.path + " (envkit sampling tables, format version " + std::to_string(envkit::kTableFormatVersion) + ")");
-    row("grid", std::string(envkit::kind_name(t.grid())) + " " + std::to_string(t.width()) + " x " +
-                    std::to_string(t.height()));
+    row("file",
+        o.in.path + " (envkit sampling tables, format version " + std::to_string(envkit::kTableFormatVersion) + ")");
+    row("grid", table_grid_description(t));
     row("importance", std::string(envkit::importance_name(t.importance_mode())) +
                           (t.conservative() ? " (conservative)" : "") + ", total " + tools::fmt(t.total_importance()));
     row("source", t.source_path() + " (content hash " + t.source_hash() + ")");
@@ -240,15 +300,33 @@ int describe_tables(const Options& o) {
       row("resampled from", d["bake"]["resampled_from"].get<std::string>());
     const double texels = double(t.width()) * t.height();
     for (const auto& [name, bytes] : t.table_bytes())
-      row("  " + name, tools::fmt(double(bytes) / (1 << 20), 4) + " MiB, " + tools::fmt(double(bytes) / texels, 3) +
-                           " bytes/texel");
+      row("  " + name,
+          tools::fmt(double(bytes) / (1 << 20), 4) + " MiB, " + tools::fmt(double(bytes) / texels, 3) + " bytes/texel");
     for (const std::string& w : t.warnings()) row("warning", w);
   }
   if (!o.export_exr.empty()) export_tables(t, o.export_exr);
   return tools::kExitOk;
 }
 
+// Mode: a KTX2 or DDS texture (envprefilter's outputs): what its header says.
+int describe_gpu_texture(const Options& o) {
+  const envkit::GpuTextureInfo t = envkit::read_gpu_texture_info(o.in.path);
+  if (o.json) {
+    std::cout << json{{"file", o.in.path},  {"container", t.container},  {"format", t.format},
+                      {"width", t.width},   {"height", t.height},        {"faces", t.faces},
+                      {"levels", t.levels}, {"key_values", t.key_values}}
+                     .dump(2)
+              << "\n";
+    return tools::kExitOk;
+  }
+  std::cout << o.in.path << ": " << t.container << " " << t.format << ", " << t.width << "x" << t.height << ", "
+            << (t.faces == 6 ? "cube (6 faces)" : "2D") << ", " << t.levels << " levels\n";
+  for (const auto& [k, v] : t.key_values) std::cout << "  " << k << ": " << v << "\n";
+  return tools::kExitOk;
+}
+
 int run(Options& o) {
+  if (!envkit::is_face_pattern(o.in.path) && envkit::is_gpu_texture(o.in.path)) return describe_gpu_texture(o);
   if (!envkit::is_face_pattern(o.in.path) && is_table_file(o.in.path)) return describe_tables(o);
   if (!o.export_exr.empty()) throw CLI::ValidationError("--export-exr", "applies to table files (from envbake) only");
   return describe_envmap(o);
@@ -257,11 +335,14 @@ int run(Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app("Describes an environment map (pixels, parameterization, power and statistics per channel) or a "
-               "table file from envbake.",
-               "envinfo");
+  CLI::App app(
+      "Describes an environment map (pixels, parameterization, power and statistics per channel) or a "
+      "table file from envbake.",
+      "envinfo");
   Options o;
-  app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces) or table file")->required()->type_name("FILE");
+  app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces) or table file")
+      ->required()
+      ->type_name("FILE");
   app.add_option("--from", o.in.from, "parameterization: " + tools::kind_choices() + " (default: detected)")
       ->type_name("KIND")
       ->check(tools::kind_validator());
@@ -274,8 +355,10 @@ int main(int argc, char** argv) {
       ->type_name("C")
       ->check(tools::convention_validator());
   app.add_flag("--json", o.json, "print one JSON object instead of the table");
-  app.add_option("--export-exr", o.export_exr, "table files: write importance, marginal, conditionals and pyramid "
-                 "levels as PREFIX_*.exr")->type_name("PREFIX");
+  app.add_option("--export-exr", o.export_exr,
+                 "table files: write importance, marginal, conditionals and pyramid "
+                 "levels as PREFIX_*.exr")
+      ->type_name("PREFIX");
   app.footer(kFooter);
   return tools::run_cli(app, argc, argv, [&] { return run(o); });
 }

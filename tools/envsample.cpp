@@ -15,7 +15,9 @@
 #include <fstream>
 #include <iomanip>
 #include <random>
+#include <span>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -97,12 +99,20 @@ void write_picture(const std::string& path, const envkit::EnvTables& t, const en
 
   std::vector<double> counts(std::size_t(W) * H, 0.0);
   std::vector<std::pair<int, int>> dots;
-  for (std::size_t i = 0; i < n; ++i) {
-    const envkit::DirectionSample s = d.sample(seq.next(std::uint32_t(i)));
-    const envkit::Vec2 p = map.to_image(s.direction);
-    const int x = std::clamp(int(p.x), 0, W - 1), y = std::clamp(int(p.y), 0, H - 1);
-    counts[std::size_t(y) * W + x] += 1.0;
-    if (!exr && dots.size() < 200000) dots.emplace_back(x, y);
+  // Blocks of u through the batched sample() (the same samples as one call each; the table misses overlap).
+  constexpr std::size_t kBlock = 1024;
+  std::vector<envkit::Vec2> u(kBlock);
+  std::vector<envkit::DirectionSample> samples(kBlock);
+  for (std::size_t b = 0; b < n; b += kBlock) {
+    const std::size_t m = std::min(kBlock, n - b);
+    for (std::size_t i = 0; i < m; ++i) u[i] = seq.next(std::uint32_t(b + i));
+    d.sample(std::span<const envkit::Vec2>(u.data(), m), std::span<envkit::DirectionSample>(samples.data(), m));
+    for (std::size_t i = 0; i < m; ++i) {
+      const envkit::Vec2 p = map.to_image(samples[i].direction);
+      const int x = std::clamp(int(p.x), 0, W - 1), y = std::clamp(int(p.y), 0, H - 1);
+      counts[std::size_t(y) * W + x] += 1.0;
+      if (!exr && dots.size() < 200000) dots.emplace_back(x, y);
+    }
   }
   // Background: log(1 + pdf / mean pdf) scaled to its maximum, so a sun does not blacken the sky.
   std::vector<double> pdf(counts.size());
@@ -176,7 +186,7 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("TABLES", o.tables, "table file from envbake")->required()->type_name("FILE");
   app.add_option("-o,--output", o.out, "output: .csv, .png/.jpg or .exr")->required()->type_name("OUT");
-  app.add_option("-n,--samples", o.n, "number of samples")->check(CLI::Range(std::size_t(1), std::size_t(1) << 32))
+  app.add_option("-n,--samples", o.n, "number of samples")->transform(tools::integer_in(1, 1LL << 32))
       ->capture_default_str();
   app.add_option("--method", o.method, "cdf, alias or hierarchical")
       ->check(CLI::IsMember({"cdf", "alias", "hierarchical", "pyramid"}))
@@ -184,8 +194,8 @@ int main(int argc, char** argv) {
   app.add_option("--sequence", o.sequence, "random or sobol")
       ->check(CLI::IsMember({"random", "sobol"}))
       ->capture_default_str();
-  app.add_option("--seed", o.seed, "seed of the sequence")->capture_default_str();
-  app.add_option("--width", o.width, "picture width (height = width / 2)")->check(CLI::Range(2, 16384));
+  app.add_option("--seed", o.seed, "seed of the sequence")->transform(tools::integer_in(0, 4294967295LL))->capture_default_str();
+  app.add_option("--width", o.width, "picture width (height = width / 2)")->transform(tools::integer_in(2, 16384));
   app.add_flag("--compensated", o.compensated, "sample the MIS-compensated table");
   app.add_flag("-f,--force", o.force, "allow OUT to overwrite TABLES");
   app.add_flag("-q,--quiet", o.quiet, "print only errors");

@@ -1,6 +1,5 @@
 #include <envkit/atomic_file.h>
 #include <envkit/error.h>
-
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -12,15 +11,21 @@
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <regex>
 
 namespace envkit {
 namespace fs = std::filesystem;
 
 namespace {
 
+// What the process is doing, for the handler: a group commit must not be cut in half, so a signal arriving during
+// one is held (g_pending) and re-raised when the renames are done.
+enum Phase : int { kIdle = 0, kCommitting = 1, kDying = 2 };
+std::atomic<int> g_phase{kIdle};
+
 // ---- registry of live temp files, read by the signal handler -------------------------------------------
 // Fixed storage and lock-free atomics only: the handler may run at any point, on any thread.
-constexpr int kSlots = 64;
+constexpr int kSlots = 256;
 constexpr std::size_t kMaxPath = 4096;
 enum SlotState : int { kFree = 0, kBusy = 1, kLive = 2 };
 
@@ -33,6 +38,8 @@ static_assert(std::atomic<int>::is_always_lock_free, "signal handler needs lock-
 
 int register_temp(const std::string& path) {
   if (path.size() >= kMaxPath) return -1;
+  // A signal handler is removing the live temp files and ending the process: a file registered now would be left.
+  while (g_phase.load() == kDying) ::usleep(1000);
   for (int i = 0; i < kSlots; ++i) {
     int expected = kFree;
     if (g_slots[i].state.compare_exchange_strong(expected, kBusy)) {
@@ -53,16 +60,59 @@ void unregister_temp(int slot) {
 constexpr std::array<int, 3> kSignals = {SIGINT, SIGTERM, SIGHUP};
 std::array<struct sigaction, kSignals.size()> g_previous{};
 
-extern "C" void cleanup_on_signal(int sig) {
-  const int saved_errno = errno;
+std::atomic<int> g_pending{0};
+// SIGXFSZ deliveries so far: a temp file written while one arrived is truncated and must not be committed.
+std::atomic<unsigned long> g_xfsz{0};
+static_assert(std::atomic<unsigned long>::is_always_lock_free, "signal handler needs lock-free atomics");
+
+void remove_live_temps_and_reraise(int sig) {
   for (auto& slot : g_slots)
     if (slot.state.load() == kLive) ::unlink(slot.path);  // async-signal-safe
-  // Restore whatever was there before and re-raise: delivered when this handler returns.
+  // Restore whatever was there before and re-raise it at once, unblocked, so that the process ends here: were it
+  // delivered only when this handler returns, the other threads would run on meanwhile and could create a temp
+  // file after the loop above removed the live ones.
   for (std::size_t i = 0; i < kSignals.size(); ++i)
     if (kSignals[i] == sig) ::sigaction(sig, &g_previous[i], nullptr);
-  errno = saved_errno;
+  sigset_t just_this;
+  sigemptyset(&just_this);
+  sigaddset(&just_this, sig);
+  ::pthread_sigmask(SIG_UNBLOCK, &just_this, nullptr);
   ::raise(sig);
 }
+
+extern "C" void cleanup_on_signal(int sig) {
+  const int saved_errno = errno;
+  int expected = kIdle;
+  if (g_phase.compare_exchange_strong(expected, kDying)) {
+    remove_live_temps_and_reraise(sig);
+    // The previous handler may return (a tool that handles the signal itself): the process lives on.
+    g_phase.store(kIdle);
+  } else if (expected == kCommitting) {
+    int none = 0;
+    g_pending.compare_exchange_strong(none, sig);  // the committing thread re-raises it
+  }
+  // kDying: another thread is already cleaning up and re-raising.
+  errno = saved_errno;
+}
+
+extern "C" void note_file_size_limit(int) { g_xfsz.fetch_add(1); }  // write() then fails with EFBIG
+
+/// Holds signals for the duration of a group commit (see g_phase).
+class HeldSignals {
+ public:
+  HeldSignals() {
+    for (;;) {
+      int expected = kIdle;
+      if (g_phase.compare_exchange_weak(expected, kCommitting)) return;
+      ::usleep(1000);  // a handler is cleaning up: the process is about to end
+    }
+  }
+  ~HeldSignals() {
+    const int sig = g_pending.exchange(0);
+    g_phase.store(kIdle);
+    if (sig != 0) ::raise(sig);
+  }
+};
 
 std::atomic<unsigned long> g_counter{0};
 
@@ -97,8 +147,8 @@ fs::path temp_path_for(const fs::path& final_path) {
   std::string name = final_path.filename().string();
   const std::string ext = final_path.extension().string();
   if (name.size() > 200) name.resize(200);  // keep within NAME_MAX with the suffix added
-  const std::string temp = "." + name + ".tmp-" + std::to_string(::getpid()) + "-" +
-                           std::to_string(g_counter.fetch_add(1)) + ext;
+  const std::string temp =
+      "." + name + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(g_counter.fetch_add(1)) + ext;
   return parent_dir(final_path) / temp;
 }
 
@@ -112,22 +162,103 @@ bool same_file(const std::string& a, const std::string& b) {
   return fs::exists(a, ec) && fs::exists(b, ec) && fs::equivalent(a, b, ec) && !ec;
 }
 
+// ---- output groups ---------------------------------------------------------------------------------
+struct Deferred {
+  std::string target, temp, final_path;
+  int slot;
+};
+std::mutex g_group_mutex;
+int g_group_depth = 0;          // live OutputGroups; > 0: commits are deferred
+bool g_group_poisoned = false;  // a joined group died uncommitted: the outer one must not commit
+std::vector<Deferred> g_deferred;
+
+void discard(std::vector<Deferred>& files) {
+  for (const Deferred& d : files) {
+    ::unlink(d.temp.c_str());
+    unregister_temp(d.slot);
+  }
+  files.clear();
+}
+
+/// A name for the backup of `final_path` (same directory), unused at the time of the call.
+std::string backup_name(const std::string& final_path) {
+  const fs::path p(final_path);
+  std::string name = p.filename().string();
+  if (name.size() > 200) name.resize(200);
+  return (parent_dir(p) /
+          ("." + name + ".bak-" + std::to_string(::getpid()) + "-" + std::to_string(g_counter.fetch_add(1))))
+      .string();
+}
+
+/// Renames every file or none: see OutputGroup. Called with signals held.
+void commit_all(std::vector<Deferred>& files) {
+  struct Done {
+    std::string backup;  // empty: the target did not exist
+    bool renamed = false;
+  };
+  std::vector<Done> done(files.size());
+  const auto roll_back = [&](std::size_t upto) {
+    for (std::size_t j = 0; j < upto; ++j) {
+      const Deferred& d = files[j];
+      if (!done[j].backup.empty()) {
+        ::rename(done[j].backup.c_str(), d.final_path.c_str());  // the old contents back
+      } else if (done[j].renamed) {
+        ::unlink(d.final_path.c_str());  // a new target disappears again
+      }
+    }
+  };
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const Deferred& d = files[i];
+    std::string why;
+    struct stat st {};
+    if (::lstat(d.final_path.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) {
+      const std::string backup = backup_name(d.final_path);
+      // A hard link keeps the target in place until it is replaced; where links are impossible, move it aside.
+      if (::link(d.final_path.c_str(), backup.c_str()) == 0 || ::rename(d.final_path.c_str(), backup.c_str()) == 0)
+        done[i].backup = backup;
+      else
+        why = "cannot keep a backup of the old file: " + errno_text(errno);
+    }
+    if (why.empty()) {
+      if (::rename(d.temp.c_str(), d.final_path.c_str()) == 0)
+        done[i].renamed = true;
+      else
+        why = errno_text(errno);
+    }
+    if (!why.empty()) {
+      roll_back(i + 1);
+      const std::string target = d.target;
+      discard(files);
+      fail(target, "cannot write: " + why);
+    }
+  }
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    if (!done[i].backup.empty()) ::unlink(done[i].backup.c_str());
+    unregister_temp(files[i].slot);
+  }
+  files.clear();
+}
+
 }  // namespace
 
 AtomicOutput::AtomicOutput(std::string target) : target_(std::move(target)) {
   if (target_.empty()) fail("", "empty output path");
+  install_temp_cleanup_on_signal();
   const fs::path final_path = resolve_target(target_);
   std::error_code ec;
   if (fs::is_directory(final_path, ec)) fail(target_, "is a directory");
   check_directory(target_, parent_dir(final_path));
   final_path_ = final_path.string();
   temp_ = temp_path_for(final_path).string();
+  xfsz_at_start_ = g_xfsz.load();
   slot_ = register_temp(temp_);
 }
 
 AtomicOutput::~AtomicOutput() {
-  if (!committed_) ::unlink(temp_.c_str());
-  unregister_temp(slot_);
+  if (!committed_) {
+    ::unlink(temp_.c_str());
+    unregister_temp(slot_);
+  }
 }
 
 void AtomicOutput::commit() {
@@ -137,16 +268,65 @@ void AtomicOutput::commit() {
     fail(target_, "cannot write: " + why);
   };
   // fsync before rename: otherwise a crash shortly after may leave an empty file under the target's name.
+  // It also reports a full disk that the writer's buffered writes did not.
   const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) give_up(errno_text(errno));
   const int sync_result = ::fsync(fd);
   const int sync_errno = errno;
   ::close(fd);
   if (sync_result != 0 && sync_errno != EINVAL && sync_errno != EROFS) give_up(errno_text(sync_errno));
+  if (g_xfsz.load() != xfsz_at_start_) give_up("file size limit exceeded (ulimit -f)");
+  {
+    std::lock_guard<std::mutex> lock(g_group_mutex);
+    if (g_group_depth > 0) {
+      g_deferred.push_back({target_, temp_, final_path_, slot_});
+      committed_ = true;  // the group owns the temp file now
+      slot_ = -1;
+      return;
+    }
+  }
   if (::rename(temp_.c_str(), final_path_.c_str()) != 0) give_up(errno_text(errno));
   committed_ = true;
   unregister_temp(slot_);
   slot_ = -1;
+}
+
+OutputGroup::OutputGroup() {
+  std::lock_guard<std::mutex> lock(g_group_mutex);
+  outer_ = g_group_depth++ == 0;
+  if (outer_) g_group_poisoned = false;
+}
+
+OutputGroup::~OutputGroup() {
+  std::lock_guard<std::mutex> lock(g_group_mutex);
+  --g_group_depth;
+  if (committed_) return;
+  if (outer_)
+    discard(g_deferred);
+  else
+    g_group_poisoned = true;
+}
+
+void OutputGroup::commit() {
+  if (committed_) return;
+  if (!outer_) {
+    committed_ = true;
+    return;
+  }
+  std::vector<Deferred> files;
+  {
+    std::lock_guard<std::mutex> lock(g_group_mutex);
+    files.swap(g_deferred);
+    if (g_group_poisoned) {
+      discard(files);
+      fail("", "an output of the group was not written; nothing was committed");
+    }
+  }
+  {
+    const HeldSignals held;
+    commit_all(files);
+  }
+  committed_ = true;
 }
 
 void check_output_path(const std::string& out, const std::vector<std::string>& inputs, bool force) {
@@ -159,6 +339,33 @@ void check_output_path(const std::string& out, const std::vector<std::string>& i
       if (same_file(out, in)) fail(out, "output path is the same as input " + in + "; pass --force to overwrite it");
   }
   check_directory(out, parent_dir(final_path));
+}
+
+std::string without_temp_names(const std::string& message) {
+  // The temp_path_for() scheme: "." + name (at most 200 bytes) + ".tmp-<pid>-<counter>" + the name's extension.
+  static const std::regex temp(R"(\.([^/\s"']+)\.tmp-[0-9]+-[0-9]+(\.[^./\s"']*)?)");
+  std::string out;
+  std::sregex_iterator it(message.begin(), message.end(), temp), end;
+  std::size_t last = 0;
+  for (; it != end; ++it) {
+    const std::smatch& m = *it;
+    std::string name = m[1].str();
+    const std::string ext = m[2].matched ? m[2].str() : std::string();
+    // The extension is repeated after the counter; a name without one has none there either.
+    if (!ext.empty() && (name.size() < ext.size() || name.compare(name.size() - ext.size(), ext.size(), ext) != 0))
+      name += ext;  // not the repeated extension: part of the name
+    out.append(message, last, std::size_t(m.position(0)) - last);
+    out += name;
+    last = std::size_t(m.position(0) + m.length(0));
+  }
+  out.append(message, last, std::string::npos);
+  return out;
+}
+
+void check_distinct_outputs(const std::vector<std::string>& outputs) {
+  for (std::size_t i = 0; i < outputs.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (same_file(outputs[j], outputs[i])) fail(outputs[i], "is the same file as the output " + outputs[j]);
 }
 
 void install_temp_cleanup_on_signal() {
@@ -175,6 +382,13 @@ void install_temp_cleanup_on_signal() {
       if (g_previous[i].sa_handler == SIG_IGN && !(g_previous[i].sa_flags & SA_SIGINFO)) continue;
       ::sigaction(kSignals[i], &action, nullptr);
     }
+    // The file size limit: its default action kills the process with the temp file left behind. Counted instead,
+    // the write fails with EFBIG, the writer reports it, and commit() refuses a file written meanwhile.
+    struct sigaction xfsz {};
+    xfsz.sa_handler = note_file_size_limit;
+    sigemptyset(&xfsz.sa_mask);
+    xfsz.sa_flags = SA_RESTART;
+    ::sigaction(SIGXFSZ, &xfsz, nullptr);
   });
 }
 

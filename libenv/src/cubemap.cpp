@@ -94,6 +94,7 @@ int face_size_for(CubeLayout layout, int width, int height) {
 CubeMap::CubeMap(int face_size, CubeLayout layout, CubeBasis basis, TexelGrid grid)
     : Parameterization(0, 0), n_(face_size), layout_(layout), basis_(basis), grid_(grid) {
   if (face_size <= 0) throw Error("cube map face size must be positive");
+  if (grid == TexelGrid::CornerRows) throw Error("cube maps are centre- or corner-sampled on both axes");
   layout_size(layout, face_size, width_, height_);
   if (layout == CubeLayout::VerticalStrip || layout == CubeLayout::HorizontalStrip) {
     for (int f = 0; f < 6; ++f) {
@@ -118,6 +119,12 @@ CubeMap::CubeMap(int face_size, CubeLayout layout, CubeBasis basis, TexelGrid gr
     max_x_[cf.face] = std::nextafter(static_cast<double>(cf.origin_x + n_), 0.0);
     max_y_[cf.face] = std::nextafter(static_cast<double>(cf.origin_y + n_), 0.0);
   }
+}
+
+bool CubeMap::same_grid(const Parameterization& other) const {
+  if (!same_kind_and_size(other)) return false;
+  const auto& c = static_cast<const CubeMap&>(other);
+  return c.n_ == n_ && c.layout_ == layout_ && c.basis_ == basis_ && c.grid_ == grid_;
 }
 
 std::string CubeMap::describe() const {

@@ -6,6 +6,11 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <utility>
+#include <string>
+#include <vector>
 
 namespace envkit {
 
@@ -100,6 +105,28 @@ double alias_probability(const Bin* bins, int n, int i) {
   return p / n;
 }
 
+/// Drawn probability of every bin (times n) in one pass: the keep shares plus the donations. Invalid coins
+/// (NaN, |keep| > 1/2) make the result NaN, which the caller refuses.
+template <class Bin>
+void drawn_shares(const Bin* bins, std::size_t n, std::vector<double>& share) {
+  share.assign(n, 0.0);
+  for (std::size_t j = 0; j < n; ++j) {
+    const float k = bins[j].keep;
+    if (!(std::abs(k) <= 0.5f)) {
+      share[0] = std::numeric_limits<double>::quiet_NaN();
+      return;
+    }
+    share[j] += keep_share(k);
+    share[bins[j].alias] += donated_share(k);
+  }
+}
+
+/// Restored tables are checked against what they claim: a drawn share and the share the weights give may differ
+/// by float rounding of the coins (about 2^-24 per donation), not more.
+bool share_matches(double drawn, double expected) {
+  return std::abs(drawn - expected) <= 1e-4 * expected + 1e-6;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -165,9 +192,43 @@ AliasDistribution2D::AliasDistribution2D(BlobReader& in) : Distribution2D(in) {
   // One pass over the aliases: a corrupt index would read outside the table. (keep and alias_weight are not
   // re-checked: wrong values change probabilities, not memory safety, and the section checksums catch corruption.)
   const bool texels_ok =
-      std::all_of(texels_.begin(), texels_.end(), [W](const AliasBin& b) { return b.alias < W; });
-  const bool rows_ok = std::all_of(rows_.begin(), rows_.end(), [H](const RowBin& b) { return b.alias < H; });
-  if (!texels_ok || !rows_ok || !(pdf_scale_ >= 0.0)) throw Error(in.context() + ": alias index out of range");
+      std::all_of(std::as_const(texels_).begin(), std::as_const(texels_).end(), [W](const AliasBin& b) { return b.alias < W; });
+  const bool rows_ok = std::all_of(std::as_const(rows_).begin(), std::as_const(rows_).end(), [H](const RowBin& b) { return b.alias < H; });
+  if (!texels_ok || !rows_ok) throw Error(in.context() + ": alias index out of range");
+  validate(in.context());
+}
+
+// A table whose checksum matches may still hold values no bake produces (a bug elsewhere, a hand-edited file, a
+// checksum recomputed over damage): every coin, weight and the pdf scale are checked against each other, so what
+// is drawn is what pdf() reports. One pass over the texels, like the checksum.
+void AliasDistribution2D::validate(const std::string& context) const {
+  const std::size_t W = std::size_t(width_), H = std::size_t(height_);
+  const auto refuse = [&](const std::string& what) { throw Error(context + ": invalid alias table (" + what + ")"); };
+  std::vector<double> row_sum(H, 0.0), share;
+  double total = 0.0;
+  for (std::size_t y = 0; y < H; ++y) {
+    const AliasBin* bins = texels_.data() + y * W;
+    double sum = 0.0;
+    for (std::size_t x = 0; x < W; ++x) {
+      const float w = bins[x].weight;
+      if (!(w >= 0.0f && w <= FLT_MAX)) refuse("weight not finite and >= 0");
+      if (std::memcmp(&bins[x].alias_weight, &bins[bins[x].alias].weight, sizeof(float)) != 0)
+        refuse("alias weight differs from the weight of its bin");
+      sum += w;
+    }
+    row_sum[y] = sum;
+    total += sum;
+    if (!(sum > 0.0)) continue;  // a zero row is never drawn; its uniform coins only serve invert()
+    drawn_shares(bins, W, share);
+    for (std::size_t x = 0; x < W; ++x)
+      if (!share_matches(share[x] / double(W), double(bins[x].weight) / sum)) refuse("coins do not match the weights");
+  }
+  if (!(total > 0.0)) refuse("all weights are zero");
+  drawn_shares(rows_.data(), H, share);
+  for (std::size_t y = 0; y < H; ++y)
+    if (!share_matches(share[y] / double(H), row_sum[y] / total)) refuse("row coins do not match the row sums");
+  const double expected_scale = double(W) * double(H) / total;
+  if (!(std::abs(pdf_scale_ - expected_scale) <= 1e-5 * expected_scale)) refuse("pdf scale does not match the weights");
 }
 
 void AliasDistribution2D::save(BlobWriter& out) const {
@@ -239,6 +300,37 @@ DistributionSample AliasDistribution2D::sample(Vec2 u) const {
 }
 
 TexelSample AliasDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
+
+void AliasDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
+  sampling::for_each_group(u.size(),
+                           [&](std::size_t g, std::size_t n) { pick_group(u.data() + g, out.data() + g, n); });
+}
+
+void AliasDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t n) const {
+  constexpr std::size_t G = sampling::kSampleGroup;
+  std::uint32_t y[G], candidate[G];
+  double coin_y[G], coin_x[G];
+  // Row candidates; prefetch their marginal bins (8 bytes a row: usually cached, but not on tall maps).
+  for (std::size_t k = 0; k < n; ++k) {
+    y[k] = alias_candidate(clamp_decision(u[k].y), height_f_, coin_y[k]);
+    __builtin_prefetch(rows_.data() + y[k]);
+  }
+  // Row coins and column candidates; prefetch each chosen row's column bin, the miss of this warp.
+  for (std::size_t k = 0; k < n; ++k) {
+    const RowBin& row_bin = rows_[y[k]];
+    if (!alias_keep(row_bin, coin_y[k], out[k].fy)) y[k] = row_bin.alias;
+    candidate[k] = alias_candidate(clamp_decision(u[k].x), width_f_, coin_x[k]);
+    __builtin_prefetch(texels_.data() + std::size_t(y[k]) * std::size_t(width_) + candidate[k]);
+  }
+  // Column coins: the bins are in flight or arrived.
+  for (std::size_t k = 0; k < n; ++k) {
+    const AliasBin& bin = texels_[std::size_t(y[k]) * std::size_t(width_) + candidate[k]];
+    const bool keep = alias_keep(bin, coin_x[k], out[k].fx);
+    out[k].x = static_cast<int>(keep ? candidate[k] : bin.alias);
+    out[k].y = static_cast<int>(y[k]);
+    out[k].pdf = double(keep ? bin.weight : bin.alias_weight) * pdf_scale_;
+  }
+}
 
 double AliasDistribution2D::pdf(Vec2 uv) const {
   if (!sampling::in_unit_square(uv)) return 0.0;

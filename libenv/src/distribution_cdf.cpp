@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace envkit {
 
@@ -164,11 +165,34 @@ CdfDistribution2D::CdfDistribution2D(BlobReader& in) : Distribution2D(in) {
   marginal_ = in.table<float>(H + 1);
   marginal_split_ = in.scalar<std::int32_t>();
   in.finish();
+  // Read through const views: the non-const accessors address the (empty) owned storage of a building table.
+  const TableArray<float>& conditional = conditional_;
+  const TableArray<std::int32_t>& row_split = row_split_;
+  const TableArray<float>& marginal = marginal_;
   // Entry 0 (cdf 0) is always stored forward, so a built table has split >= 1; the search relies on it.
   const auto valid_split = [](std::int32_t split, std::size_t n) { return split >= 1 && std::size_t(split) <= n; };
   if (!valid_split(marginal_split_, H) ||
-      !std::all_of(row_split_.begin(), row_split_.end(), [&](std::int32_t s) { return valid_split(s, W); }))
+      !std::all_of(row_split.begin(), row_split.end(), [&](std::int32_t s) { return valid_split(s, W); }))
     throw Error(in.context() + ": CDF split index out of range");
+  // A checksum only says the bytes are as written, not that they form a CDF: every table must start at 0, rise
+  // (forward part) and fall (backward part) in [0, 1], and end at 0, so every bin probability is finite and >= 0
+  // and sums to 1. One pass over the entries, like the checksum.
+  const auto valid_cdf = [](const float* t, int n, int split) {
+    if (t[0] != 0.0f || t[n] != 0.0f) return false;
+    for (int i = 0; i <= n; ++i)
+      if (!(t[i] >= 0.0f && t[i] <= 1.0f)) return false;
+    for (int i = 1; i < split; ++i)
+      if (t[i] < t[i - 1]) return false;
+    for (int i = split + 1; i <= n; ++i)
+      if (t[i] > t[i - 1]) return false;
+    return detail::TwoSidedCdf{t, n, split}.step(split - 1) >= 0.0;  // the junction bin
+  };
+  if (!valid_cdf(marginal.data(), height_, marginal_split_))
+    throw Error(in.context() + ": invalid marginal CDF (not a non-decreasing CDF from 0 to 1)");
+  for (std::size_t y = 0; y < H; ++y)
+    if (!valid_cdf(conditional.data() + y * (W + 1), width_, row_split[y]))
+      throw Error(in.context() + ": invalid CDF of row " + std::to_string(y) + " (not a non-decreasing CDF from 0 to 1)");
+  if (!std::isfinite(integral_)) throw Error(in.context() + ": invalid distribution integral");
 }
 
 void CdfDistribution2D::save(BlobWriter& out) const {
@@ -190,6 +214,84 @@ DistributionSample CdfDistribution2D::sample(Vec2 u) const {
 }
 
 TexelSample CdfDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
+
+namespace {
+
+/// TwoSidedCdf::find() of n <= sampling::kSampleGroup searches at once, search k in cdf[k] for u[k] (the caller has
+/// prefetched each cdf[k].t[split], which decides the part to search). Each round takes one halving step of every
+/// search and prefetches its next probe, so the group's probe misses overlap; the steps are those of libstdc++'s
+/// std::upper_bound / std::partition_point in find(), so each search reads the same probes and ends in the same
+/// bin, bit for bit. The steps are conditional jumps, not selects: on peaky maps most searches take the same path,
+/// which the CPU predicts (the select version is in BENCHMARKS.md's Python section, slower on the sun map).
+void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin, double* fraction, double* step) {
+  constexpr std::size_t G = sampling::kSampleGroup;
+  double r[G];
+  int first[G], len[G];
+  bool forward[G];
+  for (std::size_t k = 0; k < n; ++k) {
+    r[k] = 1.0 - u[k];
+    forward[k] = cdf[k].forward(u[k], r[k]);
+    first[k] = forward[k] ? 0 : cdf[k].split;
+    len[k] = forward[k] ? cdf[k].split : cdf[k].n - cdf[k].split;
+    __builtin_prefetch(cdf[k].t + first[k] + (len[k] >> 1));
+  }
+  for (bool more = true; more;) {
+    more = false;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (len[k] <= 0) continue;
+      const int half = len[k] >> 1, middle = first[k] + half;
+      if (TwoSidedCdf::after(forward[k], cdf[k].t[middle], u[k], r[k])) {
+        first[k] = middle + 1;
+        len[k] -= half + 1;
+      } else {
+        len[k] = half;
+      }
+      __builtin_prefetch(cdf[k].t + first[k] + (len[k] >> 1));
+      more |= len[k] > 0;
+    }
+  }
+  for (std::size_t k = 0; k < n; ++k)
+    bin[k] = cdf[k].finish(first[k] - 1, forward[k], u[k], r[k], fraction[k], step[k]);
+}
+
+}  // namespace
+
+void CdfDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
+  // Rows that stay in a core's L2 have no misses to overlap, and there the group search's bookkeeping costs more
+  // than it saves: pick() per sample (the same results).
+  constexpr std::size_t kCachedBytes = std::size_t(1) << 20;
+  if (conditional_.bytes() < kCachedBytes) {
+    for (std::size_t k = 0; k < u.size(); ++k) out[k] = pick(u[k]);
+    return;
+  }
+  sampling::for_each_group(u.size(),
+                           [&](std::size_t g, std::size_t n) { pick_group(u.data() + g, out.data() + g, n); });
+}
+
+void CdfDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t n) const {
+  constexpr std::size_t G = sampling::kSampleGroup;
+  TwoSidedCdf cdf[G] = {};  // (initialised: GCC cannot see that the first n are written)
+  double v[G] = {}, fraction[G], step_y[G], step_x[G];
+  int y[G], x[G];
+  // Rows: the marginal searches, as pick() (H + 1 floats: cached, nothing to overlap).
+  const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
+  for (std::size_t k = 0; k < n; ++k) y[k] = marginal.find(clamp_decision(u[k].y), fraction[k], step_y[k]);
+  // Columns: the chosen rows' searches (a row of W + 1 floats in a table of 4 W H bytes: the misses of this warp);
+  // prefetch the entry at each row's split first.
+  for (std::size_t k = 0; k < n; ++k) {
+    out[k].y = y[k];
+    out[k].fy = clamp_offset(fraction[k]);
+    cdf[k] = TwoSidedCdf{conditional_.data() + std::size_t(y[k]) * (std::size_t(width_) + 1), width_, row_split_[y[k]]};
+    __builtin_prefetch(cdf[k].t + cdf[k].split);
+    v[k] = clamp_decision(u[k].x);
+  }
+  find_group(cdf, v, n, x, fraction, step_x);
+  for (std::size_t k = 0; k < n; ++k) {
+    out[k].x = x[k];
+    out[k].fx = clamp_offset(fraction[k]);
+    out[k].pdf = (step_y[k] * height_) * (step_x[k] * width_);
+  }
+}
 
 double CdfDistribution2D::texel_probability(int x, int y) const {
   if (x < 0 || x >= width_ || y < 0 || y >= height_) return 0.0;

@@ -4,7 +4,9 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
+#include <string>
 #include <cstdint>
 
 namespace envkit {
@@ -73,6 +75,44 @@ PyramidDistribution2D::PyramidDistribution2D(BlobReader& in) : Distribution2D(in
   pdf_scale_ = in.scalar<double>();
   in.finish();
   if (!(root_ > 0.0) || !(pdf_scale_ > 0.0)) throw Error(in.context() + ": invalid pyramid root");
+  validate(in.context());
+}
+
+// A checksum only says the bytes are as written: the nodes must also form a pyramid, or sampling descends into
+// NaN shares, zero-sum blocks or texels outside the grid. Every node finite and >= 0, nodes outside a level's grid
+// 0, each node the sum of its four children (up to the float rounding of the build), the root the sum of the top
+// block and pdf_scale = W H / root. One pass over the nodes (4/3 of the texels), like the checksum.
+void PyramidDistribution2D::validate(const std::string& context) const {
+  const auto refuse = [&](const std::string& what) { throw Error(context + ": invalid pyramid (" + what + ")"); };
+  const auto close = [](double stored, double sum) {
+    if (stored == 0.0 || sum == 0.0) return stored == sum;  // a zero node has zero children and vice versa
+    return std::abs(stored - sum) <= 1e-5 * std::max(stored, sum) + 16.0 * double(FLT_TRUE_MIN);  // denormals
+  };
+  const int top = levels();
+  for (int k = 0; k < top; ++k) {
+    const Level& child = levels_[k];
+    const Level& parent = levels_[k + 1];
+    for (int j = 0; j < parent.height; ++j)
+      for (int i = 0; i < parent.width; ++i) {
+        const float* c = nodes_.data() + child.offset + (std::size_t(j) * child.blocks_per_row + std::size_t(i)) * 4;
+        double sum = 0.0;
+        for (int d = 0; d < 4; ++d) {
+          const int x = 2 * i + (d & 1), y = 2 * j + (d >> 1);
+          if (!(c[d] >= 0.0f && c[d] <= FLT_MAX)) refuse("node not finite and >= 0 at level " + std::to_string(k));
+          if ((x >= child.width || y >= child.height) && c[d] != 0.0f)
+            refuse("non-zero node outside the grid at level " + std::to_string(k));
+          sum += c[d];
+        }
+        const double stored = k + 1 < top ? double(nodes_[levels_[k + 1].offset +
+                                                           (std::size_t(j / 2) * levels_[k + 1].blocks_per_row +
+                                                            std::size_t(i / 2)) * 4 + std::size_t((i & 1) + 2 * (j & 1))])
+                                           : root_;
+        if (!close(stored, sum)) refuse("node is not the sum of its children at level " + std::to_string(k + 1));
+      }
+  }
+  const double expected_scale = double(width_) * double(height_) / root_;
+  if (!(std::abs(pdf_scale_ - expected_scale) <= 1e-6 * expected_scale)) refuse("pdf scale does not match the root");
+  if (!std::isfinite(integral_)) refuse("integral not finite");
 }
 
 void PyramidDistribution2D::save(BlobWriter& out) const {
@@ -166,6 +206,84 @@ DistributionSample PyramidDistribution2D::sample(Vec2 u) const {
 }
 
 TexelSample PyramidDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
+
+namespace {
+
+#if defined(__SSE2__)
+/// m ? a : b for a mask m of all ones or all zeros (low lanes).
+__m128d mask_select(__m128d m, __m128d a, __m128d b) { return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b)); }
+#endif
+
+/// detail::pyramid_step() with selects instead of conditional jumps, bit for bit the same operations on the same
+/// values: a group descent (pick_group) has prefetched the blocks, and what is left of a step's cost is mostly its
+/// two decisions, each taken at random, which the CPU cannot predict. The divisions are those of the chosen sides only (numerator and denominator are
+/// selected first), and std::min(kOneMinusEpsilon, q) is minsd(q, kOneMinusEpsilon).
+[[gnu::always_inline]] inline double pyramid_step_select(const float* c, double& ux, double& uy, std::size_t& i,
+                                                         std::size_t& j) {
+#if defined(__SSE2__)
+  const __m128d a = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c))));      // c0, c1
+  const __m128d b = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c + 2))));  // c2, c3
+  const __m128d left = _mm_add_pd(a, b), right = _mm_unpackhi_pd(left, left);  // column sums in the low lanes
+  const __m128d one_minus = _mm_set_sd(kOneMinusEpsilon);
+  const __m128d tx = _mm_mul_sd(_mm_set_sd(ux), _mm_add_sd(left, right));
+  const __m128d rx = _mm_cmpnlt_sd(tx, left);  // the right column: !(tx < left)
+  const __m128d qx = _mm_div_sd(mask_select(rx, _mm_sub_sd(tx, left), tx), mask_select(rx, right, left));
+  ux = _mm_cvtsd_f64(mask_select(rx, _mm_min_sd(qx, one_minus), qx));
+  const __m128d ty = _mm_mul_sd(_mm_set_sd(uy), mask_select(rx, right, left));
+  const __m128d top = mask_select(rx, _mm_unpackhi_pd(a, a), a), bottom = mask_select(rx, _mm_unpackhi_pd(b, b), b);
+  const __m128d ry = _mm_cmpnlt_sd(ty, top);  // the bottom child: !(ty < top)
+  const __m128d qy = _mm_div_sd(mask_select(ry, _mm_sub_sd(ty, top), ty), mask_select(ry, bottom, top));
+  uy = _mm_cvtsd_f64(mask_select(ry, _mm_min_sd(qy, one_minus), qy));
+  i = 2 * i + std::size_t(_mm_movemask_pd(rx) & 1);
+  j = 2 * j + std::size_t(_mm_movemask_pd(ry) & 1);
+  return _mm_cvtsd_f64(mask_select(ry, bottom, top));
+#else
+  return detail::pyramid_step(c, ux, uy, i, j);
+#endif
+}
+
+}  // namespace
+
+void PyramidDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
+  sampling::for_each_group(u.size(),
+                           [&](std::size_t g, std::size_t n) { pick_group(u.data() + g, out.data() + g, n); });
+}
+
+void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t n) const {
+  constexpr std::size_t G = sampling::kSampleGroup;
+  double ux[G], uy[G];
+  std::size_t i[G], j[G];
+  for (std::size_t s = 0; s < n; ++s) {
+    ux[s] = clamp_decision(u[s].x);
+    uy[s] = clamp_decision(u[s].y);
+    i[s] = j[s] = 0;
+  }
+  const float* nodes = nodes_.data();
+  const Level* level = levels_.data();
+  const auto block = [&](int k, std::size_t s) {
+    return nodes + level[k].offset + (j[s] * level[k].blocks_per_row + i[s]) * 4;
+  };
+  int k = top_level_ - 1;
+  // Small top levels: cached, no prefetch.
+  for (; k > prefetch_top_; --k)
+    for (std::size_t s = 0; s < n; ++s) pyramid_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
+  // Large levels: after a sample's step the block it reads at the next level is known; prefetch it (one line). It
+  // is read in the next pass over the group, after the other samples' steps, by when it has arrived. (pick()
+  // prefetches both candidate rows before its step instead: there the step itself is all the time there is.)
+  for (; k > 0; --k)
+    for (std::size_t s = 0; s < n; ++s) {
+      pyramid_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
+      __builtin_prefetch(block(k - 1, s));
+    }
+  for (std::size_t s = 0; s < n; ++s) {
+    const double leaf = pyramid_step_select(block(0, s), ux[s], uy[s], i[s], j[s]);
+    out[s].fx = std::min(kTexelOffsetMax, ux[s]);
+    out[s].fy = std::min(kTexelOffsetMax, uy[s]);
+    out[s].pdf = leaf * pdf_scale_;
+    out[s].x = int(i[s]);
+    out[s].y = int(j[s]);
+  }
+}
 
 double PyramidDistribution2D::pdf(Vec2 uv) const {
   if (!sampling::in_unit_square(uv)) return 0.0;

@@ -1,7 +1,8 @@
-#include <envkit/env_sampling.h>
 #include <envkit/distribution_alias.h>
 #include <envkit/distribution_cdf.h>
 #include <envkit/distribution_pyramid.h>
+#include <envkit/env_sampling.h>
+#include <envkit/healpix.h>
 #include <envkit/latlong.h>
 #include <envkit/octahedral.h>
 
@@ -32,6 +33,11 @@ SamplingMethod parse_method(const std::string& name) {
 
 namespace {
 
+/// Lat-long row of a unit direction from its horizontal length hypot(x, z) and its y: theta = atan2(h, y).
+int latlong_row(double horizontal, double y, int height) {
+  return std::clamp(int(std::atan2(horizontal, y) / kPi * height), 0, height - 1);
+}
+
 bool finite_nonzero(const Vec3& d) {
   const double n2 = d.length2();
   return std::isfinite(n2) && n2 > 0.0;
@@ -41,6 +47,23 @@ bool finite_nonzero(const Vec3& d) {
 /// inside a step is then at most 2 pi / 2048 = 3.1e-3, where sin d = d - d^3/6 + d^5/120 and
 /// cos d = 1 - d^2/2 + d^4/24 are exact to 1e-18 (the next terms, d^7/5040 and d^6/720), far below an ulp.
 constexpr int kMinLongitudeSteps = 2048;
+
+/// The HEALPix map of a W x H bake grid; throws Error unless W x H is 4 N_side x 3 N_side.
+std::shared_ptr<const HealpixMap> make_healpix_grid(int width, int height) {
+  if (width % 4 != 0 || std::int64_t(width) * 3 != std::int64_t(height) * 4)
+    throw Error("spherical distribution: a HEALPix grid is 4 N_side x 3 N_side, got " + std::to_string(width) + "x" +
+                std::to_string(height));
+  return std::make_shared<const HealpixMap>(width / 4);
+}
+
+/// Direction at continuous image position (X, Y) of a HEALPix grid. Inside a texel the face coordinates are linear
+/// in the position and the HEALPix projection is equal-area in them, so a uniform position is uniform in solid
+/// angle. Every texel of the layout holds data; a miss would be a bug, answered with +Y rather than NaN.
+Vec3 healpix_direction(const HealpixMap& map, double X, double Y) {
+  Vec3 d(0.0, 1.0, 0.0);
+  if (!map.to_direction(Vec2(X, Y), d) || !finite_nonzero(d)) return Vec3(0.0, 1.0, 0.0);
+  return d;
+}
 
 }  // namespace
 
@@ -64,14 +87,19 @@ SphericalDistribution::RowBand SphericalDistribution::row_band(int j, int height
 SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Distribution2D> distribution)
     : grid_(grid), distribution_(std::move(distribution)) {
   if (!distribution_) throw Error("spherical distribution: null distribution");
-  if (grid_ != Kind::LatLong && grid_ != Kind::Octahedral)
+  if (grid_ != Kind::LatLong && grid_ != Kind::Octahedral && grid_ != Kind::HEALPix)
     throw Error(std::string("spherical distribution: unsupported grid '") + kind_name(grid_) +
-                "' (expected latlong or octahedral)");
+                "' (expected latlong, octahedral or healpix)");
   if (grid_ == Kind::Octahedral && width() != height())
     throw Error("spherical distribution: an octahedral grid must be square, got " + std::to_string(width()) + "x" +
                 std::to_string(height()));
   const double W = width(), H = height();
-  octahedral_pdf_factor_ = 1.0 / (W * H * (kFourPi / (W * H)));
+  equal_area_pdf_factor_ = 1.0 / (W * H * (kFourPi / (W * H)));
+  if (grid_ == Kind::HEALPix) {
+    healpix_ = make_healpix_grid(width(), height());
+    healpix_margin_ = std::min(0.25, healpix_->to_image_tolerance());
+    equal_area_pdf_factor_ = 1.0 / (W * H * healpix_->pixel_solid_angle());
+  }
   if (grid_ == Kind::LatLong) {
     rows_.resize(std::size_t(height()));
     for (int y = 0; y < height(); ++y) {
@@ -112,6 +140,7 @@ SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Di
 double SphericalDistribution::texel_solid_angle(int x, int y) const {
   (void)x;
   const double W = width(), H = height();
+  if (grid_ == Kind::HEALPix) return healpix_->pixel_solid_angle();
   if (grid_ == Kind::Octahedral) return kFourPi / (W * H);
   return (kTwoPi / W) * rows_[std::size_t(std::clamp(y, 0, height() - 1))].span;
 }
@@ -161,6 +190,13 @@ Vec3 SphericalDistribution::direction_in_texel(int x, int y, double fx, double f
   fx = sampling::clamp_offset(fx);
   fy = sampling::clamp_offset(fy);
   const double W = width();
+  if (grid_ == Kind::HEALPix) {
+    // A direction within the margin of an edge could be located in the neighbour (another pdf and radiance than
+    // the sample reports); radiance and pdf are constant inside the texel, so moving those few offsets onto the
+    // margin (about 2e-9 rad) changes them for no sample.
+    const double lo = healpix_margin_, hi = 1.0 - healpix_margin_;
+    return healpix_direction(*healpix_, x + std::clamp(fx, lo, hi), y + std::clamp(fy, lo, hi));
+  }
   if (grid_ == Kind::Octahedral) {
     const Vec3 o = OctahedralMap::square_to_sphere(Vec2((x + fx) / W, (y + fy) / W));
     return Vec3(o.y, o.z, o.x);  // octahedron coordinates (x_o, y_o, z_o) = (Z, X, Y), as OctahedralMap
@@ -171,21 +207,20 @@ Vec3 SphericalDistribution::direction_in_texel(int x, int y, double fx, double f
 void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double& fx, double& fy) const {
   const int W = width(), H = height();
   Vec3 d = finite_nonzero(direction) ? direction.normalized() : Vec3(0.0, 1.0, 0.0);
-  if (grid_ == Kind::Octahedral) {
-    const Vec2 q = OctahedralMap::sphere_to_square(Vec3(d.z, d.x, d.y));
-    const Vec2 p(q.x * W, q.y * H);
+  if (grid_ != Kind::LatLong) {
+    const Vec2 p = grid_ == Kind::HEALPix ? healpix_->to_image(d)
+                                          : OctahedralMap::sphere_to_square(Vec3(d.z, d.x, d.y)) * Vec2(W, H);
     x = std::clamp(int(std::floor(p.x)), 0, W - 1);
     y = std::clamp(int(std::floor(p.y)), 0, H - 1);
     fx = std::clamp(p.x - x, 0.0, 1.0);
     fy = std::clamp(p.y - y, 0.0, 1.0);
     return;
   }
-  const Vec2 uv = LatLongMap::uv_from_direction(d);
-  x = std::clamp(int(uv.x * W), 0, W - 1);
-  fx = std::clamp(uv.x * W - x, 0.0, 1.0);
   const double horizontal = std::hypot(d.x, d.z);
-  const double theta = std::atan2(horizontal, d.y);
-  y = std::clamp(int(theta / kPi * H), 0, H - 1);
+  const double u = LatLongMap::u_from_direction(d, horizontal);
+  x = std::clamp(int(u * W), 0, W - 1);
+  fx = std::clamp(u * W - x, 0.0, 1.0);
+  y = latlong_row(horizontal, d.y, H);
   const RowBand& band = rows_[std::size_t(y)];
   const bool north = band.north();
   // Distance from the nearer pole, 1 -+ cos theta, without cancellation: h^2 / (1 +- cos theta).
@@ -196,8 +231,16 @@ void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double
 }
 
 void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) const {
-  double fx = 0.0, fy = 0.0;
-  locate(direction, x, y, fx, fy);
+  if (grid_ != Kind::LatLong) {
+    double fx = 0.0, fy = 0.0;
+    locate(direction, x, y, fx, fy);
+    return;
+  }
+  // locate() without the offsets inside the texel: radiance lookups and pdf() need only the texel.
+  const Vec3 d = finite_nonzero(direction) ? direction.normalized() : Vec3(0.0, 1.0, 0.0);
+  const double horizontal = std::hypot(d.x, d.z);
+  x = std::clamp(int(LatLongMap::u_from_direction(d, horizontal) * width()), 0, width() - 1);
+  y = latlong_row(horizontal, d.y, height());
 }
 
 template <class D, bool kOneStep>
@@ -214,15 +257,55 @@ DirectionSample SphericalDistribution::sample_general(const SphericalDistributio
     const RowBand& band = s.rows_[std::size_t(t.y)];
     return DirectionSample{s.latlong_direction<false>(band, t.x, t.fx, t.fy), t.pdf * band.pdf_factor, t.x, t.y};
   }
-  return DirectionSample{s.direction_in_texel(t.x, t.y, t.fx, t.fy), t.pdf * s.octahedral_pdf_factor_, t.x, t.y};
+  return DirectionSample{s.direction_in_texel(t.x, t.y, t.fx, t.fy), t.pdf * s.equal_area_pdf_factor_, t.x, t.y};
+}
+
+template <bool kOneStep>
+void SphericalDistribution::latlong_directions(const TexelSample* t, DirectionSample* out, std::size_t n) const {
+  // Row bands (a cache line per row) and longitude entries are read at random on a big grid: prefetch the whole
+  // group's first, then form the directions (the arithmetic of sample_latlong, so the same bits).
+  for (std::size_t k = 0; k < n; ++k) {
+    __builtin_prefetch(rows_.data() + t[k].y);
+    __builtin_prefetch(longitudes_.data() + std::size_t(t[k].x) * std::size_t(longitude_substeps_));
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const RowBand& band = rows_[std::size_t(t[k].y)];
+    out[k] = DirectionSample{latlong_direction<kOneStep>(band, t[k].x, t[k].fx, t[k].fy), t[k].pdf * band.pdf_factor,
+                             t[k].x, t[k].y};
+  }
+}
+
+void SphericalDistribution::sample(std::span<const Vec2> u, std::span<DirectionSample> out) const {
+  if (u.size() != out.size())
+    throw Error("spherical distribution: sample() of " + std::to_string(u.size()) + " u into " +
+                std::to_string(out.size()) + " results");
+  TexelSample t[sampling::kSampleGroup];
+  sampling::for_each_group(u.size(), [&](std::size_t g, std::size_t n) {
+    distribution_->sample_texels(u.subspan(g, n), std::span<TexelSample>(t, n));
+    DirectionSample* o = out.data() + g;
+    if (grid_ != Kind::LatLong) {
+      // Equal-area grids: no table is read after the texel choice (as sample_general).
+      for (std::size_t k = 0; k < n; ++k)
+        o[k] = DirectionSample{direction_in_texel(t[k].x, t[k].y, t[k].fx, t[k].fy), t[k].pdf * equal_area_pdf_factor_,
+                               t[k].x, t[k].y};
+    } else if (longitude_substeps_ == 1) {
+      latlong_directions<true>(t, o, n);
+    } else {
+      latlong_directions<false>(t, o, n);
+    }
+  });
 }
 
 double SphericalDistribution::pdf(const Vec3& direction) const {
   if (!finite_nonzero(direction)) return 0.0;
   int x = 0, y = 0;
   texel_of(direction, x, y);
+  return texel_pdf(x, y);
+}
+
+double SphericalDistribution::texel_pdf(int x, int y) const {
   const Vec2 centre((x + 0.5) / width(), (y + 0.5) / height());
-  const double factor = grid_ == Kind::LatLong ? rows_[std::size_t(y)].pdf_factor : octahedral_pdf_factor_;
+  const double factor = grid_ == Kind::LatLong ? rows_[std::size_t(y)].pdf_factor : equal_area_pdf_factor_;
   return distribution_->pdf(centre) * factor;
 }
 

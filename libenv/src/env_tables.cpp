@@ -6,12 +6,15 @@
 #include <envkit/distribution_pyramid.h>
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
+#include <envkit/healpix.h>
+#include <envkit/input_checks.h>
 #include <envkit/latlong.h>
 #include <envkit/octahedral.h>
 #include <envkit/resample.h>
-
-#include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
@@ -67,6 +70,7 @@ std::string file_content_hash(const std::vector<std::string>& paths) {
   XXH3_128bits_reset(state);
   std::vector<char> buffer(std::size_t(1) << 22);
   for (const std::string& path : paths) {
+    if (std::filesystem::exists(path)) require_regular_file(path);  // fopen() would block on a FIFO, /dev/zero would never end
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) {
       XXH3_freeState(state);
@@ -88,6 +92,7 @@ namespace {
 
 std::unique_ptr<Parameterization> make_grid(Kind grid, int width, int height) {
   if (grid == Kind::Octahedral) return std::make_unique<OctahedralMap>(width);
+  if (grid == Kind::HEALPix) return std::make_unique<HealpixMap>(width / 4);
   return std::make_unique<LatLongMap>(width, height, TexelGrid::Centre);
 }
 
@@ -96,8 +101,35 @@ std::unique_ptr<Parameterization> make_grid(Kind grid, int width, int height) {
 bool on_bake_grid(const EnvMap& map, Kind grid) {
   if (map.param->kind() != grid || !is_identity(map.to_world())) return false;
   if (grid == Kind::Octahedral) return map.image.width == map.image.height;
+  if (grid == Kind::HEALPix) return true;  // its layout is fixed by N_side: any HEALPix map is a HEALPix grid
   const auto* latlong = dynamic_cast<const LatLongMap*>(map.param.get());
   return latlong != nullptr && latlong->grid() == TexelGrid::Centre;
+}
+
+/// True when W x H is a valid size for `grid`: octahedral N x N, HEALPix 4 N_side x 3 N_side, lat-long any.
+bool valid_grid_size(Kind grid, int W, int H) {
+  if (grid == Kind::Octahedral) return W == H;
+  if (grid == Kind::HEALPix) return W % 4 == 0 && std::int64_t(W) * 3 == std::int64_t(H) * 4;
+  return true;
+}
+
+/// The rule valid_grid_size checks, for error messages.
+const char* grid_size_rule(Kind grid) {
+  return grid == Kind::HEALPix ? "a HEALPix grid must be 4 N_side x 3 N_side" : "an octahedral grid must be square";
+}
+
+/// The natural bake grid of a map that is not already on it: about as many texels as the source.
+void natural_grid_size(Kind grid, double texels, int& W, int& H) {
+  if (grid == Kind::Octahedral) {
+    W = H = std::max(1, int(std::lround(std::sqrt(texels))));
+  } else if (grid == Kind::HEALPix) {
+    const int nside = std::max(1, int(std::lround(std::sqrt(texels / 12.0))));
+    W = 4 * nside;
+    H = 3 * nside;
+  } else {
+    H = std::max(1, int(std::lround(std::sqrt(texels / 2.0))));
+    W = 2 * H;
+  }
 }
 
 /// Scalar importance of one texel from its colour channels (alpha is coverage, not light).
@@ -150,9 +182,9 @@ FloatBuffer dilate_3x3(const FloatBuffer& values, const Parameterization& grid, 
 
 EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const std::string& source_path,
                           std::string source_hash) {
-  if (options.grid != Kind::LatLong && options.grid != Kind::Octahedral)
+  if (options.grid != Kind::LatLong && options.grid != Kind::Octahedral && options.grid != Kind::HEALPix)
     throw Error(std::string("bake: unsupported grid '") + kind_name(options.grid) +
-                "' (expected latlong or octahedral)");
+                "' (expected latlong, octahedral or healpix)");
   if (map.image.empty()) throw Error(source_path + ": empty image");
   const auto progress = [&](double f, const char* stage) {
     if (options.progress) options.progress(f, stage);
@@ -173,17 +205,12 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
       W = map.image.width;
       H = map.image.height;
     } else {
-      const double texels = double(map.image.texel_count());
-      if (options.grid == Kind::Octahedral) {
-        W = H = std::max(1, int(std::lround(std::sqrt(texels))));
-      } else {
-        H = std::max(1, int(std::lround(std::sqrt(texels / 2.0))));
-        W = 2 * H;
-      }
+      natural_grid_size(options.grid, double(map.image.texel_count()), W, H);
     }
   }
-  if (options.grid == Kind::Octahedral && W != H)
-    throw Error("bake: an octahedral grid must be square, got " + std::to_string(W) + "x" + std::to_string(H));
+  if (!valid_grid_size(options.grid, W, H))
+    throw Error(std::string("bake: ") + grid_size_rule(options.grid) + ", got " + std::to_string(W) + "x" +
+                std::to_string(H));
   if (W > kMaxDistributionSize || H > kMaxDistributionSize)
     throw Error("bake: grid " + std::to_string(W) + "x" + std::to_string(H) + " is too large");
   const std::unique_ptr<Parameterization> grid = make_grid(options.grid, W, H);
@@ -216,9 +243,9 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
     if (TW > W || TH > H)
       throw Error("bake: --resolution " + std::to_string(TW) + "x" + std::to_string(TH) +
                   " exceeds the bake grid " + std::to_string(W) + "x" + std::to_string(H));
-    if (options.grid == Kind::Octahedral && TW != TH)
-      throw Error("bake: an octahedral resolution must be square, got " + std::to_string(TW) + "x" +
-                  std::to_string(TH));
+    if (!valid_grid_size(options.grid, TW, TH))
+      throw Error(std::string("bake: importance resolution ") + std::to_string(TW) + "x" + std::to_string(TH) + ": " +
+                  grid_size_rule(options.grid));
     Image scalar(W, H, 1);
     scalar.pixels = std::move(importance);
     const std::unique_ptr<Parameterization> coarse = make_grid(options.grid, TW, TH);
@@ -240,7 +267,7 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
   if (!resampled_from.empty()) {
     auto d = nlohmann::json::parse(t.descriptor_);
     d["bake"]["resampled_from"] = resampled_from;
-    t.descriptor_ = d.dump(2);
+    t.descriptor_ = d.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
   }
   progress(1.0, "done");
   return t;
@@ -250,7 +277,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
   const int W = width_, H = height_;
   const std::size_t n = std::size_t(W) * std::size_t(H);
   const std::unique_ptr<Parameterization> grid = make_grid(grid_, W, H);
-  // Exact texel solid angles: per row for lat-long, constant for the equal-area octahedral map.
+  // Exact texel solid angles: per row for lat-long, constant for the equal-area octahedral and HEALPix maps.
   std::vector<double> row_omega(H);
   for (int y = 0; y < H; ++y) row_omega[y] = grid->solid_angle(0.0, y, 1.0, y + 1.0);
 
@@ -368,7 +395,8 @@ std::string EnvTables::make_descriptor(const BakeOptions* options) const {
                  {"conservative", options->conservative},
                  {"compensated", options->compensated}};
   }
-  return d.dump(2);
+  // File names are bytes, not necessarily UTF-8: the descriptor shows U+FFFD for invalid bytes rather than failing.
+  return d.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 }  // namespace envkit

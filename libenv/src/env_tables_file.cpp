@@ -10,15 +10,22 @@
 #include <envkit/distribution_cdf.h>
 #include <envkit/distribution_pyramid.h>
 #include <envkit/env_tables.h>
+#include <envkit/input_checks.h>
+
+#include <filesystem>
 
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cfloat>
+#include <cmath>
 #include <cstring>
 #include <deque>
+#include <utility>
 #include <fcntl.h>
 #include <fstream>
 #include <sys/mman.h>
@@ -100,6 +107,7 @@ struct Section {
 class MappedFile {
  public:
   explicit MappedFile(const std::string& path) {
+    if (std::filesystem::exists(path)) require_regular_file(path);  // open() would block on a FIFO
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) throw Error(path + ": cannot open: " + std::strerror(errno));
     struct stat st {};
@@ -244,6 +252,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
   };
 
   EnvTables t;
+  t.file_path_ = path;
   const auto [descriptor_data, descriptor_size] = section("descriptor");
   t.descriptor_.assign(reinterpret_cast<const char*>(descriptor_data), descriptor_size);
   try {
@@ -264,7 +273,13 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
   } catch (const Error& e) {
     throw fail_with(std::string("corrupt descriptor: ") + e.what());
   }
-  if ((t.grid_ != Kind::LatLong && t.grid_ != Kind::Octahedral) || t.width_ < 1 || t.height_ < 1 ||
+  // Sizes a grid cannot have are refused here with the file's name, not later by SphericalDistribution.
+  const auto grid_shape_ok = [&](int w, int h) {
+    if (t.grid_ == Kind::HEALPix) return w % 4 == 0 && std::int64_t(w) * 3 == std::int64_t(h) * 4;
+    return t.grid_ != Kind::Octahedral || w == h;
+  };
+  if ((t.grid_ != Kind::LatLong && t.grid_ != Kind::Octahedral && t.grid_ != Kind::HEALPix) || t.width_ < 1 ||
+      t.height_ < 1 || !grid_shape_ok(t.width_, t.height_) || !grid_shape_ok(t.grid_width_, t.grid_height_) ||
       t.width_ > kMaxDistributionSize || t.height_ > kMaxDistributionSize || t.grid_width_ < t.width_ ||
       t.grid_height_ < t.height_ || t.grid_width_ > kMaxDistributionSize || t.grid_height_ > kMaxDistributionSize)
     throw fail_with("corrupt descriptor (grid or size)");
@@ -278,7 +293,13 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
     BlobReader in(p, n, path + ": section importance", file);
     t.importance_ = in.table<float>(texels);
     in.finish();
+    // Values, not only bytes: the importance feeds the compensated tables and tools' exports.
+    const auto& importance = std::as_const(t.importance_);
+    if (!std::all_of(importance.begin(), importance.end(), [](float v) { return v >= 0.0f && v <= FLT_MAX; }))
+      throw fail_with("section importance: invalid values (not finite and >= 0)");
   }
+  if (!(t.total_importance_ >= 0.0 && std::isfinite(t.total_importance_)))
+    throw fail_with("corrupt descriptor (total importance)");
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m) {
       const std::string name = section_name(m, set);
@@ -291,6 +312,41 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
       t.distributions_[set][m] = std::make_unique<SphericalDistribution>(t.grid_, std::move(d));
     }
   return t;
+}
+
+std::vector<TableFileSection> table_file_sections(const std::vector<std::byte>& file) {
+  std::vector<TableFileSection> out;
+  if (file.size() < sizeof(FileHeader)) return out;
+  FileHeader header;
+  std::memcpy(&header, file.data(), sizeof(header));
+  if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0 || header.section_count > kMaxSections ||
+      file.size() < sizeof(FileHeader) + header.section_count * kEntryBytes)
+    return out;
+  for (std::uint32_t i = 0; i < header.section_count; ++i) {
+    SectionEntry e;
+    std::memcpy(&e, file.data() + sizeof(FileHeader) + i * kEntryBytes, sizeof(e));
+    e.name[sizeof(e.name) - 1] = '\0';
+    out.push_back({e.name, static_cast<std::size_t>(e.offset), static_cast<std::size_t>(e.size)});
+  }
+  return out;
+}
+
+void reseal_table_file(std::vector<std::byte>& file) {
+  const std::vector<TableFileSection> sections = table_file_sections(file);
+  if (sections.empty()) return;
+  for (std::size_t i = 0; i < sections.size(); ++i) {
+    const TableFileSection& s = sections[i];
+    if (s.offset > file.size() || s.size > file.size() - s.offset) continue;
+    SectionEntry e;
+    std::byte* entry = file.data() + sizeof(FileHeader) + i * kEntryBytes;
+    std::memcpy(&e, entry, sizeof(e));
+    e.checksum = section_checksum(file.data() + s.offset, s.size);
+    std::memcpy(entry, &e, sizeof(e));
+  }
+  FileHeader header;
+  std::memcpy(&header, file.data(), sizeof(header));
+  header.directory_checksum = XXH3_64bits(file.data() + sizeof(FileHeader), header.section_count * kEntryBytes);
+  std::memcpy(file.data(), &header, sizeof(header));
 }
 
 }  // namespace envkit

@@ -2,6 +2,7 @@
 #include <envkit/envmap.h>
 #include <envkit/error.h>
 #include <envkit/latlong.h>
+#include <envkit/oiio_env_tags.h>
 
 #include <filesystem>
 #include <numeric>
@@ -46,6 +47,9 @@ std::string size_mismatch(Kind kind, int w, int h, std::optional<CubeLayout> lay
     case Kind::Octahedral:
     case Kind::AngularMap: return w == h ? "" : "expects 1:1";
     case Kind::MirrorBall: return (w == h || ball_given) ? "" : "expects 1:1 (or give the ball's centre and radius)";
+    case Kind::HEALPix: return (w % 4 == 0 && 3 * w == 4 * h) ? "" : "expects 4 N_side x 3 N_side";
+    case Kind::Perspective:
+    case Kind::Fisheye: return "";
     case Kind::CubeMap:
       if (layout) return face_size_for(*layout, w, h) ? "" : "expects " + layout_name(*layout) + " proportions";
       for (CubeLayout l : {CubeLayout::VerticalStrip, CubeLayout::HorizontalStrip, CubeLayout::HorizontalCross,
@@ -88,11 +92,21 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
   const bool stale_tags = (exr_envmap == "latlong" || exr_envmap == "cube") && !tagged_kind.empty() &&
                           tagged_kind != exr_envmap;
   if (stale_tags) tagged_kind.clear();
-  d.convention = !opt.convention.empty()          ? opt.convention
-                 : stale_tags                       ? "openexr"
-                 : !meta(img, "envkit:convention").empty() ? meta(img, "envkit:convention")
-                 : !exr_envmap.empty()              ? "openexr"
-                                                    : "envkit";
+  const std::string tagged_convention = meta(img, "envkit:convention");
+  // OIIO's environment tags only speak for files that say nothing more specific.
+  std::optional<OiioEnvReading> oiio;
+  if (opt.convention.empty() && !stale_tags && tagged_convention.empty() && exr_envmap.empty())
+    oiio = read_oiio_env_tags(img.metadata);
+  d.convention = !opt.convention.empty()      ? opt.convention
+                 : stale_tags                 ? "openexr"
+                 : !tagged_convention.empty() ? tagged_convention
+                 : !exr_envmap.empty()        ? "openexr"
+                 : oiio                       ? oiio->convention
+                                              : "envkit";
+  if (oiio) {
+    d.grid = oiio->grid;
+    d.convention_reason = "from its " + oiio->reason;
+  }
   envkit::convention(d.convention);  // validates the name
   d.layout = opt.layout.value_or(envkit::convention(d.convention).cube_layout);
   if (opt.kind) {
@@ -144,7 +158,7 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
     d.reason = "from the " + ratio_text(w, h) + " aspect ratio (" + layout_name(d.layout) + ")";
   } else {
     fail(path, "cannot tell the parameterization of a " + size_text(w, h) + " image (aspect " + ratio_text(w, h) +
-                   "); pass --from latlong|cube|mirrorball|angular|octahedral|paraboloid");
+                   "); pass --from latlong|cube|mirrorball|angular|octahedral|paraboloid|healpix");
   }
   return d;
 }
@@ -159,11 +173,14 @@ EnvMap make_envmap(Image image, const std::string& path, const LoadOptions& opt,
   spec.layout = d.layout;
   spec.basis = conv.cube_basis;
   spec.grid = d.kind == Kind::LatLong ? conv.latlong_grid : (d.kind == Kind::CubeMap ? conv.cube_grid : TexelGrid::Centre);
+  if (d.grid && (d.kind == Kind::LatLong || d.kind == Kind::CubeMap)) spec.grid = *d.grid;
   spec.ball_cx = opt.ball_cx;
   spec.ball_cy = opt.ball_cy;
   spec.ball_radius = opt.ball_radius;
   EnvMap map;
   try {
+    if (opt.view) spec.view = *opt.view;
+    else if (const std::string v = meta(image, "envkit:view"); !v.empty()) spec.view = parse_view(v);
     map.param = make_parameterization(spec);
   } catch (const Error& e) {
     fail(path, e.what());
@@ -250,8 +267,19 @@ void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& 
   if (const auto* cube = dynamic_cast<const CubeMap*>(map.param.get())) w.metadata["envkit:layout"] = layout_name(cube->layout());
   if (!opt.filter.empty()) w.metadata["envkit:filter"] = opt.filter;
   if (!opt.source.empty()) w.metadata["envkit:source"] = opt.source;
+  if (const ViewParams* view = map.param->view()) w.metadata["envkit:view"] = format_view(*view);
   if (map.rotation != identity3()) w.metadata["envkit:rotation"] = format_matrix(map.rotation);
+  for (const auto& [key, value] : oiio_env_tags_for(*map.param, map.to_world())) w.metadata[key] = value;
 
+  // Never write a map that load_envmap would refuse to read back as what its metadata says it is.
+  {
+    const auto* cube = dynamic_cast<const CubeMap*>(map.param.get());
+    const std::string bad = size_mismatch(map.param->kind(), map.image.width, map.image.height,
+                                          cube ? std::optional(cube->layout()) : std::nullopt, false);
+    if (!bad.empty())
+      fail(path, "a " + size_text(map.image.width, map.image.height) + " " + kind_name(map.param->kind()) +
+                     " map could not be read back (a " + kind_name(map.param->kind()) + " map " + bad + ")");
+  }
   if (!is_face_pattern(path)) {
     w.envmap_attribute = exr_envmap_attribute(map, path);
     write_image(path, map.image, w);
@@ -263,8 +291,8 @@ void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& 
   const int n = cube->face_size();
   const std::vector<std::string> paths = face_paths(path);
   w.metadata["envkit:layout"] = "faces";
-  // Write every face to its temp file first, then rename them all: no partial set of faces on failure.
-  std::vector<std::unique_ptr<AtomicOutput>> outputs;
+  // Write every face to its temp file first, then commit them as one group: six faces or none, also on a signal.
+  OutputGroup group;
   for (int f = 0; f < 6; ++f) {
     Image face(n, n, map.image.channels);
     face.channel_names = map.image.channel_names;
@@ -274,10 +302,9 @@ void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& 
     std::copy(begin, begin + static_cast<std::ptrdiff_t>(n) * n * map.image.channels, face.pixels.begin());
     WriteOptions fw = w;
     fw.metadata["envkit:face"] = kFaceNames[f];
-    outputs.push_back(std::make_unique<AtomicOutput>(paths[f]));
-    write_image(outputs.back()->temp_path(), face, fw);
+    write_image(paths[f], face, fw);
   }
-  for (auto& out : outputs) out->commit();
+  group.commit();
 }
 
 }  // namespace envkit

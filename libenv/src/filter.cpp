@@ -36,7 +36,8 @@ TexelSource::TexelSource(const Image& image, const Parameterization& param) : im
                 " does not match the parameterization (" + param.describe() + ")");
   // Only maps with blank regions (crosses, balls, paraboloids) need a coverage mask.
   const Kind k = param.kind();
-  bool may_have_holes = k == Kind::MirrorBall || k == Kind::AngularMap || k == Kind::DualParaboloid;
+  bool may_have_holes =
+      k == Kind::MirrorBall || k == Kind::AngularMap || k == Kind::DualParaboloid || k == Kind::Fisheye;
   if (const auto* cube = dynamic_cast<const CubeMap*>(&param))
     may_have_holes = cube->layout() == CubeLayout::HorizontalCross || cube->layout() == CubeLayout::VerticalCross;
   if (may_have_holes) {

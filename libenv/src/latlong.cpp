@@ -6,9 +6,8 @@
 namespace envkit {
 
 LatLongMap::LatLongMap(int width, int height, TexelGrid grid) : Parameterization(width, height), grid_(grid) {
-  const bool corner = grid == TexelGrid::Corner;
-  du_dx_ = 1.0 / (corner && width > 1 ? width - 1 : width);
-  dv_dy_ = 1.0 / (corner && height > 1 ? height - 1 : height);
+  du_dx_ = 1.0 / (corner_columns() && width > 1 ? width - 1 : width);
+  dv_dy_ = 1.0 / (corner_rows() && height > 1 ? height - 1 : height);
   max_x_ = std::nextafter(static_cast<double>(width), 0.0);
   max_y_ = std::nextafter(static_cast<double>(height), 0.0);
 }
@@ -18,9 +17,15 @@ double LatLongMap::solid_angle_density(Vec2 pos) const {
   return kTwoPi * du_dx_ * kPi * dv_dy_ * std::sin(kPi * v);
 }
 
+bool LatLongMap::same_grid(const Parameterization& other) const {
+  return same_kind_and_size(other) && static_cast<const LatLongMap&>(other).grid_ == grid_;
+}
+
 std::string LatLongMap::describe() const {
   return "latlong " + std::to_string(width_) + "x" + std::to_string(height_) +
-         (grid_ == TexelGrid::Corner ? ", corner-sampled (OpenEXR)" : ", centre-sampled");
+         (grid_ == TexelGrid::Corner       ? ", corner-sampled (OpenEXR)"
+          : grid_ == TexelGrid::CornerRows ? ", centre-sampled columns, corner-sampled rows (Mitsuba 3)"
+                                           : ", centre-sampled");
 }
 
 Vec3 LatLongMap::direction_from_uv(double u, double v) {
@@ -30,29 +35,31 @@ Vec3 LatLongMap::direction_from_uv(double u, double v) {
   return Vec3(std::sin(lon) * cos_lat, std::sin(lat), std::cos(lon) * cos_lat);
 }
 
-Vec2 LatLongMap::uv_from_direction(const Vec3& d) {
-  const double horizontal = std::hypot(d.x, d.z);
-  const double lat = std::atan2(d.y, horizontal);  // accurate near the poles, unlike asin
+double LatLongMap::u_from_direction(const Vec3& d, double horizontal) {
   const double lon = (horizontal == 0.0) ? 0.0 : std::atan2(d.x, d.z);
   double u = (kPi - lon) / kTwoPi;
   if (u >= 1.0) u -= 1.0;
   if (u < 0.0) u = 0.0;
-  return Vec2(u, 0.5 - lat / kPi);
+  return u;
 }
 
-// Corner grid: texel centre i + 0.5 sits at u = i / (W - 1). A one-texel axis has no spacing to divide by:
+Vec2 LatLongMap::uv_from_direction(const Vec3& d) {
+  const double horizontal = std::hypot(d.x, d.z);
+  const double lat = std::atan2(d.y, horizontal);  // accurate near the poles, unlike asin
+  return Vec2(u_from_direction(d, horizontal), 0.5 - lat / kPi);
+}
+
+// Corner axis: texel centre i + 0.5 sits at u = i / (W - 1). A one-texel axis has no spacing to divide by:
 // it is treated as centre-sampled, like OpenEXR, which maps it to longitude/latitude 0.
 Vec2 LatLongMap::domain_from_image(Vec2 p) const {
-  if (grid_ == TexelGrid::Centre) return Vec2(p.x / width_, p.y / height_);
-  const double u = width_ > 1 ? (p.x - 0.5) / (width_ - 1) : p.x / width_;
-  const double v = height_ > 1 ? (p.y - 0.5) / (height_ - 1) : p.y / height_;
+  const double u = corner_columns() && width_ > 1 ? (p.x - 0.5) / (width_ - 1) : p.x / width_;
+  const double v = corner_rows() && height_ > 1 ? (p.y - 0.5) / (height_ - 1) : p.y / height_;
   return Vec2(u, v);
 }
 
 Vec2 LatLongMap::image_from_domain(Vec2 uv) const {
-  if (grid_ == TexelGrid::Centre) return Vec2(uv.x * width_, uv.y * height_);
-  const double x = width_ > 1 ? uv.x * (width_ - 1) + 0.5 : uv.x * width_;
-  const double y = height_ > 1 ? uv.y * (height_ - 1) + 0.5 : uv.y * height_;
+  const double x = corner_columns() && width_ > 1 ? uv.x * (width_ - 1) + 0.5 : uv.x * width_;
+  const double y = corner_rows() && height_ > 1 ? uv.y * (height_ - 1) + 0.5 : uv.y * height_;
   return Vec2(x, y);
 }
 
@@ -93,7 +100,7 @@ double LatLongMap::row_solid_angle(int j) const {
 bool LatLongMap::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const {
   // Longitude wraps with the period of the grid (a corner grid repeats column 0 as column W-1);
   // latitude clamps.
-  const int period = (grid_ == TexelGrid::Corner && width_ > 1) ? width_ - 1 : width_;
+  const int period = (corner_columns() && width_ > 1) ? width_ - 1 : width_;
   i %= period;
   if (i < 0) i += period;
   j = std::clamp(j, 0, height_ - 1);

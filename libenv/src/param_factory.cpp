@@ -1,10 +1,13 @@
 #include <envkit/angular.h>
 #include <envkit/error.h>
+#include <envkit/fisheye.h>
+#include <envkit/healpix.h>
 #include <envkit/latlong.h>
 #include <envkit/mirrorball.h>
 #include <envkit/octahedral.h>
 #include <envkit/param_factory.h>
 #include <envkit/paraboloid.h>
+#include <envkit/perspective.h>
 
 namespace envkit {
 
@@ -30,6 +33,12 @@ std::unique_ptr<Parameterization> make_parameterization(const ParamSpec& s) {
       if (s.width != s.height) throw Error("an octahedral map must be square, not " + size);
       return std::make_unique<OctahedralMap>(s.width);
     case Kind::DualParaboloid: return std::make_unique<DualParaboloidMap>(s.width, s.height);
+    case Kind::HEALPix:
+      if (s.width % 4 != 0 || s.width * 3 != s.height * 4)
+        throw Error("a HEALPix image is 4 N_side x 3 N_side (twelve base pixels), not " + size);
+      return std::make_unique<HealpixMap>(s.width / 4);
+    case Kind::Perspective: return std::make_unique<PerspectiveMap>(s.width, s.height, s.view);
+    case Kind::Fisheye: return std::make_unique<FisheyeMap>(s.width, s.height, s.view);
   }
   throw Error("unknown parameterization");
 }
@@ -39,6 +48,7 @@ void natural_image_size(Kind kind, int n, CubeLayout layout, int& width, int& he
     case Kind::LatLong:
     case Kind::DualParaboloid: width = 2 * n; height = n; return;
     case Kind::CubeMap: layout_size(layout, n, width, height); return;
+    case Kind::HEALPix: width = 4 * n; height = 3 * n; return;
     default: width = n; height = n; return;
   }
 }

@@ -14,6 +14,9 @@ std::string kind_name(Kind kind) {
     case Kind::CubeMap: return "cube";
     case Kind::Octahedral: return "octahedral";
     case Kind::DualParaboloid: return "paraboloid";
+    case Kind::HEALPix: return "healpix";
+    case Kind::Perspective: return "perspective";
+    case Kind::Fisheye: return "fisheye";
   }
   return "unknown";
 }
@@ -27,9 +30,15 @@ Kind parse_kind(const std::string& name) {
   if (n == "cube" || n == "cubemap") return Kind::CubeMap;
   if (n == "octahedral" || n == "octa" || n == "octahedron") return Kind::Octahedral;
   if (n == "paraboloid" || n == "dualparaboloid" || n == "dual-paraboloid") return Kind::DualParaboloid;
+  if (n == "healpix" || n == "hpx") return Kind::HEALPix;
+  if (n == "perspective" || n == "pinhole" || n == "rectilinear") return Kind::Perspective;
+  if (n == "fisheye") return Kind::Fisheye;
   throw Error("unknown parameterization '" + name +
-              "' (expected latlong, mirrorball, angular, cube, octahedral or paraboloid)");
+              "' (expected latlong, mirrorball, angular, cube, octahedral, paraboloid, healpix, perspective or "
+              "fisheye)");
 }
+
+bool Parameterization::same_grid(const Parameterization&) const { return false; }
 
 bool Parameterization::clamp_tap(int& i, int& j) const {
   if (width_ <= 0 || height_ <= 0) return false;

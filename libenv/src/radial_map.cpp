@@ -1,4 +1,5 @@
 #include <envkit/radial_map.h>
+#include <envkit/view.h>
 
 #include <algorithm>
 #include <array>
@@ -15,6 +16,19 @@ constexpr std::array<double, 4> kGaussWeights = {0.3626837833783620, 0.313706645
                                                  0.1012285362903763};
 
 }  // namespace
+
+bool RadialMap::same_grid(const Parameterization& other) const {
+  if (!same_kind_and_size(other)) return false;
+  // Disks alone do not tell a fisheye's lens and field of view.
+  const ViewParams *a = view(), *b = other.view();
+  if ((a == nullptr) != (b == nullptr) || (a && !(*a == *b))) return false;
+  const auto& o = static_cast<const RadialMap&>(other).disks_;
+  const auto same_vec = [](const Vec3& a, const Vec3& b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
+  return std::equal(disks_.begin(), disks_.end(), o.begin(), o.end(), [&](const Disk& a, const Disk& b) {
+    return a.cx == b.cx && a.cy == b.cy && a.radius == b.radius && same_vec(a.axis, b.axis) &&
+           same_vec(a.right, b.right) && same_vec(a.up, b.up);
+  });
+}
 
 int RadialMap::disk_at(Vec2 pos) const {
   for (std::size_t k = 0; k < disks_.size(); ++k) {

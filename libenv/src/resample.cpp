@@ -49,6 +49,12 @@ Image resample_point(const MapRef& s, const TexelSource& source, const Parameter
       Vec3 dir;
       Vec2 p;
       if (!output_direction(dirs, dst, i, j, dir) || !source_position(s.param, dst_to_src, rotate, dir, p)) continue;
+      // Every filter reconstructs a texel at its own centre as its value, bilinear and bicubic only up to the
+      // round-off of the direction round trip: a coinciding texel is copied.
+      if (const auto t = coincident_source_texel(s.param, dst, dst_to_src, rotate, i, j, p); t >= 0) {
+        apply_texel_copies(s.image, {{static_cast<std::size_t>(j) * dst.width() + i, std::size_t(t)}}, o, out);
+        continue;
+      }
       const bool ok = source.sample(p, opt.filter, value.data());
       for (int c = 0; c < C; ++c) px[c] = value[c];
       if (o.add_coverage) px[o.alpha] = ok ? 1.0f : 0.0f;
@@ -101,7 +107,8 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
   const std::vector<double> power = total_power(img, sp);
   const bool rotate = !is_identity(dst_to_src);
   const TexelDirections dirs(dst);
-  const std::vector<double> row_extent = latlong_row_extents(dst);
+  const std::vector<double> row_extent = latlong_row_extents(dst), src_row_extent = latlong_row_extents(sp);
+  std::vector<TexelCopies> copies(static_cast<std::size_t>(dst.height()));
 
   // 1. Split off the hot texels: they are splatted exactly below, the cold remainder is gathered.
   const std::vector<std::size_t> hot = find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast, power);
@@ -139,18 +146,35 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
       Vec2 pc;
       const bool centre_ok = dirs.centre(i, j, centre);
       const bool centre_in_source = centre_ok && source_position(sp, dst_to_src, rotate, centre, pc);
+      if (centre_in_source) {
+        const auto t = coincident_source_texel(sp, dst, dst_to_src, rotate, i, j, pc);
+        if (t >= 0) {
+          // Written after the hot texels' splat, which also reaches this texel from its own source texel only.
+          copies[j].emplace_back(static_cast<std::size_t>(j) * dst.width() + i, std::size_t(t));
+          continue;
+        }
+      }
       // Sub-samples per axis: `supersampling` per source texel across the footprint, at most max_subsamples.
       int n = opt.max_subsamples;
       if (centre_in_source) {
         const double extent = texel_extent(dst, row_extent, centre, i, j);
         const int si = std::clamp(static_cast<int>(pc.x), 0, sp.width() - 1);
         const int sj = std::clamp(static_cast<int>(pc.y), 0, sp.height() - 1);
-        const double source_size = std::sqrt(std::max(src_omega(si, sj), 0.0));
+        double source_size = std::sqrt(std::max(src_omega(si, sj), 0.0));
         const double samples = opt.supersampling * extent;  // per axis, in units of the source texel size
+        // An output texel no larger than the source texel it lands on (in solid angle) spans more than one source
+        // texel only if it is also longer: then measure the source texel as the output texel is measured. Long thin
+        // source texels (lat-long rows near the poles) are longer than the square root of their solid angle, so
+        // same-size maps would otherwise be supersampled. A larger output texel keeps the square root: it may span
+        // several of the thin texels across their narrow side.
+        Vec3 source_centre;
+        if (samples > source_size && dst_omega(i, j) <= src_omega(si, sj) * (1.0 + 1e-6) &&
+            sp.to_direction(Vec2(si + 0.5, sj + 0.5), source_centre))
+          source_size = std::max(source_size, texel_extent(sp, src_row_extent, source_centre, si, sj));
         if (extent >= 0.0 && source_size > 0.0)
-          n = samples <= source_size ? 1  // magnifying: the common case, without a division
-                                     : std::clamp(static_cast<int>(std::ceil(samples / source_size - 1e-9)), 1,
-                                                  opt.max_subsamples);
+          n = samples <= source_size * (1.0 + 1e-6)  // magnifying: the common case, without a division
+                  ? 1
+                  : std::clamp(static_cast<int>(std::ceil(samples / source_size - 1e-6)), 1, opt.max_subsamples);
       }
       if (n == 1 && centre_in_source) {
         // Magnifying (the common case here): the bilinear reconstruction at the centre, written directly.
@@ -203,6 +227,7 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
   // 3. Splat the hot texels: flux L x (exact sub-cell solid angle) into the output texel that sees each sub-cell.
   splat_hot_texels(s, hot, src_omega, dst, dst_omega, dst_to_src, out);
   merge_twin_texels(dst, dst_omega, out);  // a hot texel on a seam reaches one copy only
+  for (const TexelCopies& row : copies) apply_texel_copies(img, row, o, out);
   return out;
 }
 
@@ -247,6 +272,9 @@ Image resample(const MapRef& src, const Parameterization& dst, const Mat3& dst_t
   if (src.image.empty()) throw Error("cannot resample an empty image");
   const TexelSource source(src.image, src.param);
   const Mat3 dst_to_src = compose(transposed(src.to_world), dst_to_world);
+  // Every filter reproduces a map on its own grid (the mean over a texel is the texel): copy, exactly.
+  if (is_identity(dst_to_src, 1e-12) && src.param.same_grid(dst))
+    return copy_same_grid(src.image, dst, output_layout(src.image, source));
   if (opt.filter != Filter::Area) return resample_point(src, source, dst, dst_to_src, opt);
   AreaMethod method = opt.area_method;
   if (method == AreaMethod::Auto) method = choose_area_method(src.param, dst, source);

@@ -2,13 +2,13 @@
 
 #include <envkit/cubemap.h>
 #include <envkit/latlong.h>
-
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <utility>
 
 namespace envkit::detail {
 
@@ -40,6 +40,58 @@ Image make_output(const Image& src, const Parameterization& dst, const OutputLay
   if (o.add_coverage) out.channel_names.push_back("A");
   out.alpha_channel = o.alpha;
   out.metadata = src.metadata;
+  return out;
+}
+
+std::ptrdiff_t coincident_source_texel(const Parameterization& src, const Parameterization& dst, const Mat3& dst_to_src,
+                                       bool rotate, int i, int j, Vec2 centre_pos) {
+  // Positions agree to far better than this after a direction round trip (about 1e-12 texels at 16k).
+  constexpr double kTolerance = 1e-6;
+  const auto offset_is = [](double x, double target) { return std::abs(x - std::floor(x) - target) <= kTolerance; };
+  if (!offset_is(centre_pos.x, 0.5) || !offset_is(centre_pos.y, 0.5)) return -1;
+  const int si = static_cast<int>(std::floor(centre_pos.x)), sj = static_cast<int>(std::floor(centre_pos.y));
+  if (si < 0 || sj < 0 || si >= src.width() || sj >= src.height()) return -1;
+  // Solid angles only for the rare candidates (no table: a disk map's table costs an integral per texel).
+  const double omega_s = src.texel_solid_angle(si, sj);
+  if (!(omega_s > 0.0) || std::abs(dst.texel_solid_angle(i, j) - omega_s) > kTolerance * omega_s) return -1;
+  // The four quarter points of the output texel must land on the four quarter points of that source texel: the
+  // texel maps onto it whole (a shift, quarter turn or flip), not merely through its centre.
+  unsigned seen = 0;
+  for (const double b : {0.25, 0.75})
+    for (const double a : {0.25, 0.75}) {
+      Vec3 dir;
+      if (!dst.to_direction(Vec2(i + a, j + b), dir)) return -1;
+      const Vec2 p = src.to_image(rotate ? apply(dst_to_src, dir) : dir);
+      if (std::floor(p.x) != si || std::floor(p.y) != sj) return -1;
+      const bool right = offset_is(p.x, 0.75), lower = offset_is(p.y, 0.75);
+      if (!(right || offset_is(p.x, 0.25)) || !(lower || offset_is(p.y, 0.25))) return -1;
+      seen |= 1u << (int(right) + 2 * int(lower));
+    }
+  if (seen != 0xFu) return -1;
+  return static_cast<std::ptrdiff_t>(sj) * src.width() + si;
+}
+
+void apply_texel_copies(const Image& src, const TexelCopies& copies, const OutputLayout& o, Image& out) {
+  const int C = src.channels, Co = out.channels;
+  for (const auto& [t, s] : copies) {
+    std::copy_n(src.pixels.data() + s * C, C, out.pixels.data() + t * Co);
+    if (o.add_coverage) out.pixels[t * Co + o.alpha] = 1.0f;
+  }
+}
+
+Image copy_same_grid(const Image& src, const Parameterization& param, const OutputLayout& o) {
+  Image out = make_output(src, param, o);
+  const int C = src.channels, Co = out.channels;
+  tbb::parallel_for(0, src.height, [&](int j) {
+    for (int i = 0; i < src.width; ++i) {
+      const std::size_t t = static_cast<std::size_t>(j) * src.width + i;
+      // A texel holds data exactly where its solid angle is positive (blank cells, outside a disk: none); like
+      // every other path, texels without data stay 0 with coverage 0.
+      if (o.add_coverage && !(param.texel_solid_angle(i, j) > 0.0)) continue;
+      std::copy_n(src.pixels.data() + t * C, C, out.pixels.data() + t * Co);
+      if (o.add_coverage) out.pixels[t * Co + o.alpha] = 1.0f;
+    }
+  });
   return out;
 }
 
@@ -81,9 +133,12 @@ void splat_hot_texels(const MapRef& s, const std::vector<std::size_t>& hot, cons
     Vec3 centre_dir;
     if (!sp.to_direction(Vec2(si + 0.5, sj + 0.5), centre_dir)) centre_dir = Vec3(0, 0, 1);
     const Vec2 pc = dst.to_image(apply(src_to_dst, centre_dir));
-    const double omega_t = std::max(
-        dst_omega(std::min(int(pc.x), dst.width() - 1), std::min(int(pc.y), dst.height() - 1)), 1e-300);
-    const int m = std::clamp(static_cast<int>(std::ceil(4.0 * std::sqrt(omega_s / omega_t))), 2, 64);
+    // (A camera view maps directions it does not see outside its image: clamp into it for this size estimate.)
+    const int ci = std::clamp(static_cast<int>(std::clamp(pc.x, 0.0, double(dst.width()))), 0, dst.width() - 1);
+    const int cj = std::clamp(static_cast<int>(std::clamp(pc.y, 0.0, double(dst.height()))), 0, dst.height() - 1);
+    const double omega_t = std::max(dst_omega(ci, cj), 1e-300);
+    // Clamped before the cast: omega_t is tiny where the estimate lands on a texel without data (a fisheye's corner).
+    const int m = static_cast<int>(std::clamp(std::ceil(4.0 * std::sqrt(omega_s / omega_t)), 2.0, 64.0));
     auto& list = contributions[h];
     for (int b = 0; b < m; ++b) {
       for (int a = 0; a < m; ++a) {
@@ -93,6 +148,8 @@ void splat_hot_texels(const MapRef& s, const std::vector<std::size_t>& hot, cons
         Vec3 d;
         if (!sp.to_direction(Vec2(x0 + 0.5 / m, y0 + 0.5 / m), d)) d = centre_dir;
         const Vec2 q = dst.to_image(apply(src_to_dst, d));
+        // A camera view maps what it does not see outside its image: that flux is not in the view.
+        if (q.x < 0.0 || q.y < 0.0 || q.x > dst.width() || q.y > dst.height()) continue;
         const int ti = std::clamp(static_cast<int>(q.x), 0, dst.width() - 1);
         const int tj = std::clamp(static_cast<int>(q.y), 0, dst.height() - 1);
         list.emplace_back(static_cast<std::size_t>(tj) * dst.width() + ti, w);

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cstddef>
 #include <mutex>
+#include <utility>
 #include <vector>
 
 namespace envkit::detail {
@@ -33,6 +34,22 @@ struct OutputLayout {
 
 OutputLayout output_layout(const Image& src, const TexelSource& source);
 Image make_output(const Image& src, const Parameterization& dst, const OutputLayout& o);
+
+/// The source texel that covers exactly the region of the sphere output texel (i, j) covers, as an index into the
+/// source image, or -1. That is the case where the two grids coincide up to a permutation of whole texels (a
+/// shift, quarter turns and flips: rotations by whole texels, convention changes, cube layout changes), and then
+/// the exact area average over the output texel is the source texel's value. `centre_pos` is the source position
+/// of the output texel's centre: any output texel whose centre is not a source texel centre is rejected at once.
+std::ptrdiff_t coincident_source_texel(const Parameterization& src, const Parameterization& dst, const Mat3& dst_to_src,
+                                       bool rotate, int i, int j, Vec2 centre_pos);
+
+/// Output texels that take a source texel's value as it is: (output texel, source texel) indices.
+using TexelCopies = std::vector<std::pair<std::size_t, std::size_t>>;
+/// Writes each copied texel's source value (every channel; coverage 1 where the output adds coverage).
+void apply_texel_copies(const Image& src, const TexelCopies& copies, const OutputLayout& o, Image& out);
+
+/// The whole source, texel for texel, for a destination with the same grid under the identity.
+Image copy_same_grid(const Image& src, const Parameterization& param, const OutputLayout& o);
 
 /// Texels that are both far brighter than the mean and carry a real share of a channel's power (sorted indices).
 std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,

@@ -23,10 +23,15 @@ namespace {
 /// see a whole source texel's worth of directions); its flux is still conserved, spread over the capped square.
 constexpr double kMaxSideInTexels = 8.0;
 constexpr int kMaxSplatCellsPerAxis = static_cast<int>(kMaxSideInTexels) + 2;
-/// The source is cut into chunks of this many rows. Chunks are projected in parallel into runs of contributions
-/// (oneTBB parallel_pipeline), and the runs are added to the one accumulator serially, in row order: the sums do not
-/// depend on the number of threads, and the memory is one output-sized accumulator plus the chunks in flight.
-constexpr int kRowsPerChunk = 8;
+/// The source is cut into chunks of at most this many rows. Chunks are projected in parallel into runs of
+/// contributions (oneTBB parallel_pipeline), and the runs are added to the one accumulator serially, in row order: the
+/// sums do not depend on the number of threads, and the memory is one output-sized accumulator plus the chunks in
+/// flight. Chunk size depends on the source width only (never on the thread count, which would change the runs and
+/// so the float sums), and the chunks in flight are capped by a scratch budget, so scratch memory is bounded
+/// independently of the core count.
+constexpr int kMaxRowsPerChunk = 8;
+constexpr std::size_t kChunkBytes = std::size_t(8) << 20;
+constexpr std::size_t kScratchBytes = std::size_t(64) << 20;
 /// Float accumulators hold a handful of runs per output texel to float precision; past this many source texels per
 /// output texel (on average) the sums are kept in double.
 constexpr double kFloatAccumulationMaxRatio = 64.0;
@@ -132,6 +137,7 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
         if (omega_s <= 0.0 || !directions.centre(i, j, d)) continue;
         const double root_omega_s = std::sqrt(omega_s);
         const Vec2 p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
+        if (p.x < 0.0 || p.y < 0.0 || p.x > DW || p.y > DH) continue;  // outside a camera view
         const int ti = std::clamp(static_cast<int>(p.x), 0, DW - 1);
         const int tj = std::clamp(static_cast<int>(p.y), 0, DH - 1);
         // The source texel's square, sqrt(omega_s) on a side, in output pixels (stretched on lat-long rows).
@@ -174,10 +180,17 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
   std::vector<Real, HugePageAllocator<Real>> sum(std::size_t(DW) * std::size_t(DH) * stride, Real(0));
   int next_row = 0;
-  // Chunks are recycled: a fresh multi-megabyte buffer per chunk would page-fault all over again.
+  // Chunks are recycled: a fresh multi-megabyte buffer per chunk would page-fault all over again. A chunk reserves
+  // one run (its cell and C + 1 sums) per texel.
   std::vector<std::unique_ptr<Chunk>> chunks;
   tbb::concurrent_queue<Chunk*> free_chunks;
-  const std::size_t tokens = 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
+  const std::size_t row_bytes = std::size_t(W) * (sizeof(std::size_t) + sizeof(double) * stride);
+  const int rows_per_chunk =
+      static_cast<int>(std::clamp<std::size_t>(kChunkBytes / std::max<std::size_t>(row_bytes, 1), 1, kMaxRowsPerChunk));
+  const std::size_t chunk_bytes = row_bytes * rows_per_chunk;
+  const std::size_t tokens =
+      std::clamp<std::size_t>(kScratchBytes / chunk_bytes, 2,
+                              std::max<std::size_t>(2, 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency())));
   tbb::parallel_pipeline(
       tokens,
       tbb::make_filter<void, Chunk*>(tbb::filter_mode::serial_in_order,
@@ -194,7 +207,7 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
                                        chunk->cells.clear();
                                        chunk->sums.clear();
                                        chunk->first_row = next_row;
-                                       chunk->end_row = next_row = std::min(H, next_row + kRowsPerChunk);
+                                       chunk->end_row = next_row = std::min(H, next_row + rows_per_chunk);
                                        return chunk;
                                      }) &
           tbb::make_filter<Chunk*, Chunk*>(tbb::filter_mode::parallel,

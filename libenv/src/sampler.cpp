@@ -6,12 +6,32 @@ namespace envkit {
 
 namespace {
 
+constexpr std::array<std::uint8_t, 256> reversed_bytes() {
+  std::array<std::uint8_t, 256> t{};
+  for (int v = 0; v < 256; ++v)
+    for (int k = 0; k < 8; ++k)
+      if (v & (1 << k)) t[v] = static_cast<std::uint8_t>(t[v] | (0x80 >> k));
+  return t;
+}
+constexpr std::array<std::uint8_t, 256> kReversedBytes = reversed_bytes();
+
 std::uint32_t reverse_bits(std::uint32_t x) {
-  x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
-  x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-  x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
-  x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
-  return (x >> 16) | (x << 16);
+  return (std::uint32_t(kReversedBytes[x & 0xFFu]) << 24) | (std::uint32_t(kReversedBytes[(x >> 8) & 0xFFu]) << 16) |
+         (std::uint32_t(kReversedBytes[(x >> 16) & 0xFFu]) << 8) | std::uint32_t(kReversedBytes[x >> 24]);
+}
+
+// lowbias32 (Chris Wellons), inlined into the sampler; hash_u32 below is the same function.
+inline std::uint32_t lowbias32(std::uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
+
+inline std::uint32_t combine(std::uint32_t seed, std::uint32_t value) {
+  return lowbias32(seed ^ (value + 0x9e3779b9u + (seed << 6) + (seed >> 2)));
 }
 
 /// Laine-Karras style permutation, the improved constants of Burley 2020 (listing 3).
@@ -36,47 +56,58 @@ constexpr std::array<std::uint32_t, 32> sobol_dimension1() {
   for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
   return v;
 }
-constexpr std::array<std::uint32_t, 32> kSobol1 = sobol_dimension1();
+
+/// The generator matrix times every byte value at each of the four byte positions of an index: the product is
+/// linear over GF(2), so four lookups XORed give it for any 32-bit index (the shuffled indices use all 32 bits,
+/// where a loop over the set bits takes 32 unpredictable steps).
+constexpr std::array<std::array<std::uint32_t, 256>, 4> sobol1_byte_tables() {
+  constexpr std::array<std::uint32_t, 32> v = sobol_dimension1();
+  std::array<std::array<std::uint32_t, 256>, 4> t{};
+  for (int b = 0; b < 4; ++b)
+    for (int value = 0; value < 256; ++value)
+      for (int k = 0; k < 8; ++k)
+        if (value & (1 << k)) t[b][value] ^= v[8 * b + k];
+  return t;
+}
+constexpr std::array<std::array<std::uint32_t, 256>, 4> kSobol1Bytes = sobol1_byte_tables();
 
 std::uint32_t sobol1(std::uint32_t index) {
-  std::uint32_t result = 0;
-  for (int k = 0; index != 0; index >>= 1, ++k)
-    if (index & 1u) result ^= kSobol1[k];
-  return result;
+  return kSobol1Bytes[0][index & 0xFFu] ^ kSobol1Bytes[1][(index >> 8) & 0xFFu] ^
+         kSobol1Bytes[2][(index >> 16) & 0xFFu] ^ kSobol1Bytes[3][index >> 24];
 }
 
 /// 32 scrambled bits + 21 hashed low bits -> a double in [0, 1).
 double to_unit(std::uint32_t high, std::uint32_t low_seed) {
-  const std::uint64_t bits = (std::uint64_t(high) << 21) | (hash_u32(low_seed) >> 11);
+  const std::uint64_t bits = (std::uint64_t(high) << 21) | (lowbias32(low_seed) >> 11);
   return double(bits) * 0x1p-53;
 }
 
 }  // namespace
 
-std::uint32_t hash_u32(std::uint32_t x) {
-  // lowbias32 (Chris Wellons)
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
+std::uint32_t hash_u32(std::uint32_t x) { return lowbias32(x); }
 
-std::uint32_t hash_combine(std::uint32_t seed, std::uint32_t value) {
-  return hash_u32(seed ^ (value + 0x9e3779b9u + (seed << 6) + (seed >> 2)));
-}
+std::uint32_t hash_combine(std::uint32_t seed, std::uint32_t value) { return combine(seed, value); }
 
 OwenSobolSampler::OwenSobolSampler(std::uint32_t seed, int px, int py)
     : pixel_seed_(hash_combine(hash_combine(hash_u32(seed), std::uint32_t(px)), std::uint32_t(py))) {}
 
+// Sobol dimension 0 is the bit reversal of the index, so its nested uniform scramble
+// reverse(LK(reverse(reverse(shuffled)))) is reverse(LK(shuffled)).
+double OwenSobolSampler::first_coordinate(std::uint32_t dim_seed, std::uint32_t shuffled, std::uint32_t low) const {
+  return to_unit(reverse_bits(laine_karras_permutation(shuffled, combine(dim_seed, 1u))), low);
+}
+
 Vec2 OwenSobolSampler::next_2d() {
-  const std::uint32_t dim_seed = hash_combine(pixel_seed_, dimension_++);
+  const std::uint32_t dim_seed = combine(pixel_seed_, dimension_++);
   const std::uint32_t shuffled = nested_uniform_scramble(index_, dim_seed);
-  const std::uint32_t x = nested_uniform_scramble(reverse_bits(shuffled), hash_combine(dim_seed, 1u));
-  const std::uint32_t y = nested_uniform_scramble(sobol1(shuffled), hash_combine(dim_seed, 2u));
-  const std::uint32_t low = hash_combine(dim_seed, index_);
-  return Vec2(to_unit(x, low), to_unit(y, hash_combine(low, 3u)));
+  const std::uint32_t low = combine(dim_seed, index_);
+  const std::uint32_t y = nested_uniform_scramble(sobol1(shuffled), combine(dim_seed, 2u));
+  return Vec2(first_coordinate(dim_seed, shuffled, low), to_unit(y, combine(low, 3u)));
+}
+
+double OwenSobolSampler::next_1d() {
+  const std::uint32_t dim_seed = combine(pixel_seed_, dimension_++);
+  return first_coordinate(dim_seed, nested_uniform_scramble(index_, dim_seed), combine(dim_seed, index_));
 }
 
 }  // namespace envkit

@@ -17,7 +17,7 @@ SolidAngleTable::SolidAngleTable(const Parameterization& param) : width_(param.w
     }
     return;
   }
-  if (param.kind() == Kind::Octahedral) {
+  if (param.kind() == Kind::Octahedral || param.kind() == Kind::HEALPix) {  // equal-area
     constant_ = param.texel_solid_angle(0, 0);
     total_ = constant_ * W * H;
     return;

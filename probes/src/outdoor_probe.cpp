@@ -1,6 +1,7 @@
 // The built-in default probe: a procedural outdoor sky with sun, clouds, ground, silhouettes and markers.
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
+#include <envkit/sampler.h>
 
 #include <algorithm>
 #include <cmath>
@@ -24,16 +25,11 @@ double wrap(double a) {
   return a <= -kPi ? a + kTwoPi : a;
 }
 
-// Integer lattice hash (a murmur-style finaliser): platform independent, so the probe is the same everywhere.
+// Integer lattice hash (the lowbias32 finaliser of envkit's sampler): platform independent, so the probe is the
+// same everywhere.
 std::uint32_t hash(std::int32_t x, std::int32_t y, std::uint32_t seed) {
-  std::uint32_t h = seed * 0x9E3779B9u ^ static_cast<std::uint32_t>(x) * 0x85EBCA6Bu ^
-                    static_cast<std::uint32_t>(y) * 0xC2B2AE35u;
-  h ^= h >> 16;
-  h *= 0x7FEB352Du;
-  h ^= h >> 15;
-  h *= 0x846CA68Bu;
-  h ^= h >> 16;
-  return h;
+  return hash_u32(seed * 0x9E3779B9u ^ static_cast<std::uint32_t>(x) * 0x85EBCA6Bu ^
+                  static_cast<std::uint32_t>(y) * 0xC2B2AE35u);
 }
 
 double hash01(std::int32_t x, std::int32_t y, std::uint32_t seed) { return hash(x, y, seed) * (1.0 / 4294967296.0); }

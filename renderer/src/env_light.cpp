@@ -106,6 +106,15 @@ double EnvironmentLight::pdf(const SphericalDistribution& distribution, const Ve
   return distribution.pdf(apply(inverse_rotation_, d));
 }
 
+EnvironmentLight::Lookup EnvironmentLight::lookup(const SphericalDistribution& distribution, const Vec3& d) const {
+  if (radiance_grid_ || distribution.width() != width_ || distribution.height() != height_ ||
+      distribution.grid() != lookup_->grid())
+    return {radiance(d), pdf(distribution, d)};
+  int x = 0, y = 0;
+  distribution.texel_of(apply(inverse_rotation_, d), x, y);
+  return {texels_[std::size_t(y) * width_ + x], distribution.texel_pdf(x, y)};
+}
+
 Vec3 EnvironmentLight::mean_radiance() const {
   Vec3 sum(0, 0, 0);
   double omega = 0;

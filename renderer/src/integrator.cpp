@@ -62,6 +62,11 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (s == Strategy::Light || s == Strategy::Mis)
     light_distribution_ = &light_.distribution(options_.light_method, false);
   if (s == Strategy::MisCompensated) light_distribution_ = &light_.distribution(options_.light_method, true);
+  direct_ = s == Strategy::Bsdf                                   ? &Integrator::direct_bsdf
+            : s == Strategy::Light                                ? &Integrator::direct_light
+            : s == Strategy::Product || s == Strategy::ProductMis ? &Integrator::direct_product
+            : options_.mis_model == MisModel::One                 ? &Integrator::direct_mis_one
+                                                                  : &Integrator::direct_mis;
   if (s == Strategy::Product || s == Strategy::ProductMis) {
     if (options_.product_resolution < 1) throw Error("--product-resolution must be >= 1");
     if (s == Strategy::Product && options_.light_samples < 1) throw Error("strategy product needs --light-samples >= 1");
@@ -91,155 +96,141 @@ Vec3 Integrator::escaped_radiance(const Vec3& origin, const Vec3& wi_world) cons
   return light_.radiance(wi_world);
 }
 
-Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng, const Vec3& wo,
-                        const Material& material, Sampler& sampler) const {
-  const Vec3 origin = Scene::offset_origin(position, ng);
-  Vec3 sum(0, 0, 0);
-
-  // One BSDF sample; returns its contribution f cos L V / pdf and the sample (pdf 0 when none).
-  auto bsdf_sample = [&](BsdfSample& bs, Vec3& wi_world) -> Vec3 {
-    const Vec2 u = sampler.next_2d();
-    const double u_lobe = sampler.next_1d();
-    if (!material.sample(wo, u, u_lobe, bs) || !(bs.pdf > 0.0) || is_black(bs.f_cos)) {
-      bs.pdf = 0.0;
-      return Vec3(0, 0, 0);
-    }
-    wi_world = frame.to_world(bs.wi);
-    if ((wi_world ^ ng) <= 0.0) {  // shading normal let it through the geometric surface
-      bs.pdf = 0.0;
-      return Vec3(0, 0, 0);
-    }
-    const Vec3 L = escaped_radiance(origin, wi_world);
-    return mul(bs.f_cos, L) / bs.pdf;
-  };
-  // One light sample from `distribution`; returns f cos L V (not divided) and fills the sample.
-  auto light_sample = [&](const SphericalDistribution& distribution, LightSample& ls, Vec3& wi_local) -> Vec3 {
-    ls = light_.sample(distribution, sampler.next_2d());
-    if (!(ls.pdf > 0.0) || (ls.direction ^ ng) <= 0.0 || is_black(ls.radiance)) return Vec3(0, 0, 0);
-    wi_local = frame.to_local(ls.direction);
-    const Vec3 f_cos = material.eval(wo, wi_local);
-    if (is_black(f_cos)) return Vec3(0, 0, 0);
-    if (scene_.occluded(Ray{origin, ls.direction})) return Vec3(0, 0, 0);
-    return mul(f_cos, ls.radiance);
-  };
-
-  // Pure delta materials: one BSDF sample, weight 1, in every strategy.
-  if (material.is_pure_delta()) {
-    BsdfSample bs;
-    Vec3 wi;
-    return bsdf_sample(bs, wi);
+Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, Sampler& sampler,
+                                           const SphericalDistribution* light) const {
+  BsdfTerm t;
+  const Vec2 u = sampler.next_2d();
+  const double u_lobe = sampler.next_1d();
+  BsdfSample bs;
+  if (!x.material.sample(x.wo, u, u_lobe, bs) || !(bs.pdf > 0.0) || is_black(bs.f_cos)) return t;
+  t.wi_world = x.frame.to_world(bs.wi);
+  if ((t.wi_world ^ x.ng) <= 0.0) return t;  // the shading normal let it through the geometric surface
+  t.pdf = bs.pdf;
+  t.is_delta = bs.is_delta;
+  if (scene_.occluded(Ray{x.origin, t.wi_world})) return t;
+  if (light) {
+    const EnvironmentLight::Lookup l = light_.lookup(*light, t.wi_world);
+    t.value = mul(bs.f_cos, l.radiance) / bs.pdf;
+    t.light_pdf = l.pdf;
+  } else {
+    t.value = mul(bs.f_cos, light_.radiance(t.wi_world)) / bs.pdf;
   }
+  return t;
+}
 
+Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const SphericalDistribution& distribution,
+                                             Sampler& sampler) const {
+  LightTerm t;
+  const LightSample ls = light_.sample(distribution, sampler.next_2d());
+  t.pdf = ls.pdf;
+  if (!(ls.pdf > 0.0) || (ls.direction ^ x.ng) <= 0.0 || is_black(ls.radiance)) return t;
+  t.wi_local = x.frame.to_local(ls.direction);
+  const Vec3 f_cos = x.material.eval(x.wo, t.wi_local);
+  if (is_black(f_cos) || scene_.occluded(Ray{x.origin, ls.direction})) return t;
+  t.value = mul(f_cos, ls.radiance);
+  return t;
+}
+
+Vec3 Integrator::delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const {
+  if (!x.material.has_delta()) return Vec3(0, 0, 0);
+  const BsdfTerm b = bsdf_term(x, sampler);
+  return b.is_delta ? b.value : Vec3(0, 0, 0);
+}
+
+Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
+  const int N = options_.bsdf_samples;
+  Vec3 sum(0, 0, 0);
+  for (int i = 0; i < N; ++i) sum += bsdf_term(x, sampler).value;
+  return sum / double(N);
+}
+
+Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
+  const int M = options_.light_samples;
+  Vec3 sum(0, 0, 0);
+  for (int j = 0; j < M; ++j) {
+    const LightTerm l = light_term(x, *light_distribution_, sampler);
+    if (!is_black(l.value)) sum += l.value / (l.pdf * M);
+  }
+  return sum + delta_lobe_term(x, sampler);  // light samples cannot reach a delta lobe
+}
+
+Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
+  const SphericalDistribution& dist = *light_distribution_;
   const int N = options_.bsdf_samples, M = options_.light_samples;
-  switch (options_.strategy) {
-    case Strategy::Bsdf: {
-      for (int i = 0; i < N; ++i) {
-        BsdfSample bs;
-        Vec3 wi;
-        sum += bsdf_sample(bs, wi);
-      }
-      return sum / double(N);
+  Vec3 sum(0, 0, 0);
+  for (int j = 0; j < M; ++j) {
+    const LightTerm l = light_term(x, dist, sampler);
+    if (is_black(l.value)) continue;
+    const double p_b = x.material.pdf(x.wo, l.wi_local);
+    sum += l.value * (mis_weight(M * l.pdf, N * p_b) / (M * l.pdf));
+  }
+  for (int i = 0; i < N; ++i) {
+    const BsdfTerm b = bsdf_term(x, sampler, &dist);
+    if (!(b.pdf > 0.0) || is_black(b.value)) continue;
+    if (b.is_delta) {
+      sum += b.value / double(N);
+      continue;
     }
-    case Strategy::Light: {
-      for (int j = 0; j < M; ++j) {
-        LightSample ls;
-        Vec3 wi;
-        const Vec3 c = light_sample(*light_distribution_, ls, wi);
-        if (!is_black(c)) sum += c / (ls.pdf * M);
-      }
-      if (material.has_delta()) {  // the delta lobe only: light samples cannot reach it
-        BsdfSample bs;
-        Vec3 wi;
-        const Vec3 c = bsdf_sample(bs, wi);
-        if (bs.is_delta) sum += c;
-      }
-      return sum;
-    }
-    case Strategy::Mis:
-    case Strategy::MisCompensated: {
-      const SphericalDistribution& dist = *light_distribution_;
-      if (options_.mis_model == MisModel::One) {
-        const double c_light = double(M) / double(N + M), c_bsdf = 1.0 - c_light;
-        if (sampler.next_1d() < c_light) {
-          LightSample ls;
-          Vec3 wi;
-          const Vec3 c = light_sample(dist, ls, wi);
-          if (is_black(c)) return sum;
-          const double p_b = material.pdf(wo, wi);
-          return c * (mis_weight(c_light * ls.pdf, c_bsdf * p_b) / (c_light * ls.pdf));
-        }
-        BsdfSample bs;
-        Vec3 wi;
-        const Vec3 c = bsdf_sample(bs, wi);
-        if (!(bs.pdf > 0.0)) return sum;
-        if (bs.is_delta) return c / c_bsdf;
-        const double p_l = light_.pdf(dist, wi);
-        return c * (mis_weight(c_bsdf * bs.pdf, c_light * p_l) / c_bsdf);
-      }
-      for (int j = 0; j < M; ++j) {
-        LightSample ls;
-        Vec3 wi;
-        const Vec3 c = light_sample(dist, ls, wi);
-        if (is_black(c)) continue;
-        const double p_b = material.pdf(wo, wi);
-        sum += c * (mis_weight(M * ls.pdf, N * p_b) / (M * ls.pdf));
-      }
-      for (int i = 0; i < N; ++i) {
-        BsdfSample bs;
-        Vec3 wi;
-        const Vec3 c = bsdf_sample(bs, wi);
-        if (!(bs.pdf > 0.0) || is_black(c)) continue;
-        if (bs.is_delta) {
-          sum += c / double(N);
-          continue;
-        }
-        const double p_l = light_.pdf(dist, wi);
-        sum += c * (mis_weight(N * bs.pdf, M * p_l) / N);
-      }
-      return sum;
-    }
-    case Strategy::Product:
-    case Strategy::ProductMis: {
-      const int np = M;
-      const int nb = options_.strategy == Strategy::ProductMis ? N : 0;
-      ProductSampler& product = product_->get();
-      if (!product.reusable(material, frame, wo)) product.prepare(material, frame, wo);
-      for (int j = 0; j < np; ++j) {
-        const Vec2 u = sampler.next_2d();
-        Vec3 wi_world;
-        double p = 0.0;
-        if (!product.valid() || !product.sample(u, wi_world, p) || !(p > 0.0) || (wi_world ^ ng) <= 0.0) continue;
-        // The BSDF of THIS point: a reused table was prepared at another one.
-        const Vec3 wi_local = frame.to_local(wi_world);
-        const Vec3 f_cos = material.eval(wo, wi_local);
-        if (is_black(f_cos)) continue;
-        const Vec3 L = escaped_radiance(origin, wi_world);
-        if (is_black(L)) continue;
-        const double w = nb > 0 ? mis_weight(np * p, nb * material.pdf(wo, wi_local)) : 1.0;
-        sum += mul(f_cos, L) * (w / (np * p));
-      }
-      if (nb > 0) {
-        for (int i = 0; i < nb; ++i) {
-          BsdfSample bs;
-          Vec3 wi;
-          const Vec3 c = bsdf_sample(bs, wi);
-          if (!(bs.pdf > 0.0) || is_black(c)) continue;
-          if (bs.is_delta) {
-            sum += c / double(nb);
-            continue;
-          }
-          sum += c * (mis_weight(nb * bs.pdf, np * product.pdf(wi)) / nb);
-        }
-      } else if (material.has_delta()) {
-        BsdfSample bs;
-        Vec3 wi;
-        const Vec3 c = bsdf_sample(bs, wi);
-        if (bs.is_delta) sum += c;
-      }
-      return sum;
-    }
+    sum += b.value * (mis_weight(N * b.pdf, M * b.light_pdf) / N);
   }
   return sum;
+}
+
+Vec3 Integrator::direct_mis_one(const ShadingPoint& x, Sampler& sampler) const {
+  const SphericalDistribution& dist = *light_distribution_;
+  const int N = options_.bsdf_samples, M = options_.light_samples;
+  const double c_light = double(M) / double(N + M), c_bsdf = 1.0 - c_light;
+  if (sampler.next_1d() < c_light) {
+    const LightTerm l = light_term(x, dist, sampler);
+    if (is_black(l.value)) return Vec3(0, 0, 0);
+    const double p_b = x.material.pdf(x.wo, l.wi_local);
+    return l.value * (mis_weight(c_light * l.pdf, c_bsdf * p_b) / (c_light * l.pdf));
+  }
+  const BsdfTerm b = bsdf_term(x, sampler, &dist);
+  if (!(b.pdf > 0.0) || is_black(b.value)) return Vec3(0, 0, 0);
+  if (b.is_delta) return b.value / c_bsdf;
+  return b.value * (mis_weight(c_bsdf * b.pdf, c_light * b.light_pdf) / c_bsdf);
+}
+
+Vec3 Integrator::direct_product(const ShadingPoint& x, Sampler& sampler) const {
+  const int np = options_.light_samples;
+  const int nb = options_.strategy == Strategy::ProductMis ? options_.bsdf_samples : 0;
+  ProductSampler& product = product_->get();
+  if (!product.reusable(x.material, x.frame, x.wo)) product.prepare(x.material, x.frame, x.wo);
+  Vec3 sum(0, 0, 0);
+  for (int j = 0; j < np; ++j) {
+    const Vec2 u = sampler.next_2d();
+    Vec3 wi_world;
+    double p = 0.0;
+    if (!product.valid() || !product.sample(u, wi_world, p) || !(p > 0.0) || (wi_world ^ x.ng) <= 0.0) continue;
+    // The BSDF of THIS point: a reused table was prepared at another one.
+    const Vec3 wi_local = x.frame.to_local(wi_world);
+    const Vec3 f_cos = x.material.eval(x.wo, wi_local);
+    if (is_black(f_cos)) continue;
+    const Vec3 L = escaped_radiance(x.origin, wi_world);
+    if (is_black(L)) continue;
+    const double w = nb > 0 ? mis_weight(np * p, nb * x.material.pdf(x.wo, wi_local)) : 1.0;
+    sum += mul(f_cos, L) * (w / (np * p));
+  }
+  if (nb == 0) return sum + delta_lobe_term(x, sampler);
+  for (int i = 0; i < nb; ++i) {
+    const BsdfTerm b = bsdf_term(x, sampler);
+    if (!(b.pdf > 0.0) || is_black(b.value)) continue;
+    if (b.is_delta) {
+      sum += b.value / double(nb);
+      continue;
+    }
+    sum += b.value * (mis_weight(nb * b.pdf, np * product.pdf(b.wi_world)) / nb);
+  }
+  return sum;
+}
+
+Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng, const Vec3& wo,
+                        const Material& material, Sampler& sampler) const {
+  const ShadingPoint x{Scene::offset_origin(position, ng), frame, ng, wo, material};
+  // Pure delta materials: one BSDF sample, weight 1, in every strategy.
+  if (material.is_pure_delta()) return bsdf_term(x, sampler).value;
+  return (this->*direct_)(x, sampler);
 }
 
 Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {

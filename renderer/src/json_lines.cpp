@@ -42,6 +42,21 @@ int line_at(const std::string& text, std::size_t byte) {
   return 1 + int(std::count(text.begin(), text.begin() + std::ptrdiff_t(byte), '\n'));
 }
 
+/// line_at for positions that only grow (the parser's): counts the newlines since the previous call, so a
+/// document costs O(size) in all instead of O(size) per key.
+struct LineCounter {
+  const std::string& text;
+  std::size_t byte = 0;
+  int line = 1;
+  int at(std::size_t position) {
+    position = std::min(position, text.size());
+    if (position < byte) return line_at(text, position);
+    line += int(std::count(text.begin() + std::ptrdiff_t(byte), text.begin() + std::ptrdiff_t(position), '\n'));
+    byte = position;
+    return line;
+  }
+};
+
 struct Level {
   bool is_array = false;
   std::string path;  // path of this container
@@ -69,6 +84,7 @@ LineTrackedJson parse_json_with_lines(const std::string& text, const std::string
   LineTrackedJson result;
   std::size_t position = 0;
   std::vector<Level> stack;
+  LineCounter lines{text};
   auto on_value_start = [&]() -> std::string {
     if (stack.empty()) return "";
     Level& top = stack.back();
@@ -80,8 +96,13 @@ LineTrackedJson parse_json_with_lines(const std::string& text, const std::string
     switch (event) {
       case E::object_start:
       case E::array_start: {
+        // Bounded nesting: deep brackets cost the parser and the key paths memory and time per level, and no
+        // scene needs more than a few levels.
+        if (stack.size() >= kMaxJsonDepth)
+          throw Error(name + ":" + std::to_string(lines.at(position)) + ": JSON nested deeper than " +
+                      std::to_string(kMaxJsonDepth) + " levels");
         const std::string path = on_value_start();
-        if (!path.empty() && stack.back().is_array) result.lines.emplace(path, line_at(text, position));
+        if (!path.empty() && stack.back().is_array) result.lines.emplace(path, lines.at(position));
         stack.push_back(Level{event == E::array_start, path, "", -1});
         break;
       }
@@ -92,13 +113,13 @@ LineTrackedJson parse_json_with_lines(const std::string& text, const std::string
       case E::key:
         if (!stack.empty()) {
           stack.back().key = parsed.get<std::string>();
-          result.lines[child_path(stack.back())] = line_at(text, position);
+          result.lines[child_path(stack.back())] = lines.at(position);
         }
         break;
       case E::value:
         if (!stack.empty() && stack.back().is_array) {
           const std::string path = on_value_start();
-          result.lines.emplace(path, line_at(text, position));
+          result.lines.emplace(path, lines.at(position));
         }
         break;
     }
@@ -113,6 +134,11 @@ LineTrackedJson parse_json_with_lines(const std::string& text, const std::string
     // "[json.exception.parse_error.101] parse error at line 3, column 5: syntax error ..." -> keep the reason.
     if (const std::size_t colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
     throw Error(name + ":" + std::to_string(line_at(text, e.byte == 0 ? 0 : e.byte - 1)) + ": malformed JSON: " + message);
+  } catch (const nlohmann::json::exception& e) {
+    // Not a syntax error but a value the parser cannot hold (a number like 1e999 overflows a double).
+    std::string message = e.what();
+    if (const std::size_t bracket = message.find("] "); bracket != std::string::npos) message = message.substr(bracket + 2);
+    throw Error(name + ":" + std::to_string(line_at(text, position)) + ": invalid JSON value: " + message);
   }
   return result;
 }

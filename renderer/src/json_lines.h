@@ -15,7 +15,11 @@ struct LineTrackedJson {
   int line_of(std::string path) const;
 };
 
-/// Parses `text`; malformed JSON throws Error("<name>:<line>: malformed JSON: <parser message>").
+/// Containers nested deeper than this are refused (no scene needs more than a handful of levels).
+inline constexpr std::size_t kMaxJsonDepth = 64;
+
+/// Parses `text`; nesting deeper than kMaxJsonDepth throws Error("<name>:<line>: JSON nested deeper than 64
+/// levels"), a number out of double range Error("<name>:<line>: invalid JSON value: ..."); malformed JSON throws Error("<name>:<line>: malformed JSON: <parser message>").
 LineTrackedJson parse_json_with_lines(const std::string& text, const std::string& name);
 
 }  // namespace envkit::render

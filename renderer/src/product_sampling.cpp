@@ -24,6 +24,17 @@ const PyramidDistribution2D& require_pyramid(const SphericalDistribution& env) {
   return *p;
 }
 
+/// Product sampling bounds each pyramid node by the image rectangle it covers (node points, a cone from its
+/// boundary), which needs a map that is continuous across the rectangle. Lat-long and octahedral grids are; the
+/// HEALPix layout puts base pixels side by side that are not neighbours on the sphere, so a node spanning two of
+/// them would get a wrong cone and could be skipped where the environment has light (a biased image).
+void require_continuous_grid(const SphericalDistribution& env) {
+  if (env.grid() != Kind::LatLong && env.grid() != Kind::Octahedral)
+    throw Error(std::string("product sampling needs a latlong or octahedral table, not ") + kind_name(env.grid()) +
+                " (its pyramid nodes span base pixels that are not neighbours on the sphere; re-bake with "
+                "envbake --param latlong or octahedral)");
+}
+
 /// The GGX alpha of a lobe that a visible-normal sampler draws with the material's peak density at the mirror
 /// direction: sqrt(1 / (4 pi cos_o pdf(wo, mirror))); 0 when that density is 0 or not finite (wo.z > 0).
 double effective_alpha(const Material& m, const Vec3& wo) {
@@ -85,6 +96,7 @@ ProductSampler::ProductSampler(const SphericalDistribution& env_hierarchical, co
                                int product_resolution, const Options& options)
     : env_(env_hierarchical), pyramid_(require_pyramid(env_hierarchical)), world_from_table_(world_from_table),
       table_from_world_(transposed(world_from_table)), options_(options) {
+  require_continuous_grid(env_);
   if (!(options_.floor_fraction > 0.0)) options_.floor_fraction = 0.02;
   if (!(options_.reuse_angle > 0.0) || !std::isfinite(options_.reuse_angle)) options_.reuse_angle = 0.0;
   options_.reuse_angle = std::min(options_.reuse_angle, 0.5 * kPi);

@@ -3,6 +3,7 @@
 #include <envkit/color.h>
 #include <envkit/convention.h>
 #include <envkit/error.h>
+#include <envkit/input_checks.h>
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
 #include <envkit/render/material.h>
@@ -19,6 +20,12 @@
 namespace envkit::render {
 
 namespace {
+
+// The supported range of scene geometry, in scene units: coordinates within +-1e6, sphere radii in [1e-4, 1e6].
+// Ray offsets (1e-6 relative) and the float meshes keep intersections exact to ~1e-6 of the scene's extent.
+constexpr double kMaxSceneCoordinate = 1e6;
+constexpr double kMinSphereRadius = 1e-4;
+
 
 using nlohmann::json;
 
@@ -73,6 +80,17 @@ class Reader {
   Vec3 vec3(const json& v, const std::string& path) const {
     const auto n = numbers(v, path, 3);
     return Vec3(n[0], n[1], n[2]);
+  }
+  /// A point of the scene: every coordinate within +-kMaxSceneCoordinate (docs/SCENE_FORMAT.md).
+  Vec3 point(const json& v, const std::string& path) const {
+    const Vec3 p = vec3(v, path);
+    check_point(p, path);
+    return p;
+  }
+  void check_point(const Vec3& p, const std::string& path) const {
+    for (int i = 0; i < 3; ++i)
+      if (!(std::abs(p[i]) <= kMaxSceneCoordinate))
+        fail(path, "coordinates must be within +-1e6 scene units (the supported range)");
   }
   Vec3 vec3(const json& object, const std::string& path, const std::string& key, const Vec3& fallback) const {
     return object.contains(key) ? vec3(object.at(key), join(path, key)) : fallback;
@@ -133,6 +151,8 @@ std::unique_ptr<Material> parse_material(const Reader& r, const json& m, const s
 
 TriangleMesh load_obj(const std::string& file, const Reader& r, const std::string& path) {
   if (!std::filesystem::exists(file)) r.fail(path, "mesh file '" + file + "' does not exist");
+  if (std::filesystem::is_directory(file)) r.fail(path, "mesh file '" + file + "' is a directory, not an OBJ file");
+  require_regular_file(file);  // a FIFO or device would block or never end
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -277,8 +297,8 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
   // Camera
   const json& c = r.require(root, "", "camera");
   r.check_keys(c, "camera", {"position", "look_at", "up", "fov", "resolution"});
-  const Vec3 position = r.vec3(r.require(c, "camera", "position"), "camera.position");
-  const Vec3 look_at = r.vec3(r.require(c, "camera", "look_at"), "camera.look_at");
+  const Vec3 position = r.point(r.require(c, "camera", "position"), "camera.position");
+  const Vec3 look_at = r.point(r.require(c, "camera", "look_at"), "camera.look_at");
   const Vec3 up = r.vec3(c, "camera", "up", Vec3(0, 1, 0));
   const double fov = r.number(c, "camera", "fov", 40.0);
   int width = 480, height = 270;
@@ -320,14 +340,18 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
     }
     if (type == "sphere") {
       r.check_keys(s, path, {"type", "material", "center", "radius"});
-      const Vec3 centre = r.vec3(r.require(s, path, "center"), path + ".center");
+      const Vec3 centre = r.point(r.require(s, path, "center"), path + ".center");
       const double radius = r.number(r.require(s, path, "radius"), path + ".radius");
-      if (!(radius > 0.0)) r.fail(path + ".radius", "must be > 0");
+      // The supported range: ray offsets are relative to 1 scene unit and the hit position, so a sphere far
+      // smaller or larger than the scene's unit is lost to rounding (it would silently vanish).
+      if (!(radius >= kMinSphereRadius && radius <= kMaxSceneCoordinate))
+        r.fail(path + ".radius", "must be in [1e-4, 1e6] scene units (the supported range)");
       out.scene->add_sphere(centre, radius, material, path);
     } else if (type == "mesh") {
       r.check_keys(s, path, {"type", "material", "file"});
       const std::string obj = resolve(base_dir, r.string(r.require(s, path, "file"), path + ".file"));
       TriangleMesh mesh = load_obj(obj, r, path + ".file");
+      for (const Vec3& p : mesh.positions) r.check_point(p, path + ".file");
       try {
         out.scene->add_mesh(std::move(mesh), material, obj);
       } catch (const Error& err) {
@@ -340,7 +364,7 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
       const json& t = r.require(s, path, "triangles");
       if (!v.is_array() || v.size() < 3) r.fail(path + ".vertices", "expected an array of [x, y, z] points");
       if (!t.is_array() || t.empty()) r.fail(path + ".triangles", "expected an array of [i, j, k] index triples");
-      for (std::size_t k = 0; k < v.size(); ++k) mesh.positions.push_back(r.vec3(v[k], path + ".vertices[" + std::to_string(k) + "]"));
+      for (std::size_t k = 0; k < v.size(); ++k) mesh.positions.push_back(r.point(v[k], path + ".vertices[" + std::to_string(k) + "]"));
       for (std::size_t k = 0; k < t.size(); ++k) {
         const std::string tp = path + ".triangles[" + std::to_string(k) + "]";
         if (!t[k].is_array() || t[k].size() != 3) r.fail(tp, "expected [i, j, k]");
@@ -368,6 +392,7 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
 }
 
 LoadedScene load_scene_file(const std::string& path, const SceneLoadOptions& options) {
+  if (std::filesystem::exists(path)) require_regular_file(path);  // a FIFO or device would block or never end
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, std::filesystem::exists(path) ? "cannot read the scene file" : "no such scene file");
   std::ostringstream text;

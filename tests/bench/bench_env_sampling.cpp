@@ -1,7 +1,7 @@
 // Benchmarks of direction sampling from baked tables (env_sampling.h / env_tables.h) on a sky-plus-sun lat-long
 // at 1024x512 and 8192x4096: ns per sample (u -> direction + pdf + texel) and per pdf(direction) for cdf,
 // alias and hierarchical; the bake from an in-memory image; loading the same tables from a file.
-//   bench_env_sampling --benchmark_filter=Sample
+//   bench_env_sampling --benchmark_filter=Sample      (Sample: one sample() per call; SampleBatch: batched)
 //   bench_env_sampling --benchmark_filter='Bake|Load'
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <span>
 #include <unistd.h>
 
 using namespace envkit;
@@ -72,6 +73,26 @@ void Sample(benchmark::State& state) {
                  std::to_string(W / 2));
 }
 
+/// The batched sample() of the same u as Sample, 256 per call: the per-sample time is the counter per_sample.
+void SampleBatch(benchmark::State& state) {
+  const int W = int(state.range(0));
+  const SphericalDistribution& d = *tables(W).distribution(SamplingMethod(state.range(1)));
+  const std::vector<Vec2> u = random_u(1 << 16);
+  constexpr std::size_t kCall = 256;
+  std::vector<DirectionSample> out(kCall);
+  std::size_t i = 0;
+  for (auto _ : state) {
+    d.sample(std::span<const Vec2>(u.data() + i, kCall), out);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+    i = (i + kCall) & 0xffff;
+  }
+  state.counters["per_sample"] =
+      benchmark::Counter(double(kCall), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.SetLabel(std::string(method_name(SamplingMethod(state.range(1)))) + " " + std::to_string(W) + "x" +
+                 std::to_string(W / 2) + ", batched");
+}
+
 void Pdf(benchmark::State& state) {
   const int W = int(state.range(0));
   const SphericalDistribution& d = *tables(W).distribution(SamplingMethod(state.range(1)));
@@ -110,6 +131,7 @@ void Load(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(Sample)->ArgsProduct({{1024, 8192}, {0, 1, 2}});
+BENCHMARK(SampleBatch)->ArgsProduct({{1024, 8192}, {0, 1, 2}});
 BENCHMARK(Pdf)->ArgsProduct({{1024, 8192}, {0, 1, 2}});
 BENCHMARK(Bake)->Arg(1024)->Arg(8192)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(Load)->Arg(1024)->Arg(8192)->Unit(benchmark::kMillisecond)->Iterations(3);

@@ -1,7 +1,7 @@
 // libFuzzer target: image -> parameterization detection, on small synthetic images and on raw image files.
 //
 // Input layout (bytes; missing bytes read as 0):
-//   [0] mode: bits 0-1 select 0 = an Image built in memory, 1 = the rest written as .exr, 2 = .hdr, 3 = .png
+//   [0] mode: bits 0-1 select 0 = an Image built in memory, 1 = the rest written as .exr, 2 = .hdr, 3 = .pfm
 //       (then read_image with small size limits: 1024 per side, 2^16 texels); bits 2-3 the resampling filter
 //   [1] width - 1 (mod 48)   [2] height - 1 (mod 160)   [3] channels - 1 (mod 4; 2 and 4 have alpha last)
 //   [4] --from: 0 none, 1..6 latlong, cube, mirrorball, angular, octahedral, paraboloid (mod 7)
@@ -16,14 +16,14 @@
 // direction for a few texels), so the parameterization the detection produced is exercised, not just built.
 // Every failure must be an envkit::Error whose message names the path (image_io.h: "<path>: <problem>");
 // anything else is a finding (__builtin_trap after printing it).
-#include "fuzz_support.h"
-
 #include <envkit/envmap.h>
 #include <envkit/error.h>
 #include <envkit/image_io.h>
 #include <envkit/latlong.h>
 #include <envkit/resample.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -32,13 +32,15 @@
 #include <limits>
 #include <string>
 
+#include "fuzz_support.h"
+
 namespace {
 
 const char* const kKinds[] = {"latlong", "cube", "mirrorball", "angular", "octahedral", "paraboloid"};
 const char* const kLayouts[] = {"vstrip", "hstrip", "hcross", "vcross"};
 const char* const kConventions[] = {"envkit", "openexr", "hdrshop", "angmap-cal", "blender", "gl"};
-const double kBallValues[] = {0.0, 3.5, 8.0, -2.0, 1e12, 0.25, std::numeric_limits<double>::quiet_NaN(),
-                              std::numeric_limits<double>::infinity()};
+const double kBallValues[] = {
+    0.0, 3.5, 8.0, -2.0, 1e12, 0.25, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()};
 
 [[noreturn]] void finding(const std::string& what) {
   std::fprintf(stderr, "FINDING: %s\n", what.c_str());
@@ -113,11 +115,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         std::memcpy(&image.pixels[k], data + pos + 4 * (k % nfloats), 4);
     }
   } else {
-    static const char* const ext[] = {"", ".exr", ".hdr", ".png"};
+    // Formats envkit decodes itself or through OpenEXR (whose header it checks first): the file starts with its
+    // format's magic, written here when the input lacks it. Arbitrary bytes would otherwise reach OIIO's other
+    // plugins and libpng, whose allocations on hostile headers envkit cannot bound (seconds and gigabytes a unit).
+    static const char* const ext[] = {"", ".exr", ".hdr", ".pfm"};
+    static const std::string magic[] = {"", "\x76\x2f\x31\x01", "#?", "PF\n"};
     path = (envkit::fuzz::scratch_dir() / (std::string("input") + ext[mode])).string();
     {
       std::ofstream f(path, std::ios::binary | std::ios::trunc);
-      if (size > pos) f.write(reinterpret_cast<const char*>(data + pos), static_cast<std::streamsize>(size - pos));
+      const std::string body(reinterpret_cast<const char*>(data) + std::min(pos, size), size - std::min(pos, size));
+      const bool pfm =
+          body.size() >= 3 && body[0] == 'P' && (body[1] == 'F' || body[1] == 'f') && std::isspace(body[2]);
+      if (mode == 3 ? !pfm : body.compare(0, magic[mode].size(), magic[mode]) != 0) f << magic[mode];
+      f << body;
     }
     try {
       envkit::ReadReport report;

@@ -7,6 +7,7 @@
 // method, compensated twins) to <path> and exits; scripts/fuzz.sh does this before fuzzing, so the seed always
 // has the current format version.
 #include "fuzz_support.h"
+#include "seed_tables.h"
 
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
@@ -27,24 +28,12 @@ namespace {
   __builtin_trap();
 }
 
-void write_seed(const std::string& path) {
-  envkit::EnvMap map;
-  map.image = envkit::Image(16, 8, 3);
-  map.image.channel_names = envkit::default_channel_names(3);
-  for (int y = 0; y < 8; ++y)
-    for (int x = 0; x < 16; ++x)
-      for (int c = 0; c < 3; ++c) map.image.at(x, y, c) = (x == 5 && y == 2) ? 50.0f : 0.1f + 0.05f * float(y + c);
-  map.param = std::make_unique<envkit::LatLongMap>(16, 8);
-  envkit::BakeOptions options;
-  options.compensated = true;
-  envkit::EnvTables::bake(map, options, "seed.exr").save(path);
-}
 
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   if (const char* seed = std::getenv("ENVKIT_FUZZ_WRITE_SEED")) {
-    write_seed(seed);
+    envkit::fuzz::write_seed_tables(seed);
     std::exit(0);
   }
   envkit::fuzz::scratch_dir("tables");

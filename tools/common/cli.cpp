@@ -1,13 +1,20 @@
 #include "common/cli.h"
 
+#include <envkit/atomic_file.h>
 #include <envkit/color.h>
 #include <envkit/convention.h>
 #include <envkit/cubemap.h>
 #include <envkit/error.h>
 #include <envkit/filter.h>
+#include <envkit/image_io.h>
 #include <envkit/parameterization.h>
+#include <envkit/view.h>
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <iostream>
 #include <new>
@@ -48,7 +55,7 @@ int run_cli(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
   } catch (const std::bad_alloc&) {
     std::cerr << g_program << ": out of memory\n";
   } catch (const std::exception& e) {
-    std::cerr << g_program << ": " << e.what() << "\n";
+    std::cerr << g_program << ": " << envkit::without_temp_names(e.what()) << "\n";
   }
   return kExitError;
 }
@@ -71,6 +78,9 @@ CLI::Validator filter_validator() {
 CLI::Validator rotation_validator() {
   return parsed_by([](const std::string& s) { parse_rotation(s); });
 }
+CLI::Validator lens_validator() {
+  return parsed_by([](const std::string& s) { parse_lens(s); });
+}
 CLI::Validator colorspace_validator() {
   return parsed_by([](const std::string& s) { canonical_colorspace(s); });
 }
@@ -78,7 +88,7 @@ CLI::Validator colorspace_validator() {
 std::string kind_choices() {
   std::vector<std::string> names;
   for (Kind k : {Kind::LatLong, Kind::CubeMap, Kind::MirrorBall, Kind::AngularMap, Kind::Octahedral,
-                 Kind::DualParaboloid})
+                 Kind::DualParaboloid, Kind::HEALPix, Kind::Perspective, Kind::Fisheye})
     names.push_back(kind_name(k));
   return choices(names);
 }
@@ -91,7 +101,111 @@ std::string layout_choices() {
   return choices(names);
 }
 
-std::string convention_choices() { return choices(convention_names()); }
+std::string convention_choices() {
+  std::vector<std::string> aliases;
+  for (const auto& [alias, preset] : convention_aliases()) aliases.push_back(alias + "=" + preset);
+  return choices(convention_names()) + " (aliases: " + join(aliases, ", ") + ")";
+}
+
+namespace {
+
+// "%.17g" without trailing noise for range bounds: 1024, 1e+06, 0.5.
+std::string bound_text(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string range_text(double lo, double hi, bool min_exclusive) {
+  return std::string(min_exclusive ? "(" : "[") + bound_text(lo) + ", " + bound_text(hi) + "]";
+}
+
+// Strict double parsing: the whole text, no NaN, no infinities, no overflow (1e999).
+std::optional<double> finite_number(const std::string& text) {
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text.front()))) return std::nullopt;
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size() || !std::isfinite(v) || errno == ERANGE) return std::nullopt;
+  return v;
+}
+
+// Checks `text` as an integer in [lo, hi]; returns the message (empty: fine) and the canonical digits in `out`.
+std::string check_integer(const std::string& text, long long lo, long long hi, std::string& out) {
+  const std::string range = range_text(double(lo), double(hi), false);
+  const std::optional<double> v = finite_number(text);
+  if (!v) return "'" + text + "' is not a number (expected an integer in " + range + ")";
+  if (*v != std::floor(*v)) return "'" + text + "' is not a whole number (expected an integer in " + range + ")";
+  if (*v < double(lo) || *v > double(hi)) return text + " is outside " + range;
+  // Digits only from here: "1e3" becomes "1000" so CLI11's integer conversion takes it.
+  out = std::to_string(static_cast<long long>(*v));
+  return {};
+}
+
+std::string check_number(const std::string& text, double lo, double hi, bool min_exclusive) {
+  const std::string range = range_text(lo, hi, min_exclusive);
+  const std::optional<double> v = finite_number(text);
+  if (!v) return "'" + text + "' is not a finite number (expected a number in " + range + ")";
+  if (*v < lo || *v > hi || (min_exclusive && *v == lo)) return text + " is outside " + range;
+  return {};
+}
+
+}  // namespace
+
+CLI::Validator integer_in(long long lo, long long hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& text) {
+        std::string canonical = text;
+        std::string message = check_integer(text, lo, hi, canonical);
+        if (message.empty()) text = canonical;
+        return message;
+      },
+      "INT in " + range_text(double(lo), double(hi), false));
+}
+
+CLI::Validator number_in(double lo, double hi, bool min_exclusive) {
+  return CLI::Validator([lo, hi, min_exclusive](std::string& text) { return check_number(text, lo, hi, min_exclusive); },
+                        "NUMBER in " + range_text(lo, hi, min_exclusive));
+}
+
+double parse_number(const std::string& option, const std::string& text, double lo, double hi) {
+  const std::string message = check_number(text, lo, hi, false);
+  if (!message.empty()) throw CLI::ValidationError(option, message);
+  return *finite_number(text);
+}
+
+long long parse_integer(const std::string& option, const std::string& text, long long lo, long long hi) {
+  std::string canonical = text;
+  const std::string message = check_integer(text, lo, hi, canonical);
+  if (!message.empty()) throw CLI::ValidationError(option, message);
+  return std::stoll(canonical);
+}
+
+double physical_memory_bytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? double(pages) * double(page) : 0x1p40;
+}
+
+long long max_image_texels() { return ReadOptions{}.max_texels; }
+
+void check_image_size(const std::string& option, const std::string& value, const std::string& what,
+                      long long width, long long height, double bytes_per_texel) {
+  const double texels = double(width) * double(height);
+  const std::string size = std::to_string(width) + " x " + std::to_string(height);
+  if (texels > double(max_image_texels()))
+    throw CLI::ValidationError(option, "'" + value + "': " + what + " of " + size + " = " + fmt(texels, 4) +
+                                           " texels is more than envkit's image readers accept (" +
+                                           std::to_string(max_image_texels()) + ")");
+  const double bytes = texels * bytes_per_texel, have = physical_memory_bytes();
+  if (bytes > have)
+    throw CLI::ValidationError(option, "'" + value + "': " + what + " of " + size + " needs about " +
+                                           fmt(bytes / 0x1p30, 3) + " GiB of memory; this machine has " +
+                                           fmt(have / 0x1p30, 3) + " GiB");
+}
+
+std::string json_text(const nlohmann::json& j, int indent) {
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
 
 std::pair<double, double> parse_number_pair(const std::string& option, const std::string& text) {
   const auto comma = text.find(',');
@@ -111,7 +225,7 @@ std::pair<double, double> parse_number_pair(const std::string& option, const std
 CLI::Option* add_threads_option(CLI::App& app, int& threads) {
   return app.add_option("--threads", threads, "worker threads (0 = all cores)")
       ->type_name("N")
-      ->check(CLI::NonNegativeNumber);
+      ->transform(integer_in(0, 1024));
 }
 
 std::unique_ptr<tbb::global_control> limit_threads(int threads) {

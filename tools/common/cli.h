@@ -5,6 +5,7 @@
 #include <envkit/vec.h>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include <functional>
@@ -38,6 +39,7 @@ CLI::Validator convention_validator();  ///< convention()
 CLI::Validator filter_validator();      ///< parse_filter
 CLI::Validator rotation_validator();    ///< parse_rotation
 CLI::Validator colorspace_validator();  ///< canonical_colorspace (the active OCIO config)
+CLI::Validator lens_validator();        ///< parse_lens (fisheye lenses)
 
 /// "a|b|c" lists for help texts.
 std::string kind_choices();
@@ -45,10 +47,38 @@ std::string layout_choices();
 std::string convention_choices();
 inline constexpr const char* kFilterChoices = "nearest|bilinear|bicubic|area";
 
+/// Number options, checked where the value enters: every numeric option of every tool uses one of these, so
+/// NaN, infinities, fractions where a count is meant and values outside the supported range are refused with
+/// one message that names the option, the value and the range ("--threads: -1 is outside [0, 1024]").
+/// integer_in accepts decimal integers and integral scientific notation ("1e3" is rewritten to "1000", "1.5" and
+/// "1e999" are refused; attach it with ->transform(), which lets it rewrite the value); number_in accepts finite
+/// reals (->check()). `min_exclusive`: the lower bound itself is refused.
+CLI::Validator integer_in(long long lo, long long hi);
+CLI::Validator number_in(double lo, double hi, bool min_exclusive = false);
+/// The same check for numbers inside option values (R,G,B lists, pairs): returns the value or throws
+/// CLI::ValidationError(option, ...).
+double parse_number(const std::string& option, const std::string& text, double lo, double hi);
+long long parse_integer(const std::string& option, const std::string& text, long long lo, long long hi);
+
+/// Refuses, up front, an image or table whose size the machine or envkit's readers cannot take:
+/// width * height must be <= 2^30 texels (what the image readers accept) and width * height * bytes_per_texel
+/// must fit in the physical memory. Throws CLI::ValidationError(option, "'<value>': <what> of W x H needs X GiB;
+/// ...") naming the option and its value.
+void check_image_size(const std::string& option, const std::string& value, const std::string& what,
+                      long long width, long long height, double bytes_per_texel);
+/// Physical memory of the machine in bytes (sysconf), the budget check_image_size uses.
+double physical_memory_bytes();
+/// The largest texel count envkit's image readers accept (ReadOptions::max_texels).
+long long max_image_texels();
+
+/// JSON text for user-facing output: strings that are not valid UTF-8 (file names are bytes) are written with
+/// U+FFFD in place of the invalid bytes instead of failing the dump.
+std::string json_text(const nlohmann::json& j, int indent = 2);
+
 /// Parses "X,Y" (two finite numbers); throws CLI::ValidationError naming `option` otherwise.
 std::pair<double, double> parse_number_pair(const std::string& option, const std::string& text);
 
-/// Adds --threads N to `app` (0 = all cores).
+/// Adds --threads N to `app` (0 = all cores, at most 1024).
 CLI::Option* add_threads_option(CLI::App& app, int& threads);
 /// Limits oneTBB to `threads` workers while the returned object lives (nothing for 0).
 std::unique_ptr<tbb::global_control> limit_threads(int threads);

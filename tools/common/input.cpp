@@ -18,6 +18,7 @@ LoadedInput load_input(const InputSpec& spec) {
   options.ball_cx = spec.ball_cx;
   options.ball_cy = spec.ball_cy;
   options.ball_radius = spec.ball_radius;
+  options.view = spec.view;
   LoadedInput in;
   in.path = spec.path;
   in.map = load_envmap(spec.path, options, &in.detection, &in.report);
@@ -43,7 +44,8 @@ void report_input(const LoadedInput& in, bool quiet) {
          std::to_string(r.nan_count) + " NaN, " + std::to_string(r.posinf_count) + " +Inf, " +
          std::to_string(r.neginf_count) + " -Inf) (--fix-nonfinite " + nonfinite_policy_name(r.policy) + ")");
   info(in.path + ": " + in.map.param->describe() + "; " + (in.detection.assumed ? "assumed " : "") +
-       in.detection.reason + "; convention " + in.map.convention);
+       in.detection.reason + "; convention " + in.map.convention +
+       (in.detection.convention_reason.empty() ? "" : " (" + in.detection.convention_reason + ")"));
 }
 
 nlohmann::json input_json(const LoadedInput& in) {

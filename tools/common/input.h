@@ -20,6 +20,7 @@ struct InputSpec {
   std::string colorspace;  ///< ReadOptions::colorspace
   NonFinitePolicy nonfinite = NonFinitePolicy::Error;
   std::optional<double> ball_cx, ball_cy, ball_radius;
+  std::optional<ViewParams> view;  ///< camera views read with --from perspective|fisheye (default: metadata)
 };
 
 struct LoadedInput {

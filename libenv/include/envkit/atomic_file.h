@@ -8,8 +8,22 @@
 ///   write_whatever(out.temp_path());         // may throw: ~AtomicOutput removes the temp file
 ///   out.commit();                            // rename(temp, path)
 ///
+/// Outputs that belong together (an EXR and its PNG preview, six cube faces, a map and its exported tables) are
+/// committed all-or-nothing by an OutputGroup:
+///
+///   envkit::OutputGroup group;               // while it lives, every AtomicOutput::commit() is deferred to it
+///   write_exr(a); write_png(b);              // each writer uses its own AtomicOutput as usual
+///   group.commit();                          // renames every deferred temp file, or none
+///
 /// Temp files are named `.<name>.tmp-<pid>-<counter><ext>` in the target's directory (same file system, so
 /// rename() is atomic; same extension, so extension-based format detection still picks the right writer).
+///
+/// Signals: the first AtomicOutput installs handlers (install_temp_cleanup_on_signal()) for SIGINT, SIGTERM and
+/// SIGHUP that remove every live temp file and re-raise the signal, and one for SIGXFSZ (file size limit,
+/// `ulimit -f`) that lets the write fail with EFBIG instead of killing the process; a temp file written while
+/// SIGXFSZ arrived is never committed. A signal that arrives while an OutputGroup renames its files is held until
+/// the group has committed (or rolled back), so a group is never left half-committed. SIGKILL cannot be caught:
+/// it may leave a temp file behind (never a partial target).
 #include <string>
 #include <vector>
 
@@ -28,12 +42,13 @@ class AtomicOutput {
 
   /// The path as given by the caller (use it in messages).
   const std::string& target() const { return target_; }
-  /// Where to write. Registered for removal on SIGINT/SIGTERM (see install_temp_cleanup_on_signal()).
+  /// Where to write. Registered for removal on SIGINT/SIGTERM/SIGHUP.
   const std::string& temp_path() const { return temp_; }
 
-  /// Flushes the temp file to disk and renames it over the target.
-  /// Throws Error("<target>: cannot write: <reason>") if the temp file is missing or the rename fails;
-  /// the temp file is removed in that case.
+  /// Flushes the temp file to disk and renames it over the target; inside an OutputGroup the rename is handed to
+  /// the group instead (committed() is then true, the group owns the temp file).
+  /// Throws Error("<target>: cannot write: <reason>") if the temp file is missing, the file size limit was hit
+  /// while it was written, or the rename fails; the temp file is removed in that case.
   void commit();
   bool committed() const { return committed_; }
 
@@ -42,6 +57,28 @@ class AtomicOutput {
   std::string final_path_; // target_ with a symlink resolved
   std::string temp_;
   int slot_ = -1;          // signal-cleanup registry slot, -1 when not registered
+  unsigned long xfsz_at_start_ = 0;
+  bool committed_ = false;
+};
+
+/// All-or-nothing commit of several AtomicOutputs. While a group lives, AtomicOutput::commit() anywhere in the
+/// process only fsyncs and hands its temp file to the innermost-started group (a group created while another lives
+/// joins the outer one). OutputGroup::commit() then renames every file: existing targets are kept as hard-link
+/// backups until all renames succeeded, and restored if one fails, so afterwards either every target holds its
+/// new contents or every target is as before. Signals are held during that step (see the file comment).
+/// The destructor of an uncommitted group removes every deferred temp file (nothing is committed).
+class OutputGroup {
+ public:
+  OutputGroup();
+  OutputGroup(const OutputGroup&) = delete;
+  OutputGroup& operator=(const OutputGroup&) = delete;
+  ~OutputGroup();
+  /// Throws Error("<target>: cannot write: <reason>") naming the first target that could not be committed; then
+  /// no target has changed. A joined (inner) group's commit() does nothing: the outer group commits.
+  void commit();
+
+ private:
+  bool outer_ = false;
   bool committed_ = false;
 };
 
@@ -55,10 +92,20 @@ class AtomicOutput {
 ///    parent directory is missing or not writable (access(W_OK); note that root passes this check).
 void check_output_path(const std::string& out, const std::vector<std::string>& inputs, bool force);
 
-/// Installs SIGINT/SIGTERM/SIGHUP handlers that unlink every live AtomicOutput temp file, then restore the
-/// previous handler and re-raise the signal (so the process still dies with the signal, or the previous
-/// handler runs). Idempotent; call it once early in main(). The registry holds up to 64 concurrent temp
-/// files; further ones are still removed by their destructors, just not on a signal.
+/// `message` with every AtomicOutput temp file name (`.<name>.tmp-<pid>-<n><ext>`) replaced by the target's name
+/// (`<name>`): writers' errors mention the file they were writing, which is the temp file, an internal name the
+/// user never asked for. Tools pass their error messages through it.
+std::string without_temp_names(const std::string& message);
+
+/// Refuses two outputs of one run that name the same file (the later would replace the earlier):
+/// Error("<b>: is the same file as the output <a>") for the first such pair, compared like check_output_path.
+void check_distinct_outputs(const std::vector<std::string>& outputs);
+
+/// Installs the SIGINT/SIGTERM/SIGHUP cleanup handlers (remove every live temp file, restore the previous handler,
+/// re-raise, so the process still dies with the signal or the previous handler runs) and the SIGXFSZ handler.
+/// Idempotent; AtomicOutput calls it, tools may call it early in main(). A signal that was ignored when this ran
+/// stays ignored (nohup). The registry holds up to 256 concurrent temp files; further ones are still removed by
+/// their destructors, just not on a signal.
 void install_temp_cleanup_on_signal();
 
 }  // namespace envkit

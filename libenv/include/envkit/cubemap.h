@@ -56,6 +56,7 @@ class CubeMap final : public Parameterization {
   Kind kind() const override { return Kind::CubeMap; }
   std::string describe() const override;
   std::unique_ptr<Parameterization> clone() const override { return std::make_unique<CubeMap>(*this); }
+  bool same_grid(const Parameterization& other) const override;
 
   int face_size() const { return n_; }
   CubeLayout layout() const { return layout_; }

@@ -58,6 +58,7 @@
 #include <cfloat>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 
 #if defined(__SSE2__)
@@ -121,6 +122,15 @@ class Distribution2D {
     t.x = s.x;
     t.y = s.y;
     return t;
+  }
+
+  /// sample_texel(u[k]) into out[k] for every k, bit for bit (u.size() == out.size(), checked by the caller). On
+  /// tables larger than the caches one sample is a chain of dependent misses; the built-in distributions override
+  /// this with warps that take the samples in groups of sampling::kSampleGroup and run each step of the chain for
+  /// the whole group, prefetching the next step's table entries, so that the group's misses overlap instead of
+  /// following one another. This default is the plain loop.
+  virtual void sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
+    for (std::size_t k = 0; k < u.size(); ++k) out[k] = sample_texel(u[k]);
   }
 
   /// Density w.r.t. uv area at uv: the density of the texel containing uv. uv on the closed square [0,1]^2 is
@@ -222,6 +232,16 @@ inline double clamp_unit(double v, double hi) {
 #else
   return v > 0.0 ? std::min(v, hi) : 0.0;
 #endif
+}
+
+/// Samples per group of the batched warps (Distribution2D::sample_texels): enough misses in flight to fill a
+/// core's miss buffers several times over, few enough that a group's per-sample state stays in L1.
+inline constexpr std::size_t kSampleGroup = 64;
+
+/// Calls f(first, count) for consecutive groups of at most kSampleGroup of n items.
+template <class F>
+inline void for_each_group(std::size_t n, F&& f) {
+  for (std::size_t g = 0; g < n; g += kSampleGroup) f(g, std::min(kSampleGroup, n - g));
 }
 
 /// u clamped to [0, kOneMinusEpsilon]; NaN -> 0.

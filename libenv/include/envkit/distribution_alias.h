@@ -141,6 +141,8 @@ class AliasDistribution2D final : public Distribution2D {
   const char* method() const override { return "alias"; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
+  /// Batched sample_texel(), bit for bit: see pick_group().
+  void sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const override;
   double pdf(Vec2 uv) const override;
   double texel_probability(int x, int y) const override;
   std::size_t bytes() const override;
@@ -148,7 +150,14 @@ class AliasDistribution2D final : public Distribution2D {
   /// sample_texel() as an inline, non-virtual call, for callers that know the class (SphericalDistribution).
   TexelSample pick(Vec2 u) const;
 
+  /// pick() of n <= sampling::kSampleGroup samples in stages over the whole group, each prefetching what the next
+  /// touches: the row candidates' marginal bins, then the chosen rows' column bins (one 16-byte bin of a table of
+  /// 16 W H bytes: the miss of this warp), then the coins.
+  void pick_group(const Vec2* u, TexelSample* out, std::size_t n) const;
+
  private:
+  /// Throws Error("<context>: invalid alias table (...)") unless the restored values are consistent.
+  void validate(const std::string& context) const;
   struct RowBin {
     float keep = -0.0f;  // as AliasBin::keep
     std::uint32_t alias = 0;

@@ -54,27 +54,33 @@ struct TwoSidedCdf {
   /// u at the start of bin i.
   double lower(int i) const { return i < split ? double(t[i]) : 1.0 - double(t[i]); }
 
+  /// Which part holds the bin of u (u in [0, kOneMinusEpsilon], r = 1 - u): the forward part t[0..split) when
+  /// u < 1/2 or the remaining mass at the split is below r, else the backward part t[split..n).
+  /// (For u >= 1/2, r = 1 - u is exact (Sterbenz), so comparisons with the stored remaining mass are exact too.)
+  bool forward(double u, double r) const { return u < 0.5 || double(t[split]) < r; }
+
+  /// The search's predicate at entry e: true when the bin of u lies after e. Forward part: the last entry <= u
+  /// (t[0] = 0 <= u); backward part (t decreases): the last entry with remaining mass >= r (t[n] = 0 < r).
+  static bool after(bool forward_part, float e, double u, double r) {
+    return forward_part ? !(u < double(e)) : double(e) >= r;
+  }
+
+  /// The bin i found by the search: its step and the fraction of the bin before u.
+  int finish(int i, bool forward_part, double u, double r, double& fraction, double& bin_step) const {
+    bin_step = step(i);
+    fraction = forward_part ? (u - double(t[i])) / bin_step : (double(t[i]) - r) / bin_step;
+    return i;
+  }
+
   /// The bin containing u (u in [0, kOneMinusEpsilon]) and the fraction of the bin before u. Never returns a
   /// zero-step bin: with lower(i) <= u < lower(i+1) the step is positive.
   int find(double u, double& fraction, double& bin_step) const {
-    int i;
-    // For u >= 1/2, r = 1 - u is exact (Sterbenz), so comparisons with the stored remaining mass are exact too.
     const double r = 1.0 - u;
-    if (u < 0.5 || double(t[split]) < r) {
-      // Bin in the forward part: the last entry <= u among t[0..split) (t[0] = 0 <= u).
-      // (std::upper_bound measured faster than a branch-free search: speculation prefetches the next probe.)
-      const float* p = std::upper_bound(t, t + split, u, [](double v, float e) { return v < double(e); });
-      i = static_cast<int>(p - t) - 1;
-      bin_step = step(i);
-      fraction = (u - double(t[i])) / bin_step;
-    } else {
-      // Bin in the backward part: t decreases there; the last entry with remaining mass >= r. t[n] = 0 < r.
-      const float* p = std::partition_point(t + split, t + n, [r](float e) { return double(e) >= r; });
-      i = static_cast<int>(p - t) - 1;
-      bin_step = step(i);
-      fraction = (double(t[i]) - r) / bin_step;
-    }
-    return i;
+    const bool f = forward(u, r);
+    // std::upper_bound, not a search by selects: its conditional jumps let the CPU speculate into the next probe.
+    const float* p = f ? std::upper_bound(t, t + split, u, [](double v, float e) { return v < double(e); })
+                       : std::partition_point(t + split, t + n, [r](float e) { return double(e) >= r; });
+    return finish(static_cast<int>(p - t) - 1, f, u, r, fraction, bin_step);
   }
 
   /// The u at fraction f of bin i.
@@ -135,6 +141,8 @@ class CdfDistribution2D final : public Distribution2D {
   const char* method() const override { return "cdf"; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
+  /// Batched sample_texel(), bit for bit: see pick_group().
+  void sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const override;
   double pdf(Vec2 uv) const override;
   double texel_probability(int x, int y) const override;
   bool can_invert() const override { return true; }
@@ -143,6 +151,12 @@ class CdfDistribution2D final : public Distribution2D {
 
   /// sample_texel() as an inline, non-virtual call, for callers that know the class (SphericalDistribution).
   TexelSample pick(Vec2 u) const;
+
+  /// pick() of n <= sampling::kSampleGroup samples in stages over the whole group: the marginal searches (a table of
+  /// H floats, cached), then the conditional rows' binary searches run one probe per sample and round, prefetching
+  /// each sample's next probe, so that the group's misses in the rows overlap. The probes are those of pick()'s
+  /// std::upper_bound / std::partition_point (libstdc++'s halving), so the result is the same bit for bit.
+  void pick_group(const Vec2* u, TexelSample* out, std::size_t n) const;
 
  private:
   TableArray<float> conditional_;          // H rows of W + 1 two-sided entries

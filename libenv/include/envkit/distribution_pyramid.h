@@ -35,6 +35,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #if defined(__SSE2__)
@@ -120,6 +121,8 @@ class PyramidDistribution2D final : public Distribution2D {
   const char* method() const override { return "pyramid"; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
+  /// Batched sample_texel(), bit for bit: see pick_group().
+  void sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const override;
   double pdf(Vec2 uv) const override;
   double texel_probability(int x, int y) const override;
   bool can_invert() const override { return true; }
@@ -128,6 +131,11 @@ class PyramidDistribution2D final : public Distribution2D {
 
   /// sample_texel() as an inline, non-virtual call, for callers that know the class (SphericalDistribution).
   TexelSample pick(Vec2 u) const;
+
+  /// pick() of n <= sampling::kSampleGroup samples descending the pyramid together, level by level: each sample's
+  /// step at level k prefetches the block it reads at level k - 1, one pass over the group later, so the group's
+  /// misses in the large levels overlap.
+  void pick_group(const Vec2* u, TexelSample* out, std::size_t n) const;
 
   /// Number of levels above the weights (the depth of a sample's descent): ceil(log2(max(W, H))), at least 1.
   int levels() const { return static_cast<int>(levels_.size()) - 1; }
@@ -145,6 +153,8 @@ class PyramidDistribution2D final : public Distribution2D {
   }
 
  private:
+  /// Throws Error("<context>: invalid pyramid (...)") unless the restored nodes form a pyramid.
+  void validate(const std::string& context) const;
   struct Level {
     int width = 0;            // nodes in this level
     int height = 0;

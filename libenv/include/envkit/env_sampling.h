@@ -1,18 +1,23 @@
 #pragma once
 /// @file env_sampling.h
-/// Sampling directions on the sphere from a 2D distribution baked over a lat-long or equal-area octahedral grid.
+/// Sampling directions on the sphere from a 2D distribution baked over a lat-long, equal-area octahedral or HEALPix
+/// grid.
 ///
 /// One interface for every method (cdf, alias, hierarchical): sample(u) -> {direction, pdf per steradian, texel},
 /// pdf(direction), invert(direction) -> u (cdf and hierarchical).
 ///
 /// Frame: directions are unit vectors in the frame the tables were baked in (envkit's canonical world frame,
-/// +Y up, see latlong.h / octahedral.h; the bake has already applied the source map's convention and rotation).
+/// +Y up, see latlong.h / octahedral.h / healpix.h; the bake has already applied the source map's convention and
+/// rotation).
 ///
 /// Density inside a texel. The 2D distribution picks texel (x, y) with probability P(x, y) = w / sum(w), where
 /// w = importance x exact texel solid angle Omega(x, y). The position inside the texel is then drawn UNIFORMLY IN
 /// SOLID ANGLE (lat-long: longitude linear in the offset, z = cos theta linear in the offset between the row's
-/// bounds; octahedral: the map is equal-area, so uniform in the square is uniform in solid angle). The density is
-/// therefore constant per texel:
+/// bounds; octahedral: the map is equal-area, so uniform in the square is uniform in solid angle; HEALPix: every
+/// texel is one HEALPix pixel whose face coordinates map to the sphere with a constant Jacobian (healpix.h), so
+/// uniform in the texel is uniform in solid angle too; offsets are kept HealpixMap::to_image_tolerance() texels
+/// away from the edges so that texel_of() finds every sample in its own texel). The density is therefore constant
+/// per texel:
 ///     pdf(direction) = P(x, y) / Omega(x, y)  = importance(x, y) / sum(importance x Omega)
 /// This is the seed's pdf_uv / (2 pi^2 sin theta) done right: the sin theta is integrated over the texel, so the
 /// pdf is finite at the poles (sin theta = 0) instead of infinite, and it is never NaN. It is 0 exactly where the
@@ -29,10 +34,13 @@
 #include <envkit/vec.h>
 
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 namespace envkit {
+
+class HealpixMap;  // healpix.h
 
 /// The three warps of distribution.h under their user-facing names.
 enum class SamplingMethod { Cdf, Alias, Hierarchical };
@@ -50,17 +58,22 @@ struct DirectionSample {
   int y = 0;                      ///< texel row of the bake grid (row 0 = top, +Y for lat-long)
 };
 
-/// A Distribution2D over a lat-long (2:1 or any W x H) or equal-area octahedral (square) grid, seen as a density
-/// over directions.
+/// A Distribution2D over a lat-long (2:1 or any W x H), equal-area octahedral (square) or HEALPix (4 N_side x 3 N_side,
+/// healpix.h's layout) grid, seen as a density over directions.
 class SphericalDistribution {
  public:
-  /// grid: Kind::LatLong (envkit canonical, centre-sampled) or Kind::Octahedral; the distribution's size is the
-  /// grid's. Its weights must be importance x texel solid angle (see the file comment). Throws Error for another
-  /// kind or a non-square octahedral grid.
+  /// grid: Kind::LatLong (envkit canonical, centre-sampled), Kind::Octahedral or Kind::HEALPix; the distribution's
+  /// size is the grid's. Its weights must be importance x texel solid angle (see the file comment). Throws Error for
+  /// another kind, a non-square octahedral grid or a HEALPix grid that is not 4 N_side x 3 N_side.
   SphericalDistribution(Kind grid, std::shared_ptr<const Distribution2D> distribution);
 
   /// Warp u in [0,1)^2 to a direction.
   DirectionSample sample(Vec2 u) const { return sample_(*this, u); }
+  /// sample(u[k]) into out[k] for every k, bit for bit; throws Error unless u.size() == out.size(). For many
+  /// samples: on tables larger than the caches each sample is a chain of dependent cache misses, which this runs
+  /// for groups of samples at a time so that the misses of a group overlap (the texel choice through
+  /// Distribution2D::sample_texels, then the group's row bands and longitude entries, prefetched).
+  void sample(std::span<const Vec2> u, std::span<DirectionSample> out) const;
   /// Density per steradian at direction (need not be normalised; 0 for a zero or NaN vector).
   double pdf(const Vec3& direction) const;
   bool can_invert() const { return distribution_->can_invert(); }
@@ -69,7 +82,9 @@ class SphericalDistribution {
 
   /// Texel of the bake grid containing direction (lat-long row from theta, column from longitude).
   void texel_of(const Vec3& direction, int& x, int& y) const;
-  /// Exact solid angle of texel (x, y), steradians.
+  /// Density per steradian of every direction inside texel (x, y) (in the grid): pdf(d) for d in that texel.
+  double texel_pdf(int x, int y) const;
+  /// Exact solid angle of texel (x, y), steradians (HEALPix: 4 pi / (12 N_side^2) for every texel).
   double texel_solid_angle(int x, int y) const;
 
   Kind grid() const { return grid_; }
@@ -111,7 +126,11 @@ class SphericalDistribution {
   /// kOneStep: the longitude table has one step per column (W >= 2048), else longitude_substeps_ per column.
   template <bool kOneStep>
   Vec3 latlong_direction(const RowBand& band, int x, double fx, double fy) const;
-  /// sample() through the virtual sample_texel(): octahedral grids and distributions other than the built-ins.
+  /// The directions of a group of chosen texels on a lat-long grid (the batched sample()'s last stage).
+  template <bool kOneStep>
+  void latlong_directions(const TexelSample* t, DirectionSample* out, std::size_t n) const;
+  /// sample() through the virtual sample_texel(): octahedral and HEALPix grids, and distributions other than the
+  /// built-ins.
   static DirectionSample sample_general(const SphericalDistribution& s, const Vec2& u);
   /// sample() on a lat-long grid with a built-in distribution D: its inline pick(), no virtual call.
   template <class D, bool kOneStep>
@@ -129,7 +148,13 @@ class SphericalDistribution {
   int longitude_substeps_ = 1;
   double sin_poly_[3] = {};             // sin d and cos d - 1 for d = f 2 pi / N, polynomials in f in [0, 1)
   double cos_poly_[2] = {};
-  double octahedral_pdf_factor_ = 0.0;  // octahedral: 1 / (4 pi), the same for every texel
+  /// Equal-area grids (octahedral, HEALPix): pdf per steradian over pdf_uv, 1 / (W H texel solid angle) = 1 / (4 pi).
+  double equal_area_pdf_factor_ = 0.0;
+  /// HEALPix grids: the map whose texel <-> direction functions place samples (its geometry lives in one place).
+  std::shared_ptr<const HealpixMap> healpix_;
+  /// HEALPix grids: offsets inside a texel are kept in [margin, 1 - margin] (HealpixMap::to_image_tolerance), so
+  /// that texel_of() locates every sample in the texel it was drawn from (pdf and radiance agree with the sample).
+  double healpix_margin_ = 0.0;
 };
 
 }  // namespace envkit

@@ -4,10 +4,11 @@
 /// (cdf, alias, hierarchical, and optionally their MIS-compensated twins), in memory and in versioned files.
 ///
 /// Baking (EnvTables::bake):
-///  1. The map is brought onto the bake grid: an envkit-canonical lat-long (centre-sampled, +Y up) or equal-area
-///     octahedral map of the requested size. A map already on that grid with an identity map->world transform is
-///     used as is; anything else (other parameterizations, conventions, rotations, sizes) is resampled with the
-///     flux-conserving `area` filter. Directions in the tables are therefore in the map's WORLD frame.
+///  1. The map is brought onto the bake grid: an envkit-canonical lat-long (centre-sampled, +Y up), equal-area
+///     octahedral or HEALPix (healpix.h's 4x3 layout) map of the requested size. A map already on that grid with an
+///     identity map->world transform is used as is; anything else (other parameterizations, conventions, rotations,
+///     sizes) is resampled with the flux-conserving `area` filter. Directions in the tables are therefore in the map's
+///     WORLD frame.
 ///  2. importance(x, y) = luminance (weights from the map's colour space through OCIO, Rec.709 when unknown),
 ///     average or max of the colour channels, negative and NaN treated as 0. Optional --resolution: the scalar
 ///     importance is area-filtered down to W x H (solid-angle weighted). Optional conservative mode: each texel
@@ -34,6 +35,7 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -51,9 +53,10 @@ inline constexpr std::uint32_t kTableFormatVersion = 2;
 
 struct BakeOptions {
   ImportanceMode importance = ImportanceMode::Luminance;
-  Kind grid = Kind::LatLong;  ///< LatLong or Octahedral
-  /// Bake grid size. 0 = natural: the source's size when it is already on the grid, else a grid with about as
-  /// many texels as the source (lat-long 2N x N, octahedral N x N).
+  Kind grid = Kind::LatLong;  ///< LatLong, Octahedral or HEALPix
+  /// Bake grid size, texels. 0 = natural: the source's size when it is already on the grid, else a grid with
+  /// about as many texels as the source (lat-long 2N x N, octahedral N x N, HEALPix 4 N_side x 3 N_side).
+  /// Octahedral must be square, HEALPix 4 N_side x 3 N_side (Error otherwise).
   int width = 0;
   int height = 0;
   /// Importance resolution (--resolution); 0 = the bake grid size. Must not exceed it.
@@ -105,6 +108,8 @@ class EnvTables {
   double total_importance() const { return total_importance_; }
   const std::string& source_path() const { return source_path_; }
   const std::string& source_hash() const { return source_hash_; }
+  /// The table file these tables were loaded from; empty for tables baked in memory. For error messages.
+  const std::string& file_path() const { return file_path_; }
   /// The descriptor as stored (JSON text): bake settings, sizes, methods, warnings.
   const std::string& descriptor() const { return descriptor_; }
   /// Warnings of the bake (all-zero map, zero rows, unreachable texels, compensated fallback).
@@ -128,10 +133,26 @@ class EnvTables {
   double total_importance_ = 0.0;
   std::string source_path_;
   std::string source_hash_;
+  std::string file_path_;
   std::string descriptor_;
   std::vector<std::string> warnings_;
   // [compensated][method]
   std::array<std::array<std::unique_ptr<SphericalDistribution>, 3>, 2> distributions_;
 };
+
+/// The sections of a table file held in memory (name, byte offset and size of each payload), read from its
+/// directory without verifying anything. Empty when `file` is too short or has no envkit table header.
+/// For tools and tests that patch values inside a file (the table fuzzer does) together with reseal_table_file().
+struct TableFileSection {
+  std::string name;
+  std::size_t offset = 0;
+  std::size_t size = 0;
+};
+std::vector<TableFileSection> table_file_sections(const std::vector<std::byte>& file);
+
+/// Recomputes every section checksum and the directory checksum of a table file held in memory, so that
+/// EnvTables::load judges its values rather than rejecting it on a checksum. Entries pointing outside `file` are
+/// left as they are.
+void reseal_table_file(std::vector<std::byte>& file);
 
 }  // namespace envkit

@@ -2,9 +2,11 @@
 /// @file envmap.h
 /// An environment map: an image, the parameterization that lays it out, and the matrix that takes its
 /// map-frame directions to the canonical envkit world. Loading detects the parameterization (from envkit's
-/// metadata, the OpenEXR envmap attribute, or the aspect ratio) and assembles six-file cube maps; saving
-/// writes metadata naming the parameterization, convention and filter, and the OpenEXR envmap attribute where
-/// the output is OpenEXR-conformant.
+/// metadata, the OpenEXR envmap attribute, or the aspect ratio) and the convention (an option, envkit metadata, the
+/// OpenEXR envmap attribute, then OIIO's oiio:updirection / oiio:sampleborder, see oiio_env_tags.h) and assembles
+/// six-file cube maps; saving writes metadata naming the parameterization, convention and filter (and a camera
+/// view's envkit:view), OIIO's environment tags where they describe the map, and the OpenEXR envmap attribute
+/// where the output is OpenEXR-conformant.
 #include <envkit/convention.h>
 #include <envkit/cubemap.h>
 #include <envkit/image.h>
@@ -39,6 +41,8 @@ struct LoadOptions {
   std::string convention;             ///< empty = from metadata, "openexr" for files with the envmap attribute, else "envkit"
   ReadOptions read;
   std::optional<double> ball_cx, ball_cy, ball_radius;  ///< mirror-ball photographs, pixels
+  /// Perspective and fisheye inputs: the view (empty = from the envkit:view metadata, else view.h's defaults).
+  std::optional<ViewParams> view;
 };
 
 /// How the parameterization was decided, for the "assumed ..." message tools print.
@@ -46,6 +50,10 @@ struct Detection {
   Kind kind = Kind::LatLong;
   CubeLayout layout = CubeLayout::VerticalStrip;
   std::string convention = "envkit";
+  /// Why the convention was chosen when not from an option or envkit metadata, e.g. "from its oiio:updirection=z".
+  std::string convention_reason;
+  /// Texel grid of a lat-long or cube when the file's oiio:sampleborder differs from the convention's grid.
+  std::optional<TexelGrid> grid;
   std::string reason;   ///< e.g. "from the aspect ratio 2:1"
   bool assumed = false; ///< true when guessed from the aspect ratio (tools say so)
 };

@@ -36,8 +36,9 @@ class TexelSource {
 
   const Image& image() const { return image_; }
   const Parameterization& param() const { return param_; }
-  /// True when every texel holds data (no blank cells, no rim outside a ball).
-  bool fully_covered() const { return covered_.empty(); }
+  /// True when every texel holds data (no blank cells, no rim outside a ball) and the map sees the whole sphere
+  /// (not a camera view).
+  bool fully_covered() const { return covered_.empty() && param_.covers_sphere(); }
   bool covered(std::size_t index) const { return covered_.empty() || covered_[index] != 0; }
 
   /// Taps of `filter` (Nearest, Bilinear or Bicubic) at position p with weights that sum to 1 over the

@@ -1,8 +1,14 @@
 #pragma once
 /// @file image_io.h
-/// Reading and writing images (OpenImageIO, OCIO through color.h), with envkit's checks.
+/// Reading and writing images, with envkit's checks (OCIO through color.h).
 ///
 /// Every failure throws envkit::Error with one line "<path>: <problem>".
+///
+/// Who decodes what (docs/image-io.md): the format is taken from the file's first bytes. OpenEXR files are read
+/// by OpenEXR, Radiance (.hdr) and PFM files by envkit's own codecs (image_codecs.h: every Radiance orientation,
+/// XYZE converted to Rec.709, EXPOSURE/COLORCORR divided out); every other format by OpenImageIO, which lives in
+/// a module (libenvkit_oiio.so) loaded on first need, so EXR/HDR/PFM-only programs never load it.
+/// Inputs must be regular files (input_checks.h): FIFOs, devices and directories are refused before opening.
 ///
 /// Reading: subimage 0, MIP level 0 of any format OIIO reads; 1 to 4 channels (Y, YA, RGB, RGBA); the
 /// result is float, in the working colour space (color.h), alpha last. Pixels are decoded from the file's
@@ -24,7 +30,9 @@
 ///
 /// Size limits (checked on the header, before pixel memory is allocated): width, height >= 1,
 /// each side <= ReadOptions::max_side (default 2^18 = 262144), width * height <= ReadOptions::max_texels
-/// (default 2^30, i.e. 32768 x 32768, 12 GiB of float RGB). More than 4 channels is refused.
+/// (default 2^30, i.e. 32768 x 32768, 12 GiB of float RGB), and the float buffer must fit in the memory
+/// available (input_checks.h: "image too large: WxH (C channels, float) needs X GiB of memory, Y GiB
+/// available"). More than 4 channels is refused.
 ///
 /// Writing: the format follows the extension. Files are written atomically (atomic_file.h).
 ///  - .exr: written with the OpenEXR library: float (default) or half, "zip" compression by default,
@@ -32,11 +40,13 @@
 ///    OpenEXR's typed "envmap" attribute (Imf::EnvmapAttribute) that exrenvmap and renderers read. (OIIO 2.4
 ///    could write it through its "textureformat" hint, but it also stores a "textureformat" string attribute
 ///    that exrenvmap copies into its outputs, where it contradicts the typed attribute for OIIO readers.)
-///    Reading takes "envmap" from the typed attribute too.
-///  - .hdr (RGBE): always RGB; Y is replicated, alpha dropped. Precision ~1% (8-bit shared exponent).
+///    Reading takes "envmap" from the typed attribute too. The metadata key "oiio:sampleborder" is written as an
+///    integer attribute, the type OIIO's texture system reads (oiio_env_tags.h); every other key as a string.
+///  - .hdr (RGBE, written by envkit: "-Y H +X W", new-style RLE, rows encoded in parallel; envkit:* metadata as
+///    header lines): always RGB; Y is replicated, alpha dropped, negatives written as 0. Precision: within
+///    1/255 of the texel's largest component.
 ///  - .pfm: float, Y or RGB (alpha dropped), little-endian, bottom-to-top rows per the PFM convention.
-///    OIIO 2.4 cannot write PFM (its pnm writer emits 8-bit P6 data into a .pfm), so envkit writes this
-///    three-line header + raw float format itself.
+///    Written by envkit (image_codecs.h); OIIO 2.4 cannot write PFM.
 ///  - .tif/.tiff: float by default (linear), or uint8/uint16 (then sRGB-encoded like PNG).
 ///  - .png, .jpg and every other integer-only format: colour converted from the working space to
 ///    WriteOptions::encode_colorspace (default "srgb"; "rec709" for Netpbm) through OCIO, clamped to [0, 1],
@@ -75,7 +85,7 @@ struct ReadOptions {
 
 /// What read_image found and did.
 struct ReadReport {
-  std::string format;            ///< OIIO format name: "openexr", "png", "hdr", "pnm", ...
+  std::string format;            ///< "openexr", "hdr", "pfm" (envkit's codecs), or OIIO's name: "png", "tiff", ...
   std::string pixel_type;        ///< the file's pixel type: "half", "float", "uint8", "uint16", ...
   std::string file_colorspace;   ///< colour space the pixels were decoded from ("srgb", "gamma 2.2", ...)
   std::string colorspace_reason; ///< why: "option", "file tag oiio:ColorSpace=sRGB", "default for integer data"

@@ -14,6 +14,9 @@
 /// TexelGrid::Corner (OpenEXR's LATLONG): texel centres sit at u = i / (W - 1), v = j / (H - 1): the first and
 /// last rows lie on the poles and the first and last columns duplicate (both look along -Z). Edge texels
 /// cover half a texel of the domain, so solid angles still sum to 4 pi.
+/// TexelGrid::CornerRows (Mitsuba 3's envmap emitter): columns as Centre, rows as Corner: texel (i, j) centre at
+/// u = (i + 0.5) / W, v = j / (H - 1). The first and last rows sit on the poles and cover half a row each; no
+/// column is duplicated.
 #include <envkit/parameterization.h>
 
 namespace envkit {
@@ -25,6 +28,7 @@ class LatLongMap final : public Parameterization {
   Kind kind() const override { return Kind::LatLong; }
   std::string describe() const override;
   std::unique_ptr<Parameterization> clone() const override { return std::make_unique<LatLongMap>(*this); }
+  bool same_grid(const Parameterization& other) const override;
   TexelGrid grid() const { return grid_; }
 
   bool to_direction(Vec2 pos, Vec3& dir) const override;
@@ -41,12 +45,17 @@ class LatLongMap final : public Parameterization {
   static Vec3 direction_from_uv(double u, double v);
   /// (u, v) in [0, 1) x [0, 1] of a direction (u = 0 at longitude pi, i.e. -Z).
   static Vec2 uv_from_direction(const Vec3& dir);
+  /// The u of uv_from_direction alone, given horizontal = hypot(dir.x, dir.z) (callers that measure theta
+  /// themselves skip the latitude).
+  static double u_from_direction(const Vec3& dir, double horizontal);
   /// Domain coordinates (u, v) of a continuous image position, per grid (u depends on x only, v on y only:
   /// to_direction(pos) == direction_from_uv(u, clamp(v, 0, 1))).
   Vec2 domain_from_image(Vec2 pos) const;
 
  private:
   Vec2 image_from_domain(Vec2 uv) const;
+  bool corner_columns() const { return grid_ == TexelGrid::Corner; }
+  bool corner_rows() const { return grid_ == TexelGrid::Corner || grid_ == TexelGrid::CornerRows; }
   TexelGrid grid_;
   double du_dx_, dv_dy_;    // domain units per pixel
   double max_x_, max_y_;    // largest positions inside the image

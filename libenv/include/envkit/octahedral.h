@@ -18,6 +18,7 @@ class OctahedralMap final : public Parameterization {
   Kind kind() const override { return Kind::Octahedral; }
   std::string describe() const override;
   std::unique_ptr<Parameterization> clone() const override { return std::make_unique<OctahedralMap>(*this); }
+  bool same_grid(const Parameterization& other) const override { return same_kind_and_size(other); }
 
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;

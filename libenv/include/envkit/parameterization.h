@@ -9,7 +9,7 @@
 ///
 /// Every parameterization keeps its direction->texel map, its texel->direction map and its exact solid
 /// angle side by side in one header/source pair (latlong.h, cubemap.h, mirrorball.h, angular.h,
-/// octahedral.h, paraboloid.h).
+/// octahedral.h, paraboloid.h, healpix.h, perspective.h, fisheye.h).
 #include <envkit/vec.h>
 
 #include <memory>
@@ -17,12 +17,16 @@
 
 namespace envkit {
 
-enum class Kind { LatLong, MirrorBall, AngularMap, CubeMap, Octahedral, DualParaboloid };
+enum class Kind { LatLong, MirrorBall, AngularMap, CubeMap, Octahedral, DualParaboloid, HEALPix, Perspective, Fisheye };
+/// Number of Kind values (tables indexed by static_cast<int>(Kind)).
+inline constexpr int kKindCount = 9;
 
-/// "latlong", "mirrorball", "angular", "cube", "octahedral", "paraboloid".
+struct ViewParams;  // view.h
+
+/// "latlong", "mirrorball", "angular", "cube", "octahedral", "paraboloid", "healpix", "perspective", "fisheye".
 std::string kind_name(Kind kind);
 /// Inverse of kind_name; also accepts common aliases ("equirect", "lightprobe", "ball", "cubemap",
-/// "octa", "dualparaboloid"). Throws Error on unknown names.
+/// "octa", "dualparaboloid", "hpx", "pinhole", "rectilinear"). Throws Error on unknown names.
 Kind parse_kind(const std::string& name);
 
 /// Where texel centres lie relative to the edges of the domain.
@@ -32,6 +36,10 @@ enum class TexelGrid {
   /// First and last texel centres lie exactly on the domain edges ((i) / (W - 1)): OpenEXR's envmaps.
   /// Edge texels then cover half a texel of the domain.
   Corner,
+  /// Lat-long only: columns as Centre (u = (i + 0.5) / W), rows as Corner (v = j / (H - 1), the first and last
+  /// rows on the poles). Mitsuba 3's envmap emitter reads its images this way (it pads a copy of column 0 after
+  /// the last column and scales v by H - 1).
+  CornerRows,
 };
 
 class Parameterization {
@@ -46,6 +54,12 @@ class Parameterization {
 
   int width() const { return width_; }
   int height() const { return height_; }
+
+  /// False for camera views (perspective, most fisheyes): directions they do not see map outside the image, and
+  /// maps made from them carry coverage alpha.
+  virtual bool covers_sphere() const { return true; }
+  /// The view parameters of a camera view (recorded in metadata), nullptr for environment maps.
+  virtual const ViewParams* view() const { return nullptr; }
 
   /// Direction (unit length, map frame) seen at continuous image position `pos`.
   /// Returns false where the image holds no data (outside a mirror ball, blank cells of a cross).
@@ -64,6 +78,11 @@ class Parameterization {
   /// Solid angle per unit image area (steradians per square pixel) at pos: the Jacobian of the map, used to weight
   /// sub-samples. 0 where there is no data. The default differentiates solid_angle numerically.
   virtual double solid_angle_density(Vec2 pos) const;
+
+  /// True when `other` lays out exactly the same texels: texel (i, j) of both maps covers the same region of the
+  /// map frame's sphere (same kind, size and layout parameters). Resampling between two such maps under the
+  /// identity copies the texels. The default says false (a parameterization that cannot tell is never copied).
+  virtual bool same_grid(const Parameterization& other) const;
 
   /// Exact solid angle of texel (i, j); 0 for texels that hold no data.
   double texel_solid_angle(int i, int j) const { return solid_angle(i, j, i + 1.0, j + 1.0); }
@@ -94,6 +113,10 @@ class Parameterization {
   }
 
  protected:
+  /// Same kind and image size: the part of same_grid() every parameterization shares.
+  bool same_kind_and_size(const Parameterization& other) const {
+    return other.kind() == kind() && other.width_ == width_ && other.height_ == height_;
+  }
   /// Clamp a tap into the image; false only for an empty image.
   bool clamp_tap(int& i, int& j) const;
 

@@ -32,6 +32,8 @@ class RadialMap : public Parameterization {
   bool covered_point(int i, int j, Vec2& pos) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
   double solid_angle_density(Vec2 pos) const override;
+  /// Same kind and size, and the same disks (centres, radii and frames).
+  bool same_grid(const Parameterization& other) const override;
 
   const std::vector<Disk>& disks() const { return disks_; }
 

@@ -31,10 +31,12 @@ class OwenSobolSampler {
   }
   /// The next 2D point (consumes one dimension pair).
   Vec2 next_2d();
-  /// The next 1D value (consumes one dimension pair, first coordinate).
-  double next_1d() { return next_2d().x; }
+  /// The next 1D value (consumes one dimension pair): next_2d().x without computing y.
+  double next_1d();
 
  private:
+  double first_coordinate(std::uint32_t dim_seed, std::uint32_t shuffled, std::uint32_t low) const;
+
   std::uint32_t pixel_seed_;
   std::uint32_t index_ = 0;
   std::uint32_t dimension_ = 0;

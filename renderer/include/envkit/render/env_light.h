@@ -6,8 +6,8 @@
 /// convention and rotation). The scene may rotate the environment further: world_scene = R table_dir, with
 /// R = rotation_from_euler_degrees(yaw, pitch, roll) (convention.h). Radiance is scaled by `intensity`.
 ///
-/// Radiance lookup. The map is brought onto the tables' bake grid (an envkit-canonical lat-long or an
-/// equal-area octahedral map of grid_width x grid_height): used as is when it already is that grid with an
+/// Radiance lookup. The map is brought onto the tables' bake grid (an envkit-canonical lat-long, an
+/// equal-area octahedral or a HEALPix map of grid_width x grid_height): used as is when it already is that grid with an
 /// identity map->world transform, else resampled with libenv's flux-conserving area filter. Lookup takes the
 /// NEAREST texel of that grid, so L / pdf is constant inside each texel (no fireflies from a filtered lookup
 /// that the importance does not cover). When the distribution is that grid, light samples use their drawn
@@ -44,6 +44,12 @@ class EnvironmentLight {
   LightSample sample(const SphericalDistribution& distribution, Vec2 u) const;
   /// Density per steradian of world direction d under `distribution`.
   double pdf(const SphericalDistribution& distribution, const Vec3& d) const;
+  struct Lookup {
+    Vec3 radiance;
+    double pdf = 0;
+  };
+  /// radiance(d) and pdf(distribution, d) together: one texel search where the distribution is the radiance grid.
+  Lookup lookup(const SphericalDistribution& distribution, const Vec3& d) const;
 
   const EnvTables& tables() const { return *tables_; }
   const Mat3& rotation() const { return rotation_; }

@@ -1,6 +1,6 @@
 #pragma once
 /// @file integrator.h
-/// Direct (and optional indirect) illumination from the environment, with every sampling strategy of issue 5.
+/// Direct (and optional indirect) illumination from the environment, with every sampling strategy.
 ///
 /// Estimator structure. Surfaces emit nothing, so the radiance leaving a shading point x towards wo is
 ///   L(x, wo) = D(x, wo) + I(x, wo),
@@ -88,13 +88,52 @@ class Integrator {
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
 
  private:
+  /// What every strategy knows of the point it shades (see direct()).
+  struct ShadingPoint {
+    Vec3 origin;  ///< the position offset off the surface, for shadow and continuation rays
+    const Frame& frame;
+    Vec3 ng;  ///< geometric normal on the side of wo
+    Vec3 wo;  ///< local frame
+    const Material& material;
+  };
+  /// One BSDF sample: value = f cos L V / pdf; pdf 0 when no direction was drawn. light_pdf: the density of the
+  /// direction under the light distribution bsdf_term() was given, where it escapes (else 0).
+  struct BsdfTerm {
+    Vec3 value{0, 0, 0};
+    Vec3 wi_world;
+    double pdf = 0.0;
+    double light_pdf = 0.0;
+    bool is_delta = false;
+  };
+  /// One light sample: value = f cos L V (not divided by the pdf); black when it contributes nothing.
+  struct LightTerm {
+    Vec3 value{0, 0, 0};
+    Vec3 wi_local;
+    double pdf = 0.0;
+  };
+  using DirectFn = Vec3 (Integrator::*)(const ShadingPoint&, Sampler&) const;
+
   /// L_env(wi) if the ray from the point towards wi escapes, else 0.
   Vec3 escaped_radiance(const Vec3& origin, const Vec3& wi_world) const;
   double mis_weight(double a, double b) const;
+  /// `light`: also look up the direction's density under that distribution (MIS), in the same texel search.
+  BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, const SphericalDistribution* light = nullptr) const;
+  LightTerm light_term(const ShadingPoint& x, const SphericalDistribution& distribution, Sampler& sampler) const;
+  /// A material's delta lobe (one BSDF sample kept only when it picked that lobe), for strategies whose other
+  /// samples cannot reach it; 0 for materials without one (no sample drawn).
+  Vec3 delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const;
+
+  // One estimator of D per strategy (see the file comment), chosen once by the constructor.
+  Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_light(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;      ///< mis and mis-compensated, multi-sample
+  Vec3 direct_mis_one(const ShadingPoint& x, Sampler& sampler) const;  ///< the one-sample model
+  Vec3 direct_product(const ShadingPoint& x, Sampler& sampler) const;  ///< product and product-mis
 
   const Scene& scene_;
   const EnvironmentLight& light_;
   IntegratorOptions options_;
+  DirectFn direct_ = nullptr;
   const SphericalDistribution* light_distribution_ = nullptr;
   std::unique_ptr<ProductSamplers> product_;
   mutable std::atomic<std::size_t> nonfinite_{0};

@@ -58,20 +58,9 @@
 /// Unbiasedness: pdf > 0 wherever eval(wo, wi) x importance > 0 (the floor on every node above the horizon).
 /// Pure delta materials (the mirror) have no product: prepare() leaves the sampler invalid; use BSDF sampling.
 ///
-/// Cost (measured 2026-12-01, tests/bench/bench_product.cpp, 2048 x 1024 env, shared 2-core machine, CPU time,
-/// defaults: lobe refinement with descent, extent 6, 8 nodes across): prepare for a glossy conductor (alpha 0.1,
-/// ~62 lobe nodes) 1.3 us at 4 columns, 1.6 us at 8, 2.8 us at 16, 12 us at 32, 68 us at 64 (no lobe level),
-/// 1.1 ms at 256; a diffuse material 0.8 us at 8. Sample ~0.6 us down a lobe (descent), ~0.15-0.2 us otherwise
-/// (plain hierarchical environment sampling: ~0.16 us); pdf ~0.31 us down a lobe, ~0.1 us otherwise. Prepare
-/// once per shading point (or reuse, below), then draw several samples.
-/// Variance per sample of f_cos L / pdf, conductor under a 512 x 256 sky without sun, alpha 0.02 / 0.05, 8 columns
-/// (test LobeDescentLowersTheVarianceOfNarrowLobes): env-only descent below the lobe level 0.25 / 0.16, lobe
-/// descent 0.057 / 0.012.
-/// Rendered efficiency against power MIS 1+1 (glossy spheres, docs/bench_product.md, 2026-12-01): product-mis at
-/// 8 columns with table reuse within each pixel 0.92-0.96x (geomean of 6 spheres, alpha 0.05-0.3; 1.2x on the
-/// narrowest conductor, 0.6x on the narrow plastic), 1.75x on the sunny probe's highlights; without reuse
-/// 0.59-0.62x.
-/// Not thread-safe: one sampler per thread (it reuses its buffers); the environment distribution it refers to must outlive it.
+/// Cost and rendered efficiency against power MIS: docs/bench_product.md (how they are measured and the figures).
+/// Not thread-safe: one sampler per thread (it reuses its buffers); the environment distribution it refers to must
+/// outlive it.
 #include <envkit/env_sampling.h>
 #include <envkit/render/frame.h>
 #include <envkit/render/material.h>
@@ -118,7 +107,8 @@ class ProductSampler {  // one per thread; reuses its buffers
     double reuse_lobe_fraction = 0.5;
   };
 
-  /// env_hierarchical: a SphericalDistribution whose distribution() is a PyramidDistribution2D (Error otherwise).
+  /// env_hierarchical: a SphericalDistribution whose distribution() is a PyramidDistribution2D, on a lat-long or
+  /// octahedral grid (Error otherwise: node bounds need a map continuous across each node, HEALPix's layout is not).
   /// world_from_table: rotation taking table-frame directions to world directions (see vec.h apply()).
   ProductSampler(const SphericalDistribution& env_hierarchical, const Mat3& world_from_table, int product_resolution);
   ProductSampler(const SphericalDistribution& env_hierarchical, const Mat3& world_from_table, int product_resolution,

@@ -1,0 +1,113 @@
+#include <envkit/color.h>
+#include <envkit/filter.h>
+#include <envkit/solid_angle_table.h>
+#include <envkit/sun.h>
+#include <envkit/texel_directions.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace envkit {
+
+namespace {
+
+/// The colour channels detect_sun reads: the first three that are not alpha (one channel stands for all three).
+std::array<int, 3> colour_channels(const Image& image) {
+  std::array<int, 3> c{};
+  int n = 0;
+  for (int k = 0; k < image.channels && n < 3; ++k)
+    if (k != image.alpha_channel) c[std::size_t(n++)] = k;
+  for (int k = std::max(n, 1); k < 3; ++k) c[std::size_t(k)] = c[0];
+  return c;
+}
+
+double non_negative(float v) { return v > 0.0f && std::isfinite(v) ? double(v) : 0.0; }  // NaN, Inf, < 0: 0
+
+}  // namespace
+
+std::optional<SunEstimate> detect_sun(const EnvMap& map, const SunOptions& options) {
+  const Image& image = map.image;
+  const Parameterization& param = *map.param;
+  if (image.texel_count() == 0 || image.channels == 0) return std::nullopt;
+  const Vec3 weights = luminance_weights(options.colorspace);
+  const std::array<int, 3> ch = colour_channels(image);
+  const TexelSource source(image, param);
+  const TexelDirections dirs(param);
+  const SolidAngleTable omega(param);
+  const Mat3 to_world = map.to_world();
+  const int w = image.width;
+  const auto rgb = [&](std::size_t t) {
+    const float* px = image.pixels.data() + t * std::size_t(image.channels);
+    return std::array<double, 3>{non_negative(px[ch[0]]), non_negative(px[ch[1]]), non_negative(px[ch[2]])};
+  };
+  const auto luminance = [&](const std::array<double, 3>& c) {
+    return weights.x * c[0] + weights.y * c[1] + weights.z * c[2];
+  };
+
+  // The map's luminance power, median and brightest texel.
+  std::vector<float> lum;
+  lum.reserve(image.texel_count());
+  double total_power = 0.0, peak = -1.0;
+  std::size_t peak_texel = 0;
+  for (std::size_t t = 0; t < image.texel_count(); ++t) {
+    const int x = int(t % std::size_t(w)), y = int(t / std::size_t(w));
+    Vec3 d;
+    if (!source.covered(t) || !dirs.centre(x, y, d)) continue;
+    const double l = luminance(rgb(t));
+    lum.push_back(float(l));
+    total_power += l * omega(x, y);
+    if (l > peak) peak = l, peak_texel = t;
+  }
+  if (lum.empty() || !(peak > 0.0) || !(total_power > 0.0)) return std::nullopt;
+  const auto middle = lum.begin() + std::ptrdiff_t(lum.size() / 2);
+  std::nth_element(lum.begin(), middle, lum.end());
+  const double median = *middle;
+  if (peak < options.min_contrast * median) return std::nullopt;
+
+  // The region: bright texels near the peak.
+  Vec3 peak_dir;
+  dirs.centre(int(peak_texel % std::size_t(w)), int(peak_texel / std::size_t(w)), peak_dir);
+  peak_dir = apply(to_world, peak_dir).normalized();
+  const double threshold = std::sqrt(peak * std::max(median, peak * 1e-12));
+  const double cos_search = std::cos(options.search_radius);
+  SunEstimate sun;
+  Vec3 centroid(0.0);
+  double region_luminance_power = 0.0, max_value = 0.0;
+  std::vector<std::size_t> region;
+  for (std::size_t t = 0; t < image.texel_count(); ++t) {
+    const std::array<double, 3> c = rgb(t);
+    const double l = luminance(c);
+    if (l < threshold) continue;  // most texels: no direction needed
+    const int x = int(t % std::size_t(w)), y = int(t / std::size_t(w));
+    Vec3 d;
+    if (!source.covered(t) || !dirs.centre(x, y, d)) continue;
+    d = apply(to_world, d).normalized();
+    if ((d ^ peak_dir) < cos_search) continue;
+    const double o = omega(x, y);
+    region.push_back(t);
+    sun.solid_angle += o;
+    for (int k = 0; k < 3; ++k) sun.power[std::size_t(k)] += c[std::size_t(k)] * o;
+    region_luminance_power += l * o;
+    centroid += (l * o) * d;
+    max_value = std::max({max_value, c[0], c[1], c[2]});
+  }
+  sun.texels = int(region.size());
+  sun.angular_radius = std::acos(std::clamp(1.0 - sun.solid_angle / kTwoPi, -1.0, 1.0));
+  sun.power_share = region_luminance_power / total_power;
+  if (sun.angular_radius > options.max_radius || sun.power_share < options.min_power_share) return std::nullopt;
+  sun.direction = centroid.length() > 0.0 ? centroid.normalized() : peak_dir;
+  for (int k = 0; k < 3; ++k) sun.radiance[std::size_t(k)] = sun.power[std::size_t(k)] / sun.solid_angle;
+  sun.peak_luminance = peak;
+  sun.median_luminance = median;
+  // A clipped sun is a plateau: texels at exactly the region's largest channel value.
+  for (std::size_t t : region) {
+    const std::array<double, 3> c = rgb(t);
+    if (std::max({c[0], c[1], c[2]}) == max_value) ++sun.clipped_texels;
+  }
+  sun.clipped =
+      sun.clipped_texels >= 3 && 4 * sun.clipped_texels >= sun.texels && peak < options.clipped_contrast * median;
+  return sun;
+}
+
+}  // namespace envkit

@@ -1,0 +1,122 @@
+"""envkit for Python: environment maps, sampling tables, probes and rendering (docs/PYTHON.md).
+
+    import envkit
+    sky = envkit.EnvMap("sky.exr")                  # float32 H x W x C in sky.data (no copy)
+    cube = sky.convert("cube", size=512)            # envconvert sky.exr -o ... --to cube --size 512
+    tables = envkit.bake(sky)                       # envbake
+    dirs, pdf, texels = tables.sample(u)            # u: (N, 2) in [0, 1)
+    view = sky.convert("perspective", size=(640, 480), view_dir=(30, 10), fov=60)   # envconvert --to perspective
+    chain = sky.prefilter(size=256)                 # envprefilter: GGX mip chain, chain.write("sky.ktx2")
+
+Use Debian's interpreter, /usr/bin/python3: numpy (python3-numpy) is installed there.
+"""
+
+try:
+    import numpy as _numpy  # noqa: F401  (the extension hands out numpy arrays)
+except ImportError as _e:  # pragma: no cover - depends on the interpreter
+    import sys as _sys
+
+    raise ImportError(
+        "envkit needs numpy, which this interpreter (%s) does not have; use Debian's /usr/bin/python3 "
+        "(apt-get install python3-numpy), or pip install numpy into this one" % _sys.executable
+    ) from _e
+
+import json as _json
+import os as _os
+
+from . import _envkit
+from ._envkit import (
+    EnvMap,
+    Error,
+    PrefilteredChain,
+    Tables,
+    conventions,
+    dfg_lut,
+    file_content_hash,
+    irradiance,
+    merge,
+    prefilter,
+    probes,
+    read_image,
+    sh,
+)
+
+__all__ = [
+    "EnvMap",
+    "Error",
+    "Tables",
+    "bake",
+    "PrefilteredChain",
+    "conventions",
+    "dfg_lut",
+    "file_content_hash",
+    "irradiance",
+    "merge",
+    "prefilter",
+    "sh",
+    "load",
+    "probes",
+    "read",
+    "read_image",
+    "render",
+    "has_renderer",
+]
+
+has_renderer = _envkit.has_renderer
+
+
+def read(path, **kwargs):
+    """Reads an environment map (EnvMap(path, ...))."""
+    return EnvMap(path, **kwargs)
+
+
+def bake(map, **kwargs):
+    """Bakes sampling tables of an EnvMap in memory (Tables.bake; the options of envbake)."""
+    return Tables.bake(map, **kwargs)
+
+
+def load(path, expected_source_hash=""):
+    """Loads a table file written by envbake or Tables.save (zero copy)."""
+    return Tables.load(path, expected_source_hash)
+
+
+def render(
+    scene=None,
+    *,
+    spp=16,
+    strategy="mis",
+    light_method="hierarchical",
+    heuristic="power",
+    mis_model="multi",
+    bsdf_samples=1,
+    light_samples=1,
+    max_depth=1,
+    product_resolution=8,
+    product_reuse_deg=17.0,
+    seed=0,
+    width=0,
+    height=0,
+    bake=False,
+    crop=None,
+    base_dir=None,
+):
+    """Renders a scene with envrender's integrator and returns the mean image (H x W x 3 float32).
+
+    scene: None (the built-in default scene), a path to a JSON scene file (docs/SCENE_FORMAT.md), or a dict in
+    that format (relative paths inside it are relative to base_dir, default the current directory). The other
+    arguments are envrender's options; crop = (x0, y0, x1, y1).
+    """
+    if not has_renderer:
+        raise Error("this envkit was built without the renderer (ENVKIT_BUILD_RENDERER=OFF)")
+    path = text = None
+    base = ""
+    if isinstance(scene, dict):
+        text = _json.dumps(scene)
+        base = _os.path.join(base_dir or _os.getcwd(), "<scene dict>")
+    elif scene is not None:
+        path = _os.fspath(scene)
+    return _envkit._render(
+        path, text, base, spp, strategy, light_method, heuristic, mis_model, bsdf_samples, light_samples,
+        max_depth, product_resolution, product_reuse_deg, seed, width, height, bake,
+        tuple(crop) if crop is not None else None,
+    )

@@ -1,0 +1,372 @@
+"""Batch processing of a folder of environment maps on a dask.distributed cluster (docs/PYTHON.md).
+
+    /usr/bin/python3 -m envkit.batch IN_DIR OUT_DIR [--workers N | --scheduler ADDR] [--to latlong --size 1024]
+        [--no-bake] [--tables cdf,alias,hierarchical] [--prefilter]
+
+Each input IN_DIR/NAME.EXT gives, in OUT_DIR:
+  NAME.<to>.exr        the converted map (EnvMap.convert: envconvert IN -o OUT --to ...)
+  NAME.envtbl          its sampling tables, baked from the input (Tables.bake: envbake IN -o OUT ...)
+  NAME.prefiltered.ktx2 with --prefilter: the GGX mip chain (envkit.prefilter: envprefilter IN -o OUT)
+  NAME.manifest.json   written last: the input's content hash, the options and the content hash of every output
+
+A file whose manifest matches (same input hash, same options, every output present with its recorded hash) is
+skipped; anything else (no manifest, another input or options, an output missing, truncated or changed) is
+redone. Every output is written to a temporary file and renamed into place, and the manifest only after all
+outputs, so a run killed at any point leaves either a complete, up-to-date set or one that the next run redoes.
+A file that fails is reported with the one-line message the CLIs print and does not stop the others; the exit
+status is 1 when any file failed.
+
+Work runs on a dask.distributed Client: a LocalCluster of --workers processes by default, or the scheduler at
+--scheduler (workers must see IN_DIR and OUT_DIR at the same paths). Tasks of a worker that dies are re-run on
+the others (dask's allowed-failures, 3 by default).
+"""
+
+import argparse
+import fnmatch
+import glob
+import hashlib
+import json
+import os
+import sys
+import tempfile
+import time
+
+EXTENSIONS = (".exr", ".hdr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
+MANIFEST_VERSION = 1
+
+
+def _envkit():
+    import envkit  # imported on the worker
+
+    return envkit
+
+
+def _convert(envkit, env, options, out_dir, stem):
+    path = os.path.join(out_dir, "%s.%s.exr" % (stem, options["to"]))
+    out = env.convert(
+        options["to"],
+        size=options["size"],
+        filter=options["filter"],
+        convention=options["convention"],
+        rotate=options["rotate"],
+    )
+    out.write(path, half=options["half"], compression=options["compression"])
+    return path
+
+
+def _bake(envkit, env, options, out_dir, stem):
+    path = os.path.join(out_dir, "%s.envtbl" % stem)
+    tables = envkit.bake(
+        env,
+        importance=options["importance"],
+        grid=options["bake_grid"],
+        size=options["bake_size"],
+        tables=options["tables"],
+    )
+    tables.save(path)
+    return path
+
+
+def _prefilter(envkit, env, options, out_dir, stem):
+    # One KTX2 file holds the whole chain, so the manifest hashes a single output (an .exr chain is a file per
+    # level). The chain's write is atomic.
+    path = os.path.join(out_dir, "%s.prefiltered.ktx2" % stem)
+    envkit.prefilter(env, **options["prefilter_options"]).write(path)
+    return path
+
+
+def prefilter_available():
+    """Whether this envkit has a prefilter step (envkit.prefilter(map, **options) -> PrefilteredChain)."""
+    try:
+        return hasattr(_envkit(), "prefilter")
+    except ImportError:
+        return False
+
+
+# The steps applied to every input, in order: name -> (enabled(options), run(envkit, map, options, out_dir, stem)
+# -> output path). A new step (prefiltering, SH, ...) is one entry here and one option.
+STEPS = {
+    "convert": (lambda o: o["convert"], _convert),
+    "bake": (lambda o: o["bake"], _bake),
+    "prefilter": (lambda o: o["prefilter"], _prefilter),
+}
+
+
+def content_hash(path):
+    """XXH3-128 of the file's bytes (what envbake records as the source hash)."""
+    return _envkit().file_content_hash(path)
+
+
+def _write_json_atomic(path, data):
+    d = os.path.dirname(path) or "."
+    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".tmp-", dir=d)
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide the manifest from other users
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f, indent=1, sort_keys=True)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def manifest_path(out_dir, stem):
+    return os.path.join(out_dir, "%s.manifest.json" % stem)
+
+
+def up_to_date(manifest_file, input_hash, options):
+    """True when the manifest records this input and these options and every output still has its hash."""
+    try:
+        with open(manifest_file) as f:
+            m = json.load(f)
+    except (OSError, ValueError):
+        return False
+    if m.get("version") != MANIFEST_VERSION or m.get("input_hash") != input_hash or m.get("options") != options:
+        return False
+    outputs = m.get("outputs")
+    if not isinstance(outputs, dict) or not outputs:
+        return False
+    for path, h in outputs.items():
+        if not os.path.isfile(path):
+            return False
+        try:
+            if content_hash(path) != h:
+                return False
+        except Exception:
+            return False
+    return True
+
+
+def _remove_stale_temps(out_dir, stem):
+    # Temporary files of a writer that was killed (atomic_file.h names them .<name>.tmp-<pid>-<n><ext>).
+    for t in glob.glob(os.path.join(out_dir, ".%s.*tmp-*" % glob.escape(stem))):
+        try:
+            os.unlink(t)
+        except OSError:
+            pass
+
+
+def process_file(input_path, out_dir, options):
+    """Converts/bakes one input (runs on a worker). Returns a dict: input, status (done | skipped | failed),
+    outputs, error (the one-line message), seconds."""
+    start = time.monotonic()
+    stem = os.path.splitext(os.path.basename(input_path))[0]
+    result = {"input": input_path, "status": "failed", "outputs": [], "error": "", "seconds": 0.0}
+    try:
+        envkit = _envkit()
+        input_hash = content_hash(input_path)
+        manifest = manifest_path(out_dir, stem)
+        if not options["force"] and up_to_date(manifest, input_hash, _recorded(options)):
+            with open(manifest) as f:
+                result["outputs"] = sorted(json.load(f)["outputs"])
+            result["status"] = "skipped"
+            return result
+        # An outdated manifest must not vouch for outputs while they are being replaced.
+        try:
+            os.unlink(manifest)
+        except FileNotFoundError:
+            pass
+        _remove_stale_temps(out_dir, stem)
+        env = envkit.EnvMap(input_path, parameterization=options["from"], convention=options["from_convention"])
+        outputs = {}
+        for name, (enabled, run) in STEPS.items():
+            if enabled(options):
+                path = run(envkit, env, options, out_dir, stem)
+                outputs[path] = content_hash(path)
+        _write_json_atomic(
+            manifest,
+            {
+                "version": MANIFEST_VERSION,
+                "input": input_path,
+                "input_hash": input_hash,
+                "options": _recorded(options),
+                "outputs": outputs,
+            },
+        )
+        result["outputs"] = sorted(outputs)
+        result["status"] = "done"
+    except Exception as e:  # one file's failure is reported, not fatal
+        result["error"] = str(e) if str(e) else type(e).__name__
+    finally:
+        result["seconds"] = time.monotonic() - start
+    return result
+
+
+def _recorded(options):
+    """The options that decide the outputs' content (what a manifest must match)."""
+    return {k: v for k, v in options.items() if k not in ("force",)}
+
+
+def find_inputs(in_dir, patterns=None):
+    names = sorted(os.listdir(in_dir))
+    out = []
+    for n in names:
+        p = os.path.join(in_dir, n)
+        if n.startswith(".") or not os.path.isfile(p):
+            continue
+        if patterns:
+            if any(fnmatch.fnmatch(n, pat) for pat in patterns):
+                out.append(p)
+        elif os.path.splitext(n)[1].lower() in EXTENSIONS:
+            out.append(p)
+    return out
+
+
+def default_options(**overrides):
+    o = {
+        "convert": True,
+        "to": "latlong",
+        "size": 0,
+        "filter": "area",
+        "convention": None,
+        "rotate": None,
+        "half": False,
+        "compression": "",
+        "from": None,
+        "from_convention": None,
+        "bake": True,
+        "importance": "luminance",
+        "bake_grid": "latlong",
+        "bake_size": 0,
+        "tables": ["cdf", "alias", "hierarchical"],
+        "prefilter": False,
+        "prefilter_options": {},
+        "force": False,
+    }
+    unknown = set(overrides) - set(o)
+    if unknown:
+        raise ValueError("unknown batch options: %s" % ", ".join(sorted(unknown)))
+    o.update(overrides)
+    return o
+
+
+def run(inputs, out_dir, client, options, progress=None):
+    """Maps process_file over `inputs` on `client`; returns the results in input order. A task whose workers all
+    died (dask's KilledWorker) or that raised is reported as failed, never raised."""
+    os.makedirs(out_dir, exist_ok=True)
+    out_dir = os.path.abspath(out_dir)
+    inputs = [os.path.abspath(p) for p in inputs]
+    from distributed import as_completed
+
+    futures = client.map(process_file, inputs, out_dir=out_dir, options=options, pure=False)
+    index = {f.key: i for i, f in enumerate(futures)}
+    results = [None] * len(inputs)
+    for future in as_completed(futures):
+        i = index[future.key]
+        try:
+            r = future.result()
+        except Exception as e:
+            r = {"input": inputs[i], "status": "failed", "outputs": [], "error": "%s: %s" % (type(e).__name__, e),
+                 "seconds": 0.0}
+        results[i] = r
+        if progress:
+            progress(r)
+    return results
+
+
+def _parse_args(argv):
+    p = argparse.ArgumentParser(
+        prog="python3 -m envkit.batch",
+        description="Converts and bakes every environment map of a folder on a dask.distributed cluster.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="""Examples:
+  python3 -m envkit.batch hdris/ out/ --workers 2
+  python3 -m envkit.batch hdris/ out/ --to cube --size 512 --convention openexr --no-bake
+  python3 -m envkit.batch /shared/hdris /shared/out --scheduler tcp://10.0.0.5:8786
+
+A re-run skips inputs whose outputs are up to date (manifest: input content hash, options, output hashes)
+and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 usage error.""",
+    )
+    p.add_argument("in_dir", metavar="IN_DIR")
+    p.add_argument("out_dir", metavar="OUT_DIR")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", metavar="ADDR", help="address of a running dask scheduler")
+    g.add_argument("--workers", type=int, default=2, metavar="N", help="LocalCluster worker processes (default 2)")
+    p.add_argument("--threads-per-worker", type=int, default=1, metavar="T",
+                   help="dask threads per LocalCluster worker (each file still uses oneTBB inside)")
+    p.add_argument("--pattern", action="append", metavar="GLOB",
+                   help="input file names to take (default: .exr .hdr .pfm .tif .png .jpg)")
+    p.add_argument("--to", default="latlong", metavar="KIND", help="output parameterization (default latlong)")
+    p.add_argument("--size", type=int, default=0, metavar="N", help="natural size N (default: the input's density)")
+    p.add_argument("--filter", default="area", help="resampling filter (default area)")
+    p.add_argument("--convention", metavar="C", help="output convention (default: the input's)")
+    p.add_argument("--rotate", metavar="R", help="yaw,pitch,roll in degrees or 9 matrix entries")
+    p.add_argument("--half", action="store_true", help="half-float OpenEXR outputs")
+    p.add_argument("--compression", default="", metavar="C", help="OpenEXR compression (default zip)")
+    p.add_argument("--from", dest="from_", metavar="KIND", help="input parameterization (default: detected)")
+    p.add_argument("--from-convention", metavar="C", help="input convention (default: from metadata)")
+    p.add_argument("--no-convert", action="store_true", help="do not write converted maps")
+    p.add_argument("--no-bake", action="store_true", help="do not bake tables")
+    p.add_argument("--importance", default="luminance", help="luminance, average or max")
+    p.add_argument("--bake-grid", default="latlong", help="latlong, octahedral or healpix")
+    p.add_argument("--bake-size", type=int, default=0, metavar="N", help="bake grid size N (default natural)")
+    p.add_argument("--tables", default="cdf,alias,hierarchical", help="cdf,alias,hierarchical,compensated")
+    p.add_argument("--prefilter", action="store_true", help="also prefilter (when this envkit has the step)")
+    p.add_argument("--force", action="store_true", help="redo every file, up to date or not")
+    p.add_argument("--json", metavar="FILE", help="write the per-file results as JSON")
+    p.add_argument("-q", "--quiet", action="store_true", help="print only failures and the summary")
+    a = p.parse_args(argv)
+    if a.prefilter and not prefilter_available():
+        p.error("--prefilter: this envkit has no prefilter step yet")
+    if a.no_convert and a.no_bake and not a.prefilter:
+        p.error("nothing to do: --no-convert and --no-bake")
+    if not os.path.isdir(a.in_dir):
+        p.error("IN_DIR %s: not a directory" % a.in_dir)
+    return a
+
+
+def main(argv=None):
+    a = _parse_args(sys.argv[1:] if argv is None else argv)
+    options = default_options(
+        convert=not a.no_convert, to=a.to, size=a.size, filter=a.filter, convention=a.convention, rotate=a.rotate,
+        half=a.half, compression=a.compression, bake=not a.no_bake, importance=a.importance,
+        bake_grid=a.bake_grid, bake_size=a.bake_size, tables=[t for t in a.tables.split(",") if t],
+        prefilter=a.prefilter, force=a.force, **{"from": a.from_, "from_convention": a.from_convention})
+    inputs = find_inputs(a.in_dir, a.pattern)
+    if not inputs:
+        print("envkit.batch: %s: no input maps" % a.in_dir, file=sys.stderr)
+        return 1
+    from distributed import Client, LocalCluster
+
+    start = time.monotonic()
+    if a.scheduler:
+        cluster = None
+        client = Client(a.scheduler)
+    else:
+        cluster = LocalCluster(n_workers=a.workers, threads_per_worker=a.threads_per_worker, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    done = [0]
+
+    def progress(r):
+        done[0] += 1
+        if r["status"] == "failed":
+            print("envkit.batch: %s" % (r["error"] if r["input"] in r["error"] else r["input"] + ": " + r["error"]),
+                  file=sys.stderr)
+        elif not a.quiet:
+            print("envkit.batch: [%d/%d] %s %s (%.2f s)" % (done[0], len(inputs), r["status"], r["input"],
+                                                           r["seconds"]), file=sys.stderr)
+
+    try:
+        results = run(inputs, a.out_dir, client, options, progress)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    counts = {s: sum(r["status"] == s for r in results) for s in ("done", "skipped", "failed")}
+    print("envkit.batch: %d done, %d skipped, %d failed in %.2f s" % (counts["done"], counts["skipped"],
+                                                                     counts["failed"], time.monotonic() - start))
+    if a.json:
+        _write_json_atomic(a.json, {"results": results, "counts": counts})
+    return 1 if counts["failed"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,51 @@
+#pragma once
+/// @file arrays.h
+/// numpy <-> envkit conversions shared by the bindings: images handed out
+/// without a copy (the numpy array keeps the C++ storage alive), direction
+/// arrays of any shape (..., 3) read as contiguous doubles, and the "<array>"
+/// name under which in-memory inputs appear in error messages.
+#include <envkit/image.h>
+#include <envkit/vec.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace envkit::python {
+
+namespace py = pybind11;
+
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+/// (H, W, C) float32 view of `image`'s pixels; `owner` keeps them alive (no
+/// copy).
+py::array image_view(const Image& image, py::handle owner);
+/// Moves `image` into a heap object owned by the returned array (no copy of the
+/// pixels).
+py::array image_array(Image&& image);
+/// Copies an (H, W, C) or (H, W) array (any real dtype) into a float image; C
+/// in 1..4, names Y/YA/RGB/RGBA, alpha last for 2 and 4 channels. Throws
+/// envkit::Error naming `path` for non-finite values or bad shapes.
+Image image_from_array(const py::array& array, const std::string& path);
+
+/// A (..., K) array as contiguous doubles; `count` receives the number of
+/// K-vectors. Throws Error naming `what` when the last axis is not K.
+DoubleArray vectors(const py::handle& array, int k, const char* what, std::size_t& count);
+/// Shape of the result for an input of shape (..., K_in) and K_out values per
+/// vector (0: drop the axis).
+std::vector<py::ssize_t> result_shape(const py::array& input, int k_out);
+
+/// Vec3 from a 3-sequence.
+Vec3 to_vec3(const py::handle& value, const char* what);
+py::tuple from_vec3(const Vec3& v);
+
+/// Runs f(begin, end) over [0, n), in parallel (oneTBB) for large n and
+/// serially for small ones, so a call on a handful of vectors does not pay for
+/// task spawning. Each element is computed independently: results do not depend
+/// on the split.
+void parallel_chunks(std::size_t n, const std::function<void(std::size_t, std::size_t)>& f);
+
+}  // namespace envkit::python

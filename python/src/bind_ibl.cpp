@@ -1,0 +1,208 @@
+// Real-time IBL from Python: the GGX radiance mip chain, the irradiance map, spherical harmonics and the DFG
+// lookup table, each the libenv call envprefilter makes (prefilter.h, sh.h, dfg.h), written through the same
+// writers (ibl_files.h), so arrays and files are envprefilter's bit for bit.
+#include <envkit/atomic_file.h>
+#include <envkit/dfg.h>
+#include <envkit/error.h>
+#include <envkit/ibl_files.h>
+#include <envkit/prefilter.h>
+#include <envkit/sh.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <optional>
+
+#include "arrays.h"
+#include "bindings.h"
+#include "envmap_object.h"
+#include "rotation_arg.h"
+
+namespace envkit::python {
+
+namespace {
+
+/// A prefiltered chain (or the one-level irradiance map) and what writing it needs.
+struct PyIbl {
+  PrefilteredChain chain;  // an irradiance map is its one level (no roughness)
+  Kind kind = Kind::CubeMap;
+  bool irradiance = false;
+  std::string source;  // envkit:source of the written files: the input's file name
+};
+
+Kind ibl_kind(bool octahedral) { return octahedral ? Kind::Octahedral : Kind::CubeMap; }
+
+MapRef source_ref(const PyEnvMap& p, const py::object& rotate) {
+  return MapRef{p.map.image, *p.map.param, rotated(p.map.to_world(), rotate)};
+}
+
+std::shared_ptr<PyIbl> prefilter(const PyEnvMap& p, int size, int levels, const std::string& mapping, bool octahedral,
+                                 double accuracy, const py::object& rotate, const std::string& for_path) {
+  // envprefilter's ranges (--size, --accuracy): larger chains are refused there too.
+  if (size < 1 || size > 4096) throw Error("prefilter: size " + std::to_string(size) + " is outside [1, 4096]");
+  if (!(accuracy >= 0.01 && accuracy <= 1.0)) throw Error("prefilter: accuracy must be in [0.01, 1]");
+  PrefilterOptions po;
+  po.kind = ibl_kind(octahedral);
+  po.size = size;
+  po.levels = levels;
+  po.mapping = parse_roughness_mapping(mapping);
+  po.accuracy = accuracy;
+  set_ibl_cube_faces(for_path, po);
+  const MapRef src = source_ref(p, rotate);
+  auto out = std::make_shared<PyIbl>();
+  out->kind = po.kind;
+  out->source = p.source;
+  {
+    py::gil_scoped_release release;
+    out->chain = prefilter_ggx(src, po);
+  }
+  return out;
+}
+
+std::shared_ptr<PyIbl> irradiance(const PyEnvMap& p, int size, bool octahedral, double accuracy, bool divide_by_pi,
+                                  const py::object& rotate) {
+  if (size < 1 || size > 4096) throw Error("irradiance: size " + std::to_string(size) + " is outside [1, 4096]");
+  if (!(accuracy >= 0.01 && accuracy <= 1.0)) throw Error("irradiance: accuracy must be in [0.01, 1]");
+  IrradianceOptions io;
+  io.kind = ibl_kind(octahedral);
+  io.size = size;
+  io.accuracy = accuracy;
+  io.divide_by_pi = divide_by_pi;
+  const MapRef src = source_ref(p, rotate);
+  auto out = std::make_shared<PyIbl>();
+  out->kind = io.kind;
+  out->irradiance = true;
+  out->source = p.source;
+  {
+    py::gil_scoped_release release;
+    out->chain.levels.push_back(irradiance_map(src, io));
+  }
+  return out;
+}
+
+/// Writes the chain (or irradiance map) as envprefilter -o (--irradiance) does. Every writer is atomic (temp file,
+/// then rename); the group defers those renames so that all files of a chain appear together or none does.
+void write(const PyIbl& ibl, const std::string& path, const std::string& format) {
+  const GpuFormat f = parse_gpu_format(format);
+  const std::vector<IblFile> files = ibl.irradiance
+                                         ? std::vector<IblFile>{irradiance_file(path, ibl.chain.levels.at(0), ibl.kind)}
+                                         : ggx_chain_files(path, ibl.chain, ibl.kind, ibl.source);
+  py::gil_scoped_release release;
+  OutputGroup group;
+  for (const IblFile& file : files) write_ibl_file(file.path, file, ibl.kind == Kind::CubeMap, f);
+  group.commit();
+}
+
+py::array sh(const PyEnvMap& p, int order, const std::string& kind, bool lambertian, const std::string& window,
+             const py::object& rotate) {
+  if (kind != "radiance" && kind != "irradiance") throw Error("sh: kind must be radiance or irradiance, not " + kind);
+  const ShWindow w = parse_sh_window(window);
+  if (kind == "radiance" && (lambertian || w != ShWindow::None))
+    throw Error(
+        "sh: lambertian and window apply to irradiance (radiance coefficients are unwindowed, as in "
+        "envprefilter's JSON)");
+  const MapRef src = source_ref(p, rotate);
+  ShCoefficients c;
+  {
+    py::gil_scoped_release release;
+    c = project_sh(src, order, w);
+  }
+  const std::vector<std::vector<double>> v =
+      kind == "radiance" ? c.radiance : (lambertian ? c.irradiance_over_pi() : c.irradiance());
+  const py::ssize_t n = sh_count(order), channels = py::ssize_t(v.size());
+  py::array_t<double> out({n, channels});
+  auto o = out.mutable_unchecked<2>();
+  for (py::ssize_t ch = 0; ch < channels; ++ch)
+    for (py::ssize_t i = 0; i < n; ++i) o(i, ch) = v[ch][i];
+  return out;
+}
+
+}  // namespace
+
+void bind_ibl(py::module_& m) {
+  py::class_<PyIbl, std::shared_ptr<PyIbl>>(m, "PrefilteredChain", R"(A GGX radiance mip chain (EnvMap.prefilter) or
+an irradiance map (EnvMap.irradiance): a sequence of H x W x C float32 arrays, level 0 first (cube: a vertical
+strip of six faces in the GL basis, as the KTX2/DDS face table; octahedral: N x N). Arrays share the chain's
+memory (no copy). write(path) writes what envprefilter -o (or --irradiance) writes.)")
+      .def("__len__", [](const PyIbl& c) { return c.chain.levels.size(); })
+      .def("__getitem__",
+           [](py::object self, py::ssize_t k) {
+             const PyIbl& c = self.cast<const PyIbl&>();
+             const auto n = py::ssize_t(c.chain.levels.size());
+             if (k < 0) k += n;
+             if (k < 0 || k >= n) throw py::index_error("level " + std::to_string(k) + " of " + std::to_string(n));
+             return image_view(c.chain.levels[std::size_t(k)].image, self);
+           })
+      .def_property_readonly(
+          "levels",
+          [](py::object self) {
+            py::list out;
+            for (const EnvMap& l : self.cast<const PyIbl&>().chain.levels) out.append(image_view(l.image, self));
+            return out;
+          },
+          "The levels as a list of arrays (views of the chain's memory).")
+      .def_property_readonly(
+          "roughness", [](const PyIbl& c) { return c.chain.roughness; },
+          "Perceptual roughness per level (empty for an irradiance map).")
+      .def_property_readonly(
+          "alpha", [](const PyIbl& c) { return c.chain.alpha; }, "GGX alpha = roughness^2 per level.")
+      .def_property_readonly("mapping",
+                             [](const PyIbl& c) -> py::object {
+                               if (c.irradiance) return py::none();
+                               return py::str(roughness_mapping_name(c.chain.mapping));
+                             })
+      .def_property_readonly("parameterization", [](const PyIbl& c) { return kind_name(c.kind); })
+      .def_property_readonly("metadata", [](const PyIbl& c) { return c.chain.levels.at(0).image.metadata; })
+      .def("write", &write, py::arg("path"), py::arg("format") = "rgba16f",
+           R"(Writes the levels as envprefilter does, atomically: .ktx2 or .dds (every level in one file; format
+rgba16f, rgba32f, rg11b10f or rgb9e5) or .exr with '%' in the name (one float file per level, '%' -> 0, 1, ...;
+irradiance: one .exr).)");
+
+  const char* prefilter_doc = R"(GGX radiance mip chain: envprefilter IN -o OUT [--size N] [--levels M]
+[--mapping gltf|filament|unreal] [--octahedral] [--accuracy A] [--rotate R]. Level m has face size
+max(1, size >> m) and roughness per the mapping; levels 0 = the full chain to 1 x 1. Returns a
+PrefilteredChain (a sequence of arrays; .write(path) for KTX2, DDS, one EXR per level with '%' in the name, or one
+mip-mapped OpenEXR cube for an .exr name without '%': that file holds OpenEXR's faces, so pass its path as for_path
+here, as envprefilter -o name.exr does).)";
+  m.def("prefilter", &prefilter, py::arg("map"), py::arg("size") = 256, py::arg("levels") = 0,
+        py::arg("mapping") = "gltf", py::arg("octahedral") = false, py::arg("accuracy") = 0.2,
+        py::arg("rotate") = py::none(), py::arg("for_path") = "", prefilter_doc);
+  m.def("irradiance", &irradiance, py::arg("map"), py::arg("size") = 32, py::arg("octahedral") = false,
+        py::arg("accuracy") = 0.2, py::arg("divide_by_pi") = true, py::arg("rotate") = py::none(),
+        R"(Diffuse irradiance map: envprefilter IN --irradiance OUT [--irradiance-size N] [--octahedral]
+[--accuracy A]. E/pi (the radiance a white Lambertian surface reflects) unless divide_by_pi=False. Returns a
+one-level PrefilteredChain.)");
+  m.def("sh", &sh, py::arg("map"), py::arg("order") = 2, py::arg("kind") = "radiance", py::arg("lambertian") = false,
+        py::arg("window") = "none", py::arg("rotate") = py::none(),
+        R"(Spherical harmonics (envprefilter --sh --sh-order --sh-window): an (n_coefficients x colour channels)
+float64 array, row i = l (l + 1) + m, real orthonormal basis without the Condon-Shortley phase (docs/PREFILTER.md).
+kind 'radiance': L_lm (unwindowed, the JSON's radiance); 'irradiance': A_l w_l L_lm (the JSON's irradiance), or
+with lambertian=True divided by pi (irradiance_over_pi). window: none, hanning, lanczos (irradiance only).)");
+  // The same calls as methods of EnvMap (sky.prefilter(...), sky.sh(...)).
+  auto envmap = py::reinterpret_borrow<py::class_<PyEnvMap, std::shared_ptr<PyEnvMap>>>(m.attr("EnvMap"));
+  envmap.def("prefilter", &prefilter, py::arg("size") = 256, py::arg("levels") = 0, py::arg("mapping") = "gltf",
+             py::arg("octahedral") = false, py::arg("accuracy") = 0.2, py::arg("rotate") = py::none(),
+             py::arg("for_path") = "", prefilter_doc);
+  envmap.def("irradiance", &irradiance, py::arg("size") = 32, py::arg("octahedral") = false, py::arg("accuracy") = 0.2,
+             py::arg("divide_by_pi") = true, py::arg("rotate") = py::none(), "envkit.irradiance(self, ...).");
+  envmap.def("sh", &sh, py::arg("order") = 2, py::arg("kind") = "radiance", py::arg("lambertian") = false,
+             py::arg("window") = "none", py::arg("rotate") = py::none(), "envkit.sh(self, ...).");
+  m.def(
+      "dfg_lut",
+      [](int size, const std::string& layout) {
+        if (size < 1 || size > 4096) throw Error("dfg_lut: size must be in [1, 4096]");
+        DfgOptions d;
+        d.width = d.height = size;
+        d.layout = parse_dfg_layout(layout);
+        Image lut;
+        {
+          py::gil_scoped_release release;
+          lut = dfg_lut(d);
+        }
+        return image_array(std::move(lut));
+      },
+      py::arg("size") = 128, py::arg("layout") = "scale-bias",
+      R"(The split-sum DFG lookup table (envprefilter --lut --lut-size --lut-layout): size x size x 3 float32,
+x = n.v, y = roughness (row 0 first); layout scale-bias (R = A, G = B, B = sheen) or filament (R = B, G = A + B).)");
+}
+
+}  // namespace envkit::python

@@ -1,0 +1,32 @@
+#include "rotation_arg.h"
+
+#include <envkit/convention.h>
+#include <envkit/error.h>
+
+#include <cstdio>
+#include <string>
+
+#include "arrays.h"
+
+namespace envkit::python {
+
+Mat3 rotation_arg(const py::object& r) {
+  if (py::isinstance<py::str>(r)) return parse_rotation(r.cast<std::string>());
+  const DoubleArray a = DoubleArray::ensure(r);
+  if (!a || (a.size() != 3 && a.size() != 9))
+    throw Error("rotate: expected 'yaw,pitch,roll', 3 angles in degrees or a 3x3 matrix");
+  // Through the tools' text parser, so that validation and results are exactly theirs.
+  std::string text;
+  char buf[40];
+  for (py::ssize_t k = 0; k < a.size(); ++k) {
+    std::snprintf(buf, sizeof buf, "%s%.17g", k ? "," : "", a.data()[k]);
+    text += buf;
+  }
+  return parse_rotation(text);
+}
+
+Mat3 rotated(const Mat3& to_world, const py::object& rotate) {
+  return rotate.is_none() ? to_world : compose(rotation_arg(rotate), to_world);
+}
+
+}  // namespace envkit::python

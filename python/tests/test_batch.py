@@ -1,0 +1,141 @@
+"""envkit.batch on a LocalCluster of two workers: outputs equal the CLIs', failures are per file, a worker killed
+mid-run loses nothing, re-runs skip up-to-date files and redo partial ones."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import envkit
+from envkit import batch
+from conftest import exr_array, run_tool
+
+distributed = pytest.importorskip("distributed")
+
+N_INPUTS = 5
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("batch_in")
+    for k in range(N_INPUTS):
+        run_tool("envprobe", "default", "-o", d / ("map%d.exr" % k), "--size", "384x192", "--seed", str(k),
+                 "--elevation-deg", str(10 + 5 * k))
+    (d / "broken.exr").write_bytes(b"\x76\x2f\x31\x01 truncated")
+    return d
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    c = distributed.Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def options():
+    return batch.default_options(to="cube", size=64, tables=["cdf", "hierarchical"])
+
+
+def check_complete(out, names):
+    for n in names:
+        m = json.load(open(os.path.join(out, n + ".manifest.json")))
+        assert set(m["outputs"]) == {os.path.join(out, n + ".cube.exr"), os.path.join(out, n + ".envtbl")}
+        for path, h in m["outputs"].items():
+            assert envkit.file_content_hash(path) == h
+
+
+def test_batch_kill_rerun_and_partial(inputs, tmp_path, client):
+    out = str(tmp_path / "out")
+    files = batch.find_inputs(str(inputs))
+    names = ["map%d" % k for k in range(N_INPUTS)]
+    assert len(files) == N_INPUTS + 1
+
+    # Kill one worker process (SIGKILL, no clean-up) as soon as the first file is finished.
+    pids = client.run(os.getpid)
+    killed = []
+
+    def killer():
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            if any(n.endswith(".manifest.json") for n in os.listdir(out)) if os.path.isdir(out) else False:
+                pid = sorted(pids.values())[0]
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+                return
+            time.sleep(0.01)
+
+    k = threading.Thread(target=killer)
+    k.start()
+    results = batch.run(files, out, client, options())
+    k.join()
+    assert killed, "the run ended before a worker could be killed"
+    status = {os.path.basename(r["input"]): r for r in results}
+    assert status["broken.exr"]["status"] == "failed"
+    assert "broken.exr" in status["broken.exr"]["error"]
+    # Nothing lost: every good file was finished by a surviving (or restarted) worker. A file whose task finished
+    # on the killed worker after writing its manifest but before reporting is re-run and found up to date.
+    assert all(status[n + ".exr"]["status"] in ("done", "skipped") for n in names), results
+    check_complete(out, names)
+
+    # The outputs are what the CLIs write.
+    cli = tmp_path / "cli.exr"
+    run_tool("envconvert", inputs / "map3.exr", "-o", cli, "--to", "cube", "--size", "64", "-q")
+    assert np.array_equal(exr_array(os.path.join(out, "map3.cube.exr")), exr_array(cli))
+    cli_t = tmp_path / "cli.envtbl"
+    run_tool("envbake", inputs / "map3.exr", "-o", cli_t, "--tables", "cdf,hierarchical", "-q")
+    u = np.random.default_rng(0).random((1000, 2))
+    a, b = envkit.load(os.path.join(out, "map3.envtbl")), envkit.load(str(cli_t))
+    assert a.source_hash == b.source_hash
+    assert np.array_equal(a.sample(u)[0], b.sample(u)[0])
+
+    # Re-run: everything up to date is skipped.
+    again = batch.run(files, out, client, options())
+    assert sorted(r["status"] for r in again) == ["failed"] + ["skipped"] * N_INPUTS
+
+    # A truncated output, a missing one and a changed option are redone; the rest stays skipped.
+    with open(os.path.join(out, "map1.envtbl"), "r+b") as f:
+        f.truncate(100)
+    os.unlink(os.path.join(out, "map2.cube.exr"))
+    redo = {os.path.basename(r["input"]): r["status"] for r in batch.run(files, out, client, options())}
+    assert redo["map1.exr"] == "done" and redo["map2.exr"] == "done"
+    assert [redo["map%d.exr" % k] for k in (0, 3, 4)] == ["skipped"] * 3
+    check_complete(out, names)
+    changed = batch.default_options(to="cube", size=32, tables=["cdf", "hierarchical"])
+    assert batch.run([os.path.join(str(inputs), "map0.exr")], out, client, changed)[0]["status"] == "done"
+
+
+def test_command_line(inputs, tmp_path):
+    out = tmp_path / "cli_out"
+    cmd = [sys.executable, "-m", "envkit.batch", str(inputs), str(out), "--workers", "2", "--to", "octahedral",
+           "--size", "32", "--no-bake", "--pattern", "map[01].exr", "--pattern", "broken.exr",
+           "--json", str(tmp_path / "r.json")]
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 1, p.stderr  # one file failed, the others are done
+    assert "2 done, 0 skipped, 1 failed" in p.stdout
+    assert "broken.exr: " in p.stderr
+    assert sorted(os.listdir(out)) == ["map0.manifest.json", "map0.octahedral.exr", "map1.manifest.json",
+                                       "map1.octahedral.exr"]
+    report = json.load(open(tmp_path / "r.json"))
+    assert report["counts"] == {"done": 2, "skipped": 0, "failed": 1}
+    p = subprocess.run([sys.executable, "-m", "envkit.batch", str(inputs), str(out), "--no-convert", "--no-bake"],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and "nothing to do" in p.stderr
+
+
+def test_prefilter_step_equals_envprefilter(inputs, tmp_path, client):
+    src = str(inputs / "map0.exr")
+    out = tmp_path / "out"
+    opts = batch.default_options(convert=False, bake=False, prefilter=True, prefilter_options={"size": 8})
+    r = batch.run([src], str(out), client, opts)
+    assert r[0]["status"] == "done", r
+    assert r[0]["outputs"] == [str(out / "map0.prefiltered.ktx2")]
+    run_tool("envprefilter", src, "-o", tmp_path / "cli.ktx2", "--size", "8", "-q")
+    assert open(out / "map0.prefiltered.ktx2", "rb").read() == open(tmp_path / "cli.ktx2", "rb").read()
+    assert batch.prefilter_available()

@@ -1,0 +1,68 @@
+// One timed image read or write, by envkit (read_image / write_image) or by OpenImageIO, for scripts/bench_io.sh.
+//
+//   io_throughput envkit|oiio read  IN          time reading IN into float RGB(A) io_throughput envkit|oiio write IN
+//   OUT      read IN (untimed), time writing OUT (format from the extension)
+//
+// Prints "<seconds> <megabytes of float pixels>"; the script turns the pair into MB/s.
+#include <OpenImageIO/imageio.h>
+#include <envkit/image.h>
+#include <envkit/image_io.h>
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace {
+
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+int usage() {
+  std::fprintf(stderr, "usage: io_throughput envkit|oiio read IN | write IN OUT\n");
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 4) return usage();
+  const std::string lib = argv[1], op = argv[2], in = argv[3];
+  if (op == "write" && argc < 5) return usage();
+  const envkit::Image image = op == "write" ? envkit::read_image(in) : envkit::Image();
+  double t0 = 0, t1 = 0, mb = 0;
+  if (lib == "envkit") {
+    t0 = now();
+    if (op == "read") {
+      const envkit::Image r = envkit::read_image(in);
+      mb = static_cast<double>(r.pixels.size()) * 4e-6;
+    } else {
+      envkit::write_image(argv[4], image);
+      mb = static_cast<double>(image.pixels.size()) * 4e-6;
+    }
+    t1 = now();
+  } else if (lib == "oiio") {
+    t0 = now();
+    if (op == "read") {
+      auto input = OIIO::ImageInput::open(in);
+      if (!input) return std::fprintf(stderr, "%s\n", OIIO::geterror().c_str()), 1;
+      const OIIO::ImageSpec& spec = input->spec();
+      std::vector<float> pixels(static_cast<std::size_t>(spec.width) * spec.height * spec.nchannels);
+      if (!input->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
+        return std::fprintf(stderr, "%s\n", input->geterror().c_str()), 1;
+      mb = static_cast<double>(pixels.size()) * 4e-6;
+    } else {
+      auto out = OIIO::ImageOutput::create(argv[4]);
+      OIIO::ImageSpec spec(image.width, image.height, image.channels, OIIO::TypeDesc::FLOAT);
+      spec.attribute("compression", "zip");
+      if (!out || !out->open(argv[4], spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data()) ||
+          !out->close())
+        return std::fprintf(stderr, "%s\n", OIIO::geterror().c_str()), 1;
+      mb = static_cast<double>(image.pixels.size()) * 4e-6;
+    }
+    t1 = now();
+  } else {
+    return usage();
+  }
+  std::printf("%.4f %.1f\n", t1 - t0, mb);
+  return 0;
+}

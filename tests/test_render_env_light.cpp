@@ -1,0 +1,105 @@
+// The environment light's combined look-up (radiance and density in one texel search, what MIS's BSDF samples
+// use) gives exactly what radiance() and pdf() give separately, for every distribution, rotated environments,
+// octahedral and HEALPix grids and importance coarser than the radiance grid.
+#include <envkit/healpix.h>
+#include <envkit/latlong.h>
+#include <envkit/probes.h>
+#include <envkit/render/env_light.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+
+using namespace envkit;
+using namespace envkit::render;
+
+namespace {
+
+Vec3 random_direction(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (;;) {
+    const Vec3 d(u(rng), u(rng), u(rng));
+    const double n = d.length();
+    if (n > 1e-3 && n <= 1.0) return d / n;
+  }
+}
+
+void expect_lookup_matches(const EnvMap& map, const BakeOptions& bake, const Mat3& rotation, const char* what) {
+  const auto tables = std::make_shared<EnvTables>(EnvTables::bake(map, bake));
+  const EnvironmentLight light(map, tables, rotation, 1.5);
+  std::mt19937_64 rng(11);
+  int checked = 0;
+  for (const SamplingMethod m : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical})
+    for (const bool compensated : {false, true}) {
+      const SphericalDistribution& dist = light.distribution(m, compensated);
+      for (int k = 0; k < 4000; ++k) {
+        // Random directions, the poles and the seam exactly, and directions the distribution draws.
+        Vec3 d = k == 0 ? Vec3(0, 1, 0) : k == 1 ? Vec3(0, -1, 0) : k == 2 ? Vec3(0, 0, -1) : random_direction(rng);
+        if (k % 2 == 1 && k > 2) d = light.sample(dist, Vec2(std::fmod(k * 0.618034, 1.0), (k % 97) / 97.0)).direction;
+        const EnvironmentLight::Lookup l = light.lookup(dist, d);
+        const Vec3 L = light.radiance(d);
+        ASSERT_EQ(l.radiance.x, L.x) << what << " k " << k;
+        ASSERT_EQ(l.radiance.y, L.y) << what << " k " << k;
+        ASSERT_EQ(l.radiance.z, L.z) << what << " k " << k;
+        ASSERT_EQ(l.pdf, light.pdf(dist, d)) << what << " k " << k;
+        ++checked;
+      }
+    }
+  EXPECT_EQ(checked, 6 * 4000);
+}
+
+}  // namespace
+
+TEST(EnvironmentLight, LookupIsRadianceAndPdfTogether) {
+  LatLongMap grid(128, 64);
+  LoadOptions load;
+  load.kind = Kind::LatLong;
+  const EnvMap map = make_envmap(probes::rasterize(*probes::make_default_probe(), grid), "default", load);
+  BakeOptions bake;
+  bake.compensated = true;
+  expect_lookup_matches(map, bake, identity3(), "lat-long");
+  expect_lookup_matches(map, bake, rotation_from_euler_degrees(70.0, 20.0, -5.0), "lat-long, rotated");
+  BakeOptions coarse = bake;
+  coarse.importance_width = 32;
+  coarse.importance_height = 16;
+  expect_lookup_matches(map, coarse, identity3(), "lat-long, coarser importance");
+  BakeOptions octahedral = bake;
+  octahedral.grid = Kind::Octahedral;
+  expect_lookup_matches(map, octahedral, rotation_from_euler_degrees(-30.0, 0.0, 10.0), "octahedral");
+  BakeOptions healpix = bake;
+  healpix.grid = Kind::HEALPix;
+  expect_lookup_matches(map, healpix, rotation_from_euler_degrees(40.0, -10.0, 5.0), "healpix");
+  healpix.width = 64;
+  healpix.height = 48;
+  healpix.importance_width = 16;
+  healpix.importance_height = 12;
+  expect_lookup_matches(map, healpix, identity3(), "healpix, coarser importance");
+}
+
+// Tables baked on a HEALPix map's own texels: the light looks radiance up in the map's texels (no resampling), and
+// a light sample carries the radiance of the texel its direction lies in, also for offsets on a texel's edge
+// (u = 0 picks offset 0), where HEALPix's to_image could name the neighbouring base pixel.
+TEST(EnvironmentLight, NativeHealpixTablesUseTheMapsTexels) {
+  const HealpixMap grid(16);
+  LoadOptions load;
+  load.kind = Kind::HEALPix;
+  const EnvMap map = make_envmap(probes::rasterize(*probes::make_default_probe(), grid), "default", load);
+  BakeOptions bake;
+  bake.grid = Kind::HEALPix;
+  const auto tables = std::make_shared<EnvTables>(EnvTables::bake(map, bake));
+  ASSERT_EQ(tables->width(), grid.width());
+  const EnvironmentLight light(map, tables, identity3(), 1.0);
+  for (const SamplingMethod m : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical}) {
+    const SphericalDistribution& dist = light.distribution(m, false);
+    for (int k = 0; k < 2000; ++k) {
+      const Vec2 u = k < 89 ? Vec2(0.0, (k + 0.5) / 89.0) : Vec2(std::fmod(k * 0.618034, 1.0), (k % 89 + 0.5) / 89.0);
+      const LightSample s = light.sample(dist, u);
+      const Vec2 p = grid.to_image(s.direction);
+      const float* texel = map.image.at(int(p.x), int(p.y));
+      ASSERT_FLOAT_EQ(float(s.radiance.x), texel[0]) << method_name(m) << " k " << k;
+      ASSERT_FLOAT_EQ(float(s.radiance.z), texel[2]) << method_name(m) << " k " << k;
+      ASSERT_EQ(s.pdf, light.pdf(dist, s.direction)) << method_name(m) << " k " << k;
+    }
+  }
+}
