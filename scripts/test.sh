@@ -11,7 +11,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${ENVKIT_BUILD_DIR:-$root/build}"
 exclude=(-LE long)
 [ "${ENVKIT_LONG_TESTS:-0}" = 1 ] && exclude=()
-(cd "$build" && ctest --output-on-failure -j "$(nproc)" --timeout 1200 "${exclude[@]}")
+(cd "$build" && ctest --output-on-failure -j "$(nproc)" --timeout 1200 "${exclude[@]}") || { "$root/scripts/ctest-failures.sh" "$build"; exit 8; }
 if [ "${ENVKIT_SKIP_SANITIZE:-0}" != 1 ]; then
   "$root/scripts/test-sanitize.sh"
 fi

@@ -82,16 +82,20 @@ void remove_live_temps_and_reraise(int sig) {
 
 extern "C" void cleanup_on_signal(int sig) {
   const int saved_errno = errno;
-  int expected = kIdle;
-  if (g_phase.compare_exchange_strong(expected, kDying)) {
-    remove_live_temps_and_reraise(sig);
-    // The previous handler may return (a tool that handles the signal itself): the process lives on.
-    g_phase.store(kIdle);
-  } else if (expected == kCommitting) {
-    int none = 0;
-    g_pending.compare_exchange_strong(none, sig);  // the committing thread re-raises it
+  for (;;) {
+    int expected = kIdle;
+    if (g_phase.compare_exchange_strong(expected, kDying)) {
+      remove_live_temps_and_reraise(sig);
+      // The previous handler may return (a tool that handles the signal itself): the process lives on.
+      g_phase.store(kIdle);
+      break;
+    }
+    if (expected == kDying) break;  // another thread is already cleaning up and re-raising
+    // A group commit is running: its thread re-raises the signal when the renames are done. Had it finished them
+    // between the two loads, it may have looked for the signal before it was left: then take it here again.
+    g_pending.store(sig);
+    if (g_phase.load() == kCommitting) break;
   }
-  // kDying: another thread is already cleaning up and re-raising.
   errno = saved_errno;
 }
 
@@ -108,8 +112,10 @@ class HeldSignals {
     }
   }
   ~HeldSignals() {
-    const int sig = g_pending.exchange(0);
+    // Idle first, then look for a held signal: a handler that ran in between either left it before this looks
+    // (raised here) or saw the phase idle and handled it itself.
     g_phase.store(kIdle);
+    const int sig = g_pending.exchange(0);
     if (sig != 0) ::raise(sig);
   }
 };
