@@ -256,6 +256,8 @@ TEST_P(EnvSampling, LoadedTablesSampleBitIdentically) {
   std::filesystem::remove(path);
   EXPECT_TRUE(std::ranges::equal(loaded.importance(), baked.importance()));
   EXPECT_EQ(loaded.descriptor(), baked.descriptor());
+  ASSERT_TRUE(baked.source_to_world().has_value());
+  EXPECT_EQ(loaded.source_to_world(), baked.source_to_world());  // the frame the directions are in
   EXPECT_EQ(loaded.total_importance(), baked.total_importance());
   for (bool compensated : {false, true})
     for (SamplingMethod method : kMethods) {

@@ -260,6 +260,30 @@ TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
                {"--strategy", "mis-compensated"});
 }
 
+// The same file read with another convention: the content hash matches, but the tables' directions are those of
+// the other frame. envrender must refuse them (with --bake it bakes in the scene's frame), and accept tables baked
+// with the scene's convention.
+TEST_F(RenderCli, TablesOfAnotherConventionAreRefused) {
+  LatLongMap grid(32, 16);
+  write_image((dir_ / "sky.exr").string(), probes::rasterize(probes::ConstantProbe(Vec3(0.5)), grid));
+  const auto scene_file = write("blender.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                                      R"("image": "sky.exr", "tables": "sky.envtbl", "convention": "blender")"));
+  const auto bake = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q", "-f"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = test::run_tool("envbake", args, dir_);
+    ASSERT_EQ(r.code, 0) << r.err;
+  };
+  bake({});
+  expect_error(scene_file, {"blender.json:3:", "sky.envtbl", "convention", "--bake"});
+  const fs::path out = dir_ / "out.exr";
+  const auto baked = envrender({"--scene", scene_file.string(), "-o", out.string(), "--spp", "1", "--bake", "-q"});
+  EXPECT_EQ(baked.code, 0) << baked.err;
+  bake({"--from-convention", "blender"});
+  const auto matching = envrender({"--scene", scene_file.string(), "-o", out.string(), "--spp", "1", "-q", "-f"});
+  EXPECT_EQ(matching.code, 0) << matching.err;
+}
+
 TEST_F(RenderCli, HealpixTablesLightMisAndRefuseProduct) {
   // A HEALPix map (envkit metadata says so) and tables baked on its own texels.
   WriteOptions wo;

@@ -196,6 +196,7 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
   t.grid_ = options.grid;
   t.source_path_ = source_path;
   t.source_hash_ = source_hash.empty() ? image_content_hash(map.image) : std::move(source_hash);
+  t.source_to_world_ = map.to_world();
 
   // 1. The bake grid.
   const bool native = on_bake_grid(map, options.grid);
@@ -381,6 +382,12 @@ std::string EnvTables::make_descriptor(const BakeOptions* options) const {
   d["conservative"] = conservative_;
   d["total_importance"] = total_importance_;
   d["source"] = {{"path", source_path_}, {"hash", source_hash_}};
+  if (source_to_world_) {
+    nlohmann::json m = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) m.push_back((*source_to_world_)[r][c]);
+    d["source"]["to_world"] = m;  // row-major
+  }
   nlohmann::json methods = nlohmann::json::array(), compensated = nlohmann::json::array();
   for (int m = 0; m < 3; ++m) {
     if (distributions_[0][m]) methods.push_back(method_name(SamplingMethod(m)));

@@ -267,6 +267,12 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
     t.total_importance_ = d.at("total_importance").get<double>();
     t.source_path_ = d.at("source").at("path").get<std::string>();
     t.source_hash_ = d.at("source").at("hash").get<std::string>();
+    if (d.at("source").contains("to_world")) {
+      const auto m = d.at("source").at("to_world").get<std::vector<double>>();
+      if (m.size() != 9 || !std::all_of(m.begin(), m.end(), [](double v) { return std::isfinite(v); }))
+        throw Error("source.to_world is not 9 finite numbers");
+      t.source_to_world_ = Mat3(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]);
+    }
     t.warnings_ = d.at("warnings").get<std::vector<std::string>>();
   } catch (const nlohmann::json::exception& e) {
     throw fail_with(std::string("corrupt descriptor: ") + e.what());

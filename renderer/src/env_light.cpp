@@ -23,6 +23,13 @@ bool on_grid(const EnvMap& map, Kind grid, int width, int height) {
   return true;
 }
 
+bool same_frame(const Mat3& a, const Mat3& b) {
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      if (!(std::abs(a[r][c] - b[r][c]) <= 1e-9)) return false;
+  return true;
+}
+
 double sanitize(float v) { return (std::isfinite(v) && v > 0.0f) ? double(v) : 0.0; }
 
 }  // namespace
@@ -150,11 +157,18 @@ std::shared_ptr<const EnvTables> load_or_bake_tables(const EnvMap& map, const st
   }
   if (tables_path.empty())
     fail(image_path, "no sampling table file given (set environment.tables, or pass --bake to bake in memory)");
+  std::shared_ptr<const EnvTables> tables;
   try {
-    return std::make_shared<EnvTables>(EnvTables::load(tables_path, source_hash()));
+    tables = std::make_shared<EnvTables>(EnvTables::load(tables_path, source_hash()));
   } catch (const Error& e) {
     throw Error(std::string(e.what()) + " (pass --bake to bake the tables in memory)");
   }
+  // The same file read with another convention puts the same texels in other directions: tables of the old frame
+  // would sample the light where it is not (a biased image, fireflies), though the content hash matches.
+  if (const auto& frame = tables->source_to_world(); frame && !same_frame(*frame, map.to_world()))
+    fail(tables_path, "baked with another convention or orientation of the map than the scene's environment uses "
+                      "(re-bake with envbake --from-convention as in the scene, or pass --bake)");
+  return tables;
 }
 
 }  // namespace envkit::render

@@ -34,6 +34,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <cstddef>
 #include <string>
@@ -108,6 +109,10 @@ class EnvTables {
   double total_importance() const { return total_importance_; }
   const std::string& source_path() const { return source_path_; }
   const std::string& source_hash() const { return source_hash_; }
+  /// The source map's map->world transform (its convention and rotation) when it was baked: the tables hold
+  /// directions in that world frame, so they fit a map only when its to_world() is the same. Empty for files
+  /// written before this was recorded.
+  const std::optional<Mat3>& source_to_world() const { return source_to_world_; }
   /// The table file these tables were loaded from; empty for tables baked in memory. For error messages.
   const std::string& file_path() const { return file_path_; }
   /// The descriptor as stored (JSON text): bake settings, sizes, methods, warnings.
@@ -133,6 +138,7 @@ class EnvTables {
   double total_importance_ = 0.0;
   std::string source_path_;
   std::string source_hash_;
+  std::optional<Mat3> source_to_world_;
   std::string file_path_;
   std::string descriptor_;
   std::vector<std::string> warnings_;
