@@ -202,7 +202,7 @@ def main():
     client.close()
     cluster.close()
     c, b = statistics.median(cli_t), statistics.median(batch_t)
-    print("\n3. batch: %d maps %s -> cube 256 + tables (cdf, alias, hierarchical), median of 3 interleaved runs" %
+    print("\n3. batch: %d maps %s -> cube 256 + tables (envbake's default: hierarchical), median of 3 interleaved runs" %
           (files, size))
     print("   CLIs back to back      %6.2f s   (%.2f maps/s)" % (c, files / c))
     print("   envkit.batch, 2 workers %6.2f s   (%.2f maps/s); cluster start-up %.1f s once" % (b, files / b, startup))

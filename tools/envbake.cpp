@@ -34,12 +34,16 @@ tables live in world directions.
 --conservative: each texel's importance is the max over its 3x3 neighbourhood, so radiance looked up
   with a bilinear filter is never non-zero where the pdf is zero.
 --tables: any of cdf, alias, hierarchical (or pyramid), compensated. compensated adds the MIS-compensated
-  twin max(f - mean, 0) (Karlik et al. 2019) of every other requested table.
+  twin max(f - mean, 0) (Karlik et al. 2019) of every other requested table. Default: hierarchical, the
+  table envrender, envsample and the Python module sample by default (at 8192x4096: 299 MiB; with cdf and
+  alias 939 MiB). Importance at the full resolution by default: coarser was less efficient to render
+  on every map measured (BENCHMARKS.md, "Bake sizing").
 The file records the source's content hash: envrender refuses tables whose source image changed.
 
 Examples:
   envbake sky.exr -o sky.envtbl
-  envbake sky.exr -o sky_small.envtbl --resolution 512x256 --tables hierarchical
+  envbake sky.exr -o sky_all.envtbl --tables cdf,alias,hierarchical
+  envbake sky.exr -o sky_small.envtbl --resolution 512x256
   envbake sky.exr -o sky.envtbl --tables cdf,alias,hierarchical,compensated --importance max
   envbake cube.exr -o cube.envtbl --param octahedral --size 1024
   envbake hp.exr -o hp.envtbl --param healpix
@@ -48,7 +52,7 @@ Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 
 
 struct Options {
   tools::InputSpec in;
-  std::string out, importance = "luminance", param = "latlong", resolution, tables = "cdf,alias,hierarchical",
+  std::string out, importance = "luminance", param = "latlong", resolution, tables = "hierarchical",
                    fix_nonfinite;
   int size = 0, threads = 0;
   bool conservative = false, force = false, quiet = false, progress = false, json = false;

@@ -1,7 +1,7 @@
 """Batch processing of a folder of environment maps on a dask.distributed cluster (docs/PYTHON.md).
 
     /usr/bin/python3 -m envkit.batch IN_DIR OUT_DIR [--workers N | --scheduler ADDR] [--to latlong --size 1024]
-        [--no-bake] [--tables cdf,alias,hierarchical] [--prefilter]
+        [--no-bake] [--tables hierarchical] [--prefilter]
 
 Each input IN_DIR/NAME.EXT gives, in OUT_DIR:
   NAME.<to>.exr        the converted map (EnvMap.convert: envconvert IN -o OUT --to ...)
@@ -235,7 +235,7 @@ def default_options(**overrides):
         "importance": "luminance",
         "bake_grid": "latlong",
         "bake_size": 0,
-        "tables": ["cdf", "alias", "hierarchical"],
+        "tables": ["hierarchical"],  # envbake's default
         "prefilter": False,
         "prefilter_options": {},
         "force": False,
@@ -307,7 +307,7 @@ and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 u
     p.add_argument("--importance", default="luminance", help="luminance, average or max")
     p.add_argument("--bake-grid", default="latlong", help="latlong, octahedral or healpix")
     p.add_argument("--bake-size", type=int, default=0, metavar="N", help="bake grid size N (default natural)")
-    p.add_argument("--tables", default="cdf,alias,hierarchical", help="cdf,alias,hierarchical,compensated")
+    p.add_argument("--tables", default="hierarchical", help="any of cdf,alias,hierarchical,compensated (default: as envbake)")
     p.add_argument("--prefilter", action="store_true", help="also prefilter (when this envkit has the step)")
     p.add_argument("--force", action="store_true", help="redo every file, up to date or not")
     p.add_argument("--json", metavar="FILE", help="write the per-file results as JSON")

@@ -37,7 +37,7 @@ for probe in PROBES:
     extra = [] if probe == "sunny" else ["--cloud-cover", "1", "--radiance", "0"]
     ctx.run([ctx.tool("envprobe"), "default", "-o", sky, "--size", f"{W}x{H}"] + extra)
     tbl = ctx.path(f"{probe}.envtbl")
-    d = json.loads(ctx.run([ctx.tool("envbake"), sky, "-o", tbl, "--json", "--quiet"])[0])
+    d = json.loads(ctx.run([ctx.tool("envbake"), sky, "-o", tbl, "--tables", "cdf,alias,hierarchical", "--json", "--quiet"])[0])
     total = float(d["total_importance"])
     # With luminance importance, pdf(w) = L(w) / total for the table's piecewise-constant L, so each sample's
     # L cos / pdf = total * max(0, n.w): the integrand is the map's luminance (at table resolution) times the cosine.
