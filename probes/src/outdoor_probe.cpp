@@ -6,7 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 namespace envkit::probes {
 
@@ -242,11 +245,37 @@ bool OutdoorProbe::background_may_vary(const Vec3& dir, double radius) const {
   return city_may_vary(elevation, city_mid + wrap(azimuth - city_mid), radius, half_width, settings_.seed);
 }
 
+namespace {
+
+bool same_settings(const OutdoorSettings& a, const OutdoorSettings& b) {
+  return a.sun_elevation_deg == b.sun_elevation_deg && a.sun_azimuth_deg == b.sun_azimuth_deg &&
+         a.sun_radius_deg == b.sun_radius_deg && a.sun_radiance == b.sun_radiance && a.seed == b.seed &&
+         a.cloud_cover == b.cloud_cover;
+}
+
+/// The power of a probe with these settings: probes with equal settings have equal power, and a process that
+/// builds many of them (a Python session, a batch, the fuzzers) rasterizes once per settings instead of once per
+/// probe. The few most recent settings are kept.
+Vec3 power_for(const OutdoorSettings& settings, const OutdoorProbe& probe) {
+  static std::mutex mutex;
+  static std::vector<std::pair<OutdoorSettings, Vec3>> recent;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (const auto& [s, power] : recent)
+      if (same_settings(s, settings)) return power;
+  }
+  const LatLongMap map(512, 256);
+  const Vec3 power = image_power(rasterize(probe, map), map);
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (recent.size() >= 16) recent.erase(recent.begin());
+  recent.emplace_back(settings, power);
+  return power;
+}
+
+}  // namespace
+
 Vec3 OutdoorProbe::total_power() const {
-  std::call_once(power_once_, [this] {
-    const LatLongMap map(512, 256);
-    power_ = image_power(rasterize(*this, map), map);
-  });
+  std::call_once(power_once_, [this] { power_ = power_for(settings_, *this); });
   return power_;
 }
 

@@ -11,7 +11,8 @@
 // removed afterwards and seed files it replaced (--force) are restored, so runs do not depend on each other.
 // Cost limit: inputs with a number above kMaxNumber (or written with an exponent or a 0x prefix) are skipped, so
 // that "--size 100000" does not make every run allocate gigabytes; without --size, envprobe gets "--size 16x8"
-// appended (its default is 1024x512). envrender renders tiny scenes of the scratch directory (scene.json,
+// appended (its default is 1024x512), and inputs asking it for more than 4096 texels or checker cells are skipped
+// (envprobe_too_costly). envrender renders tiny scenes of the scratch directory (scene.json,
 // probe.json, ...; see write_scene_files): it gets "--resolution 4x2", "--spp 1" and "--scene probe.json" when they
 // are absent (the built-in default scene bakes a 1024x512 probe: inputs giving an empty --scene, which means the
 // default scene too, are skipped), and inputs asking for more than a few samples are skipped (envrender_too_costly).
@@ -238,6 +239,29 @@ bool envrender_too_costly(std::vector<std::string>& args) {
   return false;
 }
 
+/// envprobe: true when --size or --cells ask for more than a few thousand texels or cells. envprobe integrates
+/// each texel over its exact solid angle, so a 512x512 map costs about a second under ASan, and such inputs took
+/// most of the fuzzer's time without reaching other code than a 16x8 map does. Values that are not plain sizes
+/// ("0x0", "-4", "abc", "512x") reach envprobe's own checks.
+bool envprobe_too_costly(const std::vector<std::string>& args) {
+  constexpr long kMaxTexels = 4096;
+  const auto plain = [](const std::string& v) {
+    return !v.empty() && v.size() <= 6 && v.find_first_not_of("0123456789") == std::string::npos;
+  };
+  const auto product = [&](const std::string& v, char sep, long single) -> long {
+    const auto at = v.find(sep);
+    if (at == std::string::npos) return plain(v) ? single * std::stol(v) * std::stol(v) : 0;
+    const std::string a = v.substr(0, at), b = v.substr(at + 1);
+    return plain(a) && plain(b) ? std::stol(a) * std::stol(b) : 0;
+  };
+  bool present = false;
+  for (const std::string& v : option_values(args, "--size", present))
+    if (product(v, 'x', 6) > kMaxTexels) return true;  // N: six cube faces of N x N at most
+  for (const std::string& v : option_values(args, "--cells", present))
+    if (product(v, ',', 1) > kMaxTexels) return true;
+  return false;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
@@ -269,6 +293,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   if (std::string(ENVKIT_FUZZ_TOOL) == "envprobe" && !has_size) args.insert(args.end(), {"--size", "16x8"});
   if (std::string(ENVKIT_FUZZ_TOOL) == "envrender" && envrender_too_costly(args)) return 0;
+  if (std::string(ENVKIT_FUZZ_TOOL) == "envprobe" && envprobe_too_costly(args)) return 0;
 
   std::vector<std::vector<char>> storage;
   std::vector<char*> argv;
