@@ -266,8 +266,9 @@ TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
 TEST_F(RenderCli, TablesOfAnotherConventionAreRefused) {
   LatLongMap grid(32, 16);
   write_image((dir_ / "sky.exr").string(), probes::rasterize(probes::ConstantProbe(Vec3(0.5)), grid));
-  const auto scene_file = write("blender.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
-                                                      R"("image": "sky.exr", "tables": "sky.envtbl", "convention": "blender")"));
+  const auto scene_file =
+      write("blender.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                  R"("image": "sky.exr", "tables": "sky.envtbl", "convention": "blender")"));
   const auto bake = [&](std::vector<std::string> extra) {
     std::vector<std::string> args = {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q", "-f"};
     args.insert(args.end(), extra.begin(), extra.end());

@@ -52,8 +52,7 @@ Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 
 
 struct Options {
   tools::InputSpec in;
-  std::string out, importance = "luminance", param = "latlong", resolution, tables = "hierarchical",
-                   fix_nonfinite;
+  std::string out, importance = "luminance", param = "latlong", resolution, tables = "hierarchical", fix_nonfinite;
   int size = 0, threads = 0;
   bool conservative = false, force = false, quiet = false, progress = false, json = false;
 };

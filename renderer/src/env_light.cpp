@@ -166,8 +166,9 @@ std::shared_ptr<const EnvTables> load_or_bake_tables(const EnvMap& map, const st
   // The same file read with another convention puts the same texels in other directions: tables of the old frame
   // would sample the light where it is not (a biased image, fireflies), though the content hash matches.
   if (const auto& frame = tables->source_to_world(); frame && !same_frame(*frame, map.to_world()))
-    fail(tables_path, "baked with another convention or orientation of the map than the scene's environment uses "
-                      "(re-bake with envbake --from-convention as in the scene, or pass --bake)");
+    fail(tables_path,
+         "baked with another convention or orientation of the map than the scene's environment uses "
+         "(re-bake with envbake --from-convention as in the scene, or pass --bake)");
   return tables;
 }
 

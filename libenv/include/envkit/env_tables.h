@@ -31,12 +31,12 @@
 #include <envkit/table_blob.h>
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <span>
-#include <cstddef>
 #include <string>
 #include <vector>
 
