@@ -85,6 +85,10 @@ extern "C" void cleanup_on_signal(int sig) {
   for (;;) {
     int expected = kIdle;
     if (g_phase.compare_exchange_strong(expected, kDying)) {
+      // Handled here: a copy this handler may have left for a commit that ended meanwhile must not be raised again
+      // by a later commit, should the process survive the signal.
+      int left = sig;
+      g_pending.compare_exchange_strong(left, 0);
       remove_live_temps_and_reraise(sig);
       // The previous handler may return (a tool that handles the signal itself): the process lives on.
       g_phase.store(kIdle);
