@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Product-sampling efficiency on glossy spheres (issue 5): relMSE per sphere against a high-spp MIS reference,
+"""Product-sampling efficiency on glossy spheres: relMSE per sphere against a high-spp MIS reference,
 time from the EXR metadata (envkit:seconds), efficiency 1/(relMSE x time) and its ratio to power-heuristic MIS.
 
 Driven by scripts/bench_product_efficiency.sh; standard library only (EXRs are read through oiiotool -> FITS).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Product vs power-MIS efficiency on glossy spheres (issue 5 target: product >= 2x power MIS, alpha 0.05 .. 0.3).
+# Product vs power-MIS efficiency on glossy spheres (target: product >= 2x power MIS, alpha 0.05 .. 0.3).
 # Renders renderer/scenes/glossy.json (sunny default probe) and glossy_overcast.json, a high-spp power-MIS
 # reference, then each config below for several seeds; relMSE per sphere, time, efficiency, ratio vs power MIS.
 # Output: docs/bench_product.md. Env: BUILD (build dir), SEEDS, REF_SPP, SPP, SCENES, OUT, THREADS.

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # report.sh [--quick|--full|--smoke] [--build DIR] [--out DIR] [--no-build] [--repeats N] [--sections LIST] [--keep]
 #
-# Regenerates the speed-accuracy report (issue 6): docs/REPORT.md, with its tables (docs/report/*.md), plots
+# Regenerates the speed-accuracy report: docs/REPORT.md, with its tables (docs/report/*.md), plots
 # (docs/report/*.png) and raw numbers (docs/report/*.json). One python file per section in scripts/report/:
 #   1 conversion     envconvert filters x output sizes: time vs error against envprobe's exact rasterization,
 #                    sub-texel sun power error, envconvert vs exrenvmap (scripts/bench_exrenvmap.sh)

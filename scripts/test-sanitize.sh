@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # test-sanitize.sh [--no-fuzz] [--fuzz-seconds N]
 #
-# The sanitizer pass of scripts/test.sh (issue 7):
+# The sanitizer pass of scripts/test.sh:
 #  1. builds the whole project a second time with Debian's clang and -DENVKIT_SANITIZE=ON (AddressSanitizer +
 #     UndefinedBehaviorSanitizer, -fno-sanitize-recover=undefined) into ${ENVKIT_ASAN_BUILD_DIR:-build-asan}
 #     (benchmarks off), and runs the default test suite there (ctest -LE long) with every sanitizer report fatal;

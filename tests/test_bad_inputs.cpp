@@ -1,4 +1,4 @@
-// The bad-input corpus (issue 7): a table-driven test over tests/bad-inputs/cases.json. Every case runs one built
+// The bad-input corpus: a table-driven test over tests/bad-inputs/cases.json. Every case runs one built
 // tool on an input made for it (written here at test time: truncated, corrupt, non-finite, wrongly shaped, absurdly
 // sized, missing, ...) and asserts the exit code, that stderr is the expected number of lines (one for errors) and
 // that its first line matches a regex naming the file and the problem, and that no output or temporary file
