@@ -240,9 +240,9 @@ bool envrender_too_costly(std::vector<std::string>& args) {
 }
 
 /// envprobe: true when --size or --cells ask for more than a few thousand texels or cells. envprobe integrates
-/// each texel over its exact solid angle, so a 512x512 map costs about a second under ASan, and such inputs took
-/// most of the fuzzer's time without reaching other code than a 16x8 map does. Values that are not plain sizes
-/// ("0x0", "-4", "abc", "512x") reach envprobe's own checks.
+/// each texel over its exact solid angle, so a 512x512 map costs about a second under ASan and reaches no other
+/// code than a 16x8 map does. Values that are not plain sizes ("0x0", "-4", "abc", "512x") reach envprobe's own
+/// checks.
 bool envprobe_too_costly(const std::vector<std::string>& args) {
   constexpr long kMaxTexels = 4096;
   const auto plain = [](const std::string& v) {
