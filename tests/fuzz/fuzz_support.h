@@ -14,21 +14,28 @@
 
 namespace envkit::fuzz {
 
+/// The scratch directory's path, removed with the directory when the process exits. (The removal is this object's
+/// destructor: an atexit handler registered while the path was being built would run after the path's destructor
+/// and read freed memory.)
+struct ScratchDir {
+  std::filesystem::path path;
+  ~ScratchDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
 /// A fresh directory /tmp/envkit_fuzz_<name>_<pid> (or under $ENVKIT_FUZZ_TMP), removed when the process exits.
 inline const std::filesystem::path& scratch_dir(const std::string& name = "target") {
-  static const std::filesystem::path dir = [&] {
+  static const ScratchDir dir{[&] {
     const char* base = std::getenv("ENVKIT_FUZZ_TMP");
     std::filesystem::path d = std::filesystem::path(base && *base ? base : "/tmp") /
                               ("envkit_fuzz_" + name + "_" + std::to_string(::getpid()));
     std::filesystem::remove_all(d);
     std::filesystem::create_directories(d);
-    std::atexit([] {
-      std::error_code ec;
-      std::filesystem::remove_all(scratch_dir(), ec);
-    });
     return d;
-  }();
-  return dir;
+  }()};
+  return dir.path;
 }
 
 /// Discards everything written to std::cout and std::cerr while alive (unless ENVKIT_FUZZ_VERBOSE is set).
