@@ -49,7 +49,8 @@ bin="$build/fuzz"
 [ -n "$targets" ] || { echo "fuzz.sh: no fuzz targets in $bin" >&2; exit 1; }
 
 echo "== replaying seed corpora and regression inputs (ctest -L fuzz)"
-(cd "$build/tests/fuzz" && ctest --output-on-failure -L fuzz -j "$jobs")
+(cd "$build/tests/fuzz" && ctest --output-on-failure -L fuzz -j "$jobs") ||
+  { "$root/scripts/ctest-failures.sh" "$build/tests/fuzz"; exit 1; }
 
 work="$build/fuzz/run"
 mkdir -p "$work"
