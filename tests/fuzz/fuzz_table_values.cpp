@@ -30,11 +30,7 @@
 
 namespace {
 
-[[noreturn]] void finding(const std::string& what) {
-  std::fprintf(stderr, "FINDING: %s\n", what.c_str());
-  std::fflush(stderr);
-  __builtin_trap();
-}
+using envkit::fuzz::finding;
 
 std::vector<std::byte> g_seed;  // a valid table file: 16x8 lat-long, every method, compensated twins
 
@@ -116,18 +112,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     patch(file, s.offset, s.size, data[r + 1], offset, data[r + 6]);
   }
   envkit::reseal_table_file(file);
-  const std::string path = (envkit::fuzz::scratch_dir() / "input.envtables").string();
-  {
-    std::ofstream f(path, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(file.data()), static_cast<std::streamsize>(file.size()));
-  }
-  try {
-    check_tables(envkit::EnvTables::load(path));
-  } catch (const envkit::Error& e) {
-    if (std::string(e.what()).find(path) == std::string::npos)
-      finding(std::string("load error does not name the file: ") + e.what());
-  } catch (const std::exception& e) {
-    finding(std::string("EnvTables::load threw a non-envkit exception: ") + e.what());
-  }
+  envkit::fuzz::load_and_check(envkit::fuzz::write_input(file.data(), file.size()), check_tables);
   return 0;
 }

@@ -20,17 +20,6 @@
 #include <fstream>
 #include <string>
 
-namespace {
-
-[[noreturn]] void finding(const std::string& what) {
-  std::fprintf(stderr, "FINDING: %s\n", what.c_str());
-  std::fflush(stderr);
-  __builtin_trap();
-}
-
-
-}  // namespace
-
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   if (const char* seed = std::getenv("ENVKIT_FUZZ_WRITE_SEED")) {
     envkit::fuzz::write_seed_tables(seed);
@@ -41,28 +30,17 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const std::string path = (envkit::fuzz::scratch_dir() / "input.envtables").string();
-  {
-    std::ofstream f(path, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
-  }
-  try {
-    const envkit::EnvTables tables = envkit::EnvTables::load(path);
+  envkit::fuzz::load_and_check(envkit::fuzz::write_input(data, size), [](const envkit::EnvTables& tables) {
     for (auto method : {envkit::SamplingMethod::Cdf, envkit::SamplingMethod::Alias, envkit::SamplingMethod::Hierarchical})
       for (bool comp : {false, true}) {
         const envkit::SphericalDistribution* d = tables.distribution(method, comp);
         if (!d) continue;
         for (double u : {0.0, 0.3, 0.7, 0.999999}) {
           const envkit::DirectionSample s = d->sample(envkit::Vec2(u, 1.0 - u));
-          if (!std::isfinite(s.pdf) || s.pdf < 0) finding("a sample with a non-finite or negative pdf");
+          if (!std::isfinite(s.pdf) || s.pdf < 0) envkit::fuzz::finding("a sample with a non-finite or negative pdf");
           (void)d->pdf(s.direction);
         }
       }
-  } catch (const envkit::Error& e) {
-    if (std::string(e.what()).find(path) == std::string::npos)
-      finding(std::string("load error does not name the file: ") + e.what());
-  } catch (const std::exception& e) {
-    finding(std::string("EnvTables::load threw a non-envkit exception: ") + e.what());
-  }
+  });
   return 0;
 }

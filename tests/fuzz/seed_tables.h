@@ -1,15 +1,51 @@
 #pragma once
 /// @file seed_tables.h
-/// The valid table file the table fuzzers start from: a 16 x 8 lat-long with one bright texel, every method and
-/// the compensated twins.
+/// What the table fuzzers (fuzz_tables, fuzz_table_values) share: the valid table file they start from (a 16 x 8
+/// lat-long with one bright texel, every method and the compensated twins), writing an input to the scratch
+/// directory, and the contract of a load (an envkit::Error naming the file, or tables that pass the caller's
+/// checks; anything else is a finding).
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
+#include <envkit/error.h>
 #include <envkit/latlong.h>
 
+#include <cstdio>
+#include <exception>
+#include <fstream>
 #include <memory>
 #include <string>
 
+#include "fuzz_support.h"
+
 namespace envkit::fuzz {
+
+/// Reports a finding on stderr and stops the process (libFuzzer saves the input).
+[[noreturn]] inline void finding(const std::string& what) {
+  std::fprintf(stderr, "FINDING: %s\n", what.c_str());
+  std::fflush(stderr);
+  __builtin_trap();
+}
+
+/// Writes `size` bytes to input.envtables in the scratch directory; returns its path.
+inline std::string write_input(const void* data, std::size_t size) {
+  const std::string path = (scratch_dir() / "input.envtables").string();
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+  return path;
+}
+
+/// Loads `path` and runs `check` on the tables; a load that fails must throw envkit::Error naming the file.
+template <class Check>
+void load_and_check(const std::string& path, const Check& check) {
+  try {
+    check(EnvTables::load(path));
+  } catch (const Error& e) {
+    if (std::string(e.what()).find(path) == std::string::npos)
+      finding(std::string("load error does not name the file: ") + e.what());
+  } catch (const std::exception& e) {
+    finding(std::string("EnvTables::load threw a non-envkit exception: ") + e.what());
+  }
+}
 
 inline void write_seed_tables(const std::string& path) {
   EnvMap map;
