@@ -113,6 +113,29 @@ TEST(Prefilter, SharpLevelsOverAFineSourceCubeWithinHalfPercent) {
   }
 }
 
+// A short chain's sharpest level needs a summed cube much coarser than the output: the default source size stops
+// at the first level whose nodes the walk never refines, with the accuracy of a full-size source.
+TEST(Prefilter, SourceCubeSizedForTheSharpestLevel) {
+  EnvMap sun = latlong_env(256, [](const Vec3& d) { return Vec3(0.1 + 0.05 * d.y); });
+  for (int c = 0; c < 3; ++c) sun.image.at(77, 40, c) = 1e6f;
+  PrefilterOptions o;
+  o.size = 64;
+  // Level 1 at alpha 0.25 refines nodes down to 0.2 x 0.5 rad (a 16^2 cube), level 2 at alpha 1 those across the
+  // horizon down to 0.25 x 0.2 rad (32^2).
+  o.levels = 3;
+  const PrefilteredChain chain = prefilter_ggx(sun.ref(), o);
+  EXPECT_EQ(chain.source_size, 32);
+  o.source_size = 64;
+  const PrefilteredChain full = prefilter_ggx(sun.ref(), o);
+  const LevelErrors e = compare_with_reference(sun, chain), f = compare_with_reference(sun, full);
+  print("sun, sized source", e, chain);
+  print("sun, full source", f, full);
+  for (std::size_t i = 0; i < e.rms.size(); ++i) {
+    for (int c = 0; c < 3; ++c) EXPECT_LE(e.rms[i][c], 0.005) << "level " << i + 1 << " channel " << c;
+    EXPECT_LE(e.max_rel[i], 0.03) << "level " << i + 1;
+  }
+}
+
 TEST(Prefilter, ConstantMapStaysConstantAtEveryLevel) {
   const EnvMap src = latlong_env(64, [](const Vec3&) { return Vec3(0.25, 1.0, 3.0); });
   PrefilterOptions o;

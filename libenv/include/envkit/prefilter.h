@@ -34,7 +34,8 @@
 /// directions, so that Var(c) = r^T C r carries no cancellation; a visited
 /// node contributes w(E c) + w''(E c) Var(c) / 2 (c = r.l, second-order exact
 /// over the node) times its flux, and the same rule with the solid-angle moments
-/// to the normalisation; finest nodes act as points at their centroids, so a
+/// to the normalisation; finest nodes wider than accuracy x 2 alpha act as
+/// points at their centroids, so a
 /// single hot texel (a sun) lands at its own direction at every level.
 /// `accuracy` is the speed/accuracy
 /// knob (see docs/PREFILTER.md for measured errors).
@@ -96,8 +97,10 @@ struct PrefilterOptions {
   /// accuracy^2) and more exact. 0.2 keeps smooth maps and a 1e6 sun within
   /// 0.5% relative RMS of the brute-force sum (docs/PREFILTER.md).
   double accuracy = 0.2;
-  /// Face size of the summed source cube (a power of two); 0 = the smallest
-  /// power of two >= size.
+  /// Face size of the summed source cube (a power of two, at most 16384); 0 =
+  /// the smallest power of two >= size, or, if smaller, the first whose texel
+  /// radius is within accuracy x 2 alpha of the sharpest level and within
+  /// 0.25 accuracy / alpha of the roughest (finer nodes would never be visited).
   int source_size = 0;
   ProgressFn progress;
 };

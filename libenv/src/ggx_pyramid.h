@@ -1,0 +1,59 @@
+#pragma once
+// The summed cube pyramid behind GGX prefiltering and irradiance (prefilter.h states the method): a hierarchy over
+// the source texels with exact flux, solid angle, and the means and central second moments of their directions,
+// walked once per output direction.
+#include <envkit/resample.h>
+#include <envkit/vec.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace envkit::detail {
+
+// Four float lanes; GCC/Clang vector extensions, so the same code is SSE on x86-64 and NEON or scalar elsewhere.
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = std::int32_t __attribute__((vector_size(16)));
+
+// Four sibling nodes (the children of one parent; lane q = 2 dj + di) with their fields in lanes, so that the walk
+// tests and sums a whole family at once. The first line is all a walk reads of a family it only refines or skips.
+struct alignas(16) NodeFamily {
+  Float4 omega_mean[3];  // solid-angle-weighted mean of the unit directions below (length <= 1)
+  Float4 omega_gap;      // 1 - |omega_mean|^2, so that 1 - r . mean = (|r - mean|^2 + gap) / 2 keeps its digits
+  Float4 flux_mean[3];   // the same, weighted by |flux|
+  Float4 flux_gap;
+  // Central second moments E[(d - mean)(d - mean)^T] (xx, yy, zz, xy, xz, yz): the variance of r . d is r^T C r,
+  // with no difference of two numbers near 1.
+  Float4 omega_cov[6];
+  Float4 flux_cov[6];
+  Float4 flux[4];  // exact flux per channel (radiance x exact solid angle, summed)
+  Float4 omega;    // exact solid angle
+};
+
+class GgxPyramid {
+ public:
+  // Gathers `src` (world frame by src.to_world) into a cube of face_size (a power of two, at most 16384) by the
+  // cube texel that holds each source texel's centre, then sums upward.
+  GgxPyramid(const MapRef& src, int face_size);
+
+  // The split-sum average around unit r (world frame) for alpha > 0 (prefilter.h); writes channels() values.
+  void filter(const Vec3& r, double alpha, double accuracy, float* out) const;
+
+  int channels() const { return channels_; }
+
+  // Bound on the angular radius of a texel of a cube of face size `size` about its centre (radians).
+  static double texel_radius(int size);
+
+ private:
+  void gather(const MapRef& src, int face_size);
+  void sum_upward();
+
+  int channels_;
+  int alpha_channel_;                            // excluded from the weight of the flux means
+  int finest_ = 0;                               // level of the gathered cube (face size 2^finest_)
+  std::vector<std::vector<NodeFamily>> levels_;  // level k >= 1: family n holds the children of node n of level
+                                                 // k - 1 (node index = face * 4^k + Morton(i, j)); level 0: two
+                                                 // families, the six faces and two empty lanes
+  std::vector<double> radius_;                   // texel_radius(2^k)
+};
+
+}  // namespace envkit::detail
