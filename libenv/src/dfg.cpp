@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <tuple>
 #include <utility>
 
@@ -20,11 +21,75 @@ DfgLayout parse_dfg_layout(const std::string& name) {
 
 namespace {
 
-// Half vectors at polar angle (cos ct, sin st) whose reflection l = 2 (v.h) h -
-// v lies above the horizon have azimuths |phi| <= the returned bound (v in the
-// xz plane): n.l = 2 (v.h) ct - nv > 0 with v.h = sv st cos phi + nv ct.
-// Integrating azimuth over exactly that range keeps the horizon's discontinuity
-// out of the quadrature cells.
+// Gauss-Legendre nodes and weights on [0, 1] (Newton on P_n from the Chebyshev guesses), cached per thread and n.
+struct GaussLegendre {
+  int n = 0;
+  std::vector<double> x, w;
+};
+
+const GaussLegendre& gauss_legendre(int n) {
+  thread_local std::vector<std::unique_ptr<GaussLegendre>> cache;
+  for (const auto& g : cache)
+    if (g->n == n) return *g;
+  auto g = std::make_unique<GaussLegendre>();
+  g->n = n;
+  g->x.assign(n, 0.0);
+  g->w.assign(n, 0.0);
+  for (int i = 0; i < (n + 1) / 2; ++i) {
+    double z = std::cos(kPi * (i + 0.75) / (n + 0.5)), dp = 1.0;
+    for (int it = 0; it < 100; ++it) {
+      double p0 = 1.0, p1 = 0.0;
+      for (int k = 1; k <= n; ++k) {
+        const double p2 = p1;
+        p1 = p0;
+        p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
+      }
+      dp = n * (z * p0 - p1) / (z * z - 1.0);
+      const double dz = p0 / dp;
+      z -= dz;
+      if (std::abs(dz) < 1e-15) break;
+    }
+    const double weight = 1.0 / ((1.0 - z * z) * dp * dp);  // on [-1, 1]: 2 / ((1 - z^2) P'^2); halved for [0, 1]
+    g->x[i] = 0.5 * (1.0 - z);
+    g->x[n - 1 - i] = 0.5 * (1.0 + z);
+    g->w[i] = g->w[n - 1 - i] = weight;
+  }
+  cache.push_back(std::move(g));
+  return *cache.back();
+}
+
+// Calls f(x, weight) for the Gauss-Legendre nodes of [a, b] (nothing when b <= a).
+template <class F>
+void for_nodes(double a, double b, int n, F&& f) {
+  if (!(b > a)) return;
+  const GaussLegendre& g = gauss_legendre(n);
+  for (int i = 0; i < n; ++i) f(a + (b - a) * g.x[i], (b - a) * g.w[i]);
+}
+
+// The same over [a, b] in the variable t = a + (b - a)(3x^2 - 2x^3): its flat ends turn an integrand that
+// behaves like sqrt(distance to an end), as the visible azimuth range does at the horizon's kinks, into a smooth
+// one in x.
+template <class F>
+void for_nodes_flat_ends(double a, double b, int n, F&& f) {
+  if (!(b > a)) return;
+  for_nodes(0.0, 1.0, n,
+            [&](double x, double w) { f(a + (b - a) * x * x * (3.0 - 2.0 * x), (b - a) * 6.0 * x * (1.0 - x) * w); });
+}
+
+// With v at polar angle theta_v (v in the xz plane), the reflection l = 2 (v.h) h - v of a half vector h at polar
+// angle theta_h and azimuth phi is above the horizon, n.l = 2 (v.h) cos theta_h - n.v > 0, for every azimuth while
+// theta_h < pi/4 - theta_v/2, for |phi| < acos(-(n.v / sin theta_v) cot(2 theta_h)) up to pi/4 + theta_v/2, and
+// never beyond. Integrating each of these ranges separately keeps the horizon's kinks at the ends of the
+// quadrature's intervals, where Gauss-Legendre loses nothing.
+struct HorizonSplit {
+  double full_below, none_above;  // theta_h bounds
+};
+HorizonSplit horizon_split(double nv) {
+  const double theta_v = std::acos(nv);
+  return {std::max(0.0, kPi / 4 - theta_v / 2), std::min(kPi / 2, kPi / 4 + theta_v / 2)};
+}
+
+// The azimuth bound |phi| of the visible reflections at half-vector polar angle (cos ct, sin st).
 double azimuth_bound(double nv, double sv, double ct, double st) {
   if (st <= 0.0 || sv <= 0.0) return 2.0 * nv * ct * ct - nv > 0.0 ? kPi : 0.0;
   const double c0 = (nv / (2.0 * ct) - nv * ct) / (sv * st);
@@ -34,21 +99,6 @@ double azimuth_bound(double nv, double sv, double ct, double st) {
 // The view's factor sqrt(nv^2 (1 - a^2) + a^2) of the height-correlated Smith term; it is the same for every light
 // direction of one LUT texel, so the quadrature computes it once.
 double smith_view_root(double nv, double a2) { return std::sqrt(nv * nv * (1.0 - a2) + a2); }
-
-// Calls f(cos phi, weight x dphi) for the phi_samples azimuth midpoints of [-bound, bound], by mirror pairs: with
-// v in the xz plane both integrands depend on the azimuth only through cos phi, so node p and node
-// phi_samples - 1 - p add the same value and one evaluation with twice the weight stands for both (the middle node
-// of an odd count once). Azimuths by rotation (angle addition) instead of a cos and a sin per node.
-template <class F>
-void for_azimuth_pairs(double bound, int phi_samples, F&& f) {
-  const double dphi = 2.0 * bound / phi_samples;
-  const int first = phi_samples / 2;
-  const double phi0 = -bound + (first + 0.5) * dphi;
-  double cp = std::cos(phi0), sp = std::sin(phi0);
-  const double cd = std::cos(dphi), sd = std::sin(dphi);
-  for (int p = first; p < phi_samples; ++p, std::tie(cp, sp) = std::pair(cp * cd - sp * sd, sp * cd + cp * sd))
-    f(cp, (p == phi_samples - 1 - p ? 1.0 : 2.0) * dphi);
-}
 
 double smith_ggx_correlated(double nv, double view_root, double nl, double a2) {
   const double gv = nl * view_root;
@@ -60,59 +110,69 @@ double smith_ggx_correlated(double nv, double view_root, double nl, double a2) {
 
 DfgValue dfg_integrate(double nv, double roughness, int theta_samples, int phi_samples) {
   nv = std::clamp(nv, 1e-4, 1.0);
-  const Vec3 v(std::sqrt(1.0 - nv * nv), 0.0, nv);  // n = +z
+  const double sv = std::sqrt(1.0 - nv * nv);  // v = (sv, 0, nv), n = +z
   const double alpha = std::max(roughness * roughness, 1e-4);
   const double a2 = alpha * alpha;
+  const HorizonSplit split = horizon_split(nv);
   DfgValue out;
-  // GGX: xi midpoints of the CDF of theta_h (tan^2 theta = a^2 xi / (1 - xi)),
-  // h's measure D (n.h) d omega_h. Integral of D X d omega_l = E[X 4 (v.h) /
-  // (n.h)] under that measure.
-  double sa = 0.0, sb = 0.0;
+  // GGX: the variable s = sqrt(1 - xi), xi the CDF of theta_h under D (n.h) d omega_h (tan^2 theta = a^2 xi /
+  // (1 - xi)); the integral of D X d omega_l is E[X 4 (v.h) / (n.h)] under that measure, and 1 - xi = s^2 absorbs
+  // the 1 / (n.h) ~ 1 / sqrt(1 - xi) of grazing half vectors, which grazing views reflect above the horizon.
+  // s falls as theta_h grows: s(theta) = a cos theta / sqrt(sin^2 theta + a^2 cos^2 theta).
+  auto s_of = [&](double theta) {
+    const double c = std::cos(theta), sn = std::sin(theta);
+    return alpha * c / std::sqrt(sn * sn + a2 * c * c);
+  };
   const double view_root = smith_view_root(nv, a2);
-  // The substitution 1 - xi = s^2 (midpoints in s) absorbs the 1 / (n.h) ~ 1 /
-  // sqrt(1 - xi) of grazing half vectors, which grazing views reflect above the
-  // horizon; in xi itself the midpoint rule converges as 1 / sqrt(n).
-  for (int t = 0; t < theta_samples; ++t) {
-    const double sq = (t + 0.5) / theta_samples;
-    const double xi = 1.0 - sq * sq, dxi = 2.0 * sq;
+  double sa = 0.0, sb = 0.0;
+  // Both integrands depend on the azimuth only through cos phi (v in the xz plane): twice the integral over
+  // [0, bound].
+  auto ggx_at = [&](double s, double ds) {
+    const double xi = 1.0 - s * s, dxi = 2.0 * s * ds;
     const double cos2 = (1.0 - xi) / (1.0 + (a2 - 1.0) * xi);
     const double ct = std::sqrt(cos2), st = std::sqrt(std::max(0.0, 1.0 - cos2));
-    const double bound = azimuth_bound(nv, v.x, ct, st);
-    for_azimuth_pairs(bound, phi_samples, [&](double cp, double dphi) {
-      const double vh = v.x * st * cp + v.z * ct;  // h = (st cos phi, st sin phi, ct)
-      const double nl = 2.0 * vh * ct - nv;        // l = 2 (v.h) h - v
+    double a_sum = 0.0, b_sum = 0.0;
+    for_nodes(0.0, azimuth_bound(nv, sv, ct, st), phi_samples, [&](double phi, double w) {
+      const double vh = sv * st * std::cos(phi) + nv * ct;  // h = (st cos phi, st sin phi, ct)
+      const double nl = 2.0 * vh * ct - nv;                 // l = 2 (v.h) h - v
       if (nl <= 0.0 || vh <= 0.0) return;
-      const double g = smith_ggx_correlated(nv, view_root, nl, a2) * nl * 4.0 * vh / ct;
+      const double g = w * smith_ggx_correlated(nv, view_root, nl, a2) * nl * 4.0 * vh / ct;
       const double m = 1.0 - vh, m2 = m * m;
       const double fc = m2 * m2 * m;
-      sa += g * (1.0 - fc) * dphi * dxi;
-      sb += g * fc * dphi * dxi;
+      a_sum += g * (1.0 - fc);
+      b_sum += g * fc;
     });
-  }
-  out.scale = sa / (kTwoPi * theta_samples);
-  out.bias = sb / (kTwoPi * theta_samples);
-  // Charlie: midpoints in u = cos theta_h over [0, u_max], where sin^(1/a) has
-  // decayed below e^-18.
+    sa += 2.0 * a_sum * dxi;
+    sb += 2.0 * b_sum * dxi;
+  };
+  const double s_full = s_of(split.full_below), s_none = s_of(split.none_above);
+  for_nodes(s_full, 1.0, theta_samples, ggx_at);
+  for_nodes_flat_ends(s_none, s_full, theta_samples, ggx_at);
+  out.scale = sa / kTwoPi;
+  out.bias = sb / kTwoPi;
+  // Charlie: u = cos theta_h over [0, u_max], where sin^(1/a) has decayed below e^-18, split like the GGX lobe.
   const double sheen_alpha = std::max(roughness * roughness, 1e-3);
   const double k = 1.0 / sheen_alpha;
   const double u_max = std::min(1.0, 6.0 / std::sqrt(k));
   const double norm = (2.0 + k) / kTwoPi;
   double ss = 0.0;
-  for (int t = 0; t < theta_samples; ++t) {
-    const double u = u_max * (t + 0.5) / theta_samples;
+  auto charlie_at = [&](double u, double du) {
     const double s = std::sqrt(std::max(0.0, 1.0 - u * u));
     const double d = norm * std::pow(s, k);
-    const double bound = azimuth_bound(nv, v.x, u, s);
-    for_azimuth_pairs(bound, phi_samples, [&](double cp, double dphi) {
-      const double vh = v.x * s * cp + v.z * u;  // h = (s cos phi, s sin phi, u)
+    double sum = 0.0;
+    for_nodes(0.0, azimuth_bound(nv, sv, u, s), phi_samples, [&](double phi, double w) {
+      const double vh = sv * s * std::cos(phi) + nv * u;  // h = (s cos phi, s sin phi, u)
       const double nl = 2.0 * vh * u - nv;
       if (nl <= 0.0 || vh <= 0.0) return;
-      const double vis = 1.0 / (4.0 * (nl + nv - nl * nv));
-      ss += d * vis * nl * 4.0 * vh * dphi;
+      sum += w * nl * 4.0 * vh / (4.0 * (nl + nv - nl * nv));
     });
-  }
+    ss += 2.0 * du * d * sum;
+  };
+  const double u_full = std::cos(split.full_below), u_none = std::cos(split.none_above);
+  for_nodes_flat_ends(std::max(u_none, 0.0), std::min(u_full, u_max), theta_samples, charlie_at);
+  for_nodes(std::max(u_full, 0.0), u_max, theta_samples, charlie_at);
   // d omega_h = du dphi over the upper hemisphere of h.
-  out.sheen = ss * (u_max / theta_samples);
+  out.sheen = ss;
   return out;
 }
 

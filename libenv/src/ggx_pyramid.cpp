@@ -3,6 +3,7 @@
 #include <envkit/cubemap.h>
 #include <envkit/error.h>
 #include <envkit/filter.h>
+#include <envkit/huge_page_allocator.h>
 #include <envkit/solid_angle_table.h>
 #include <envkit/texel_directions.h>
 #include <tbb/parallel_for.h>
@@ -195,7 +196,7 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
   // do not depend on the thread count. Chunks of bands at a time bound the memory of the lists, and the chunks
   // reuse the same lists (fresh ones would fault in new pages for every chunk).
   const int bands = std::min(h, 256), chunk = 16;
-  std::vector<Acc> acc(std::size_t(6) * face_nodes);
+  std::vector<Acc, HugePageAllocator<Acc>> acc(std::size_t(6) * face_nodes);
   std::vector<std::vector<std::pair<std::uint32_t, Acc>>> partial(chunk);
   for (int b0 = 0; b0 < bands; b0 += chunk) {
     tbb::parallel_for(b0, std::min(bands, b0 + chunk), [&](int b) {
@@ -262,7 +263,7 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
     for (int e = 0; e < 3; ++e) c[e] = std::max(c[e], 0.0);  // variances, >= 0 but for rounding
     return c;
   };
-  std::vector<NodeFamily>& finest = levels_[finest_];
+  auto& finest = levels_[finest_];
   tbb::parallel_for(std::size_t(0), finest.size(), [&](std::size_t fam) {
     for (int q = 0; q < 4; ++q) {
       const Acc& a = acc[fam * 4 + q];
@@ -281,8 +282,8 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
 
 void GgxPyramid::sum_upward() {
   for (int k = finest_ - 1; k >= 0; --k) {
-    const std::vector<NodeFamily>& fine = levels_[k + 1];
-    std::vector<NodeFamily>& coarse = levels_[k];
+    const auto& fine = levels_[k + 1];
+    auto& coarse = levels_[k];
     tbb::parallel_for(std::size_t(0), coarse.size(), [&](std::size_t fam) {
       for (int q = 0; q < 4; ++q) {
         const std::size_t node = fam * 4 + q;  // node of level k = family of level k + 1

@@ -2,6 +2,7 @@
 // The summed cube pyramid behind GGX prefiltering and irradiance (prefilter.h states the method): a hierarchy over
 // the source texels with exact flux, solid angle, and the means and central second moments of their directions,
 // walked once per output direction.
+#include <envkit/huge_page_allocator.h>
 #include <envkit/resample.h>
 #include <envkit/vec.h>
 
@@ -50,7 +51,8 @@ class GgxPyramid {
   int channels_;
   int alpha_channel_;                            // excluded from the weight of the flux means
   int finest_ = 0;                               // level of the gathered cube (face size 2^finest_)
-  std::vector<std::vector<NodeFamily>> levels_;  // level k >= 1: family n holds the children of node n of level
+  std::vector<std::vector<NodeFamily, HugePageAllocator<NodeFamily>>>
+      levels_;                                   // level k >= 1: family n holds the children of node n of level
                                                  // k - 1 (node index = face * 4^k + Morton(i, j)); level 0: two
                                                  // families, the six faces and two empty lanes
   std::vector<double> radius_;                   // texel_radius(2^k)

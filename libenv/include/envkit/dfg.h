@@ -20,11 +20,16 @@
 /// Pettineo 2013, Filament's IBL sheen):
 ///   S = integral of D_c V_n n.l d omega_l.
 /// Integration: deterministic product quadrature over the half vector h (GGX:
-/// midpoints in sqrt(1 - the GGX CDF) of theta_h times midpoints in azimuth
-/// over exactly the range whose reflection lies above the horizon, i.e.
-/// stratified importance sampling without randomness or a discontinuity inside
-/// a cell; Charlie: midpoints in cos theta_h over the lobe's support, same
-/// azimuth range), accurate to better than 1e-3 (tests/test_prefilter_dfg.cpp).
+/// the variable sqrt(1 - the GGX CDF) of theta_h; Charlie: cos theta_h over
+/// the lobe's support; both times the azimuth over exactly the range whose
+/// reflection lies above the horizon). theta_h is cut where that range stops
+/// being the whole circle and where it vanishes, and each piece, and the
+/// azimuth range, is integrated by Gauss-Legendre (the piece between the cuts
+/// through a variable with flat ends, which smooths the range's square-root
+/// behaviour there): with the default 20 x 8 nodes every texel of the 128^2
+/// LUT is within 1e-4 of 128 x 64 nodes, and the whole agrees with an
+/// independent integration over the light direction to 1e-3
+/// (tests/test_prefilter_dfg.cpp).
 #include <envkit/image.h>
 
 #include <string>
@@ -48,8 +53,8 @@ DfgLayout parse_dfg_layout(const std::string& name);  ///< "scale-bias" (also "k
 struct DfgOptions {
   int width = 128;          ///< n.v samples
   int height = 128;         ///< roughness samples
-  int theta_samples = 128;  ///< quadrature nodes along theta_h
-  int phi_samples = 32;     ///< quadrature nodes in azimuth
+  int theta_samples = 20;   ///< Gauss-Legendre nodes per interval of theta_h
+  int phi_samples = 8;      ///< Gauss-Legendre nodes over the visible half-range of azimuth
   DfgLayout layout = DfgLayout::ScaleBias;
 };
 
@@ -60,7 +65,7 @@ struct DfgValue {
   /// 1 + F0 (1 / E - 1) factor's 1 / E - 1 (0 when E = 0).
   double energy_compensation() const { return albedo() > 0.0 ? 1.0 / albedo() - 1.0 : 0.0; }
 };
-DfgValue dfg_integrate(double n_dot_v, double roughness, int theta_samples = 128, int phi_samples = 32);
+DfgValue dfg_integrate(double n_dot_v, double roughness, int theta_samples = 20, int phi_samples = 8);
 
 /// The LUT as a 3-channel float image (channels per DfgLayout, named R, G, B),
 /// metadata envkit:dfg_layout and envkit:dfg_axes. Parallel; independent of the
