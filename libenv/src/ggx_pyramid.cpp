@@ -299,7 +299,10 @@ void GgxPyramid::sum_upward() {
   }
 }
 
-void GgxPyramid::filter(const Vec3& r, double alpha, double accuracy, float* out) const {
+void GgxPyramid::filter(std::span<const Vec3> r, double alpha, double accuracy, std::span<float> out) const {
+  const int n = int(r.size());
+  if (n < 1 || n > kMaxGroup || out.size() < r.size() * std::size_t(channels_))
+    throw Error("prefilter: a group of 1 to " + std::to_string(kMaxGroup) + " directions");
   const double spread = 2.0 * alpha;
   const Lobe lobe{splat(alpha * alpha), splat(0.5 * (1.0 - alpha * alpha)), splat(0.5 * (alpha * alpha - 1.0))};
   // Finest nodes wider than the lobe's peak act as points at their unit centroids (a second-order expansion over
@@ -325,8 +328,13 @@ void GgxPyramid::filter(const Vec3& r, double alpha, double accuracy, float* out
     refine_below[k] = k < finest_ && limit > 0.0 ? float(0.5 * limit * limit) : -1.0f;
     horizon_refine[k] = k < finest_ && radius_[k] > 0.25 * accuracy / alpha;
   }
-  const Float4 rx = splat(r.x), ry = splat(r.y), rz = splat(r.z);
-  Float4 acc[4] = {}, weight = {};
+  struct Direction {
+    Float4 x, y, z;
+  };
+  std::array<Direction, kMaxGroup> dir;
+  for (int t = 0; t < n; ++t) dir[t] = {splat(r[t].x), splat(r[t].y), splat(r[t].z)};
+  std::array<std::array<Float4, 4>, kMaxGroup> acc{};
+  std::array<Float4, kMaxGroup> weight{};
   struct Item {
     int level;
     std::uint32_t family;
@@ -336,34 +344,44 @@ void GgxPyramid::filter(const Vec3& r, double alpha, double accuracy, float* out
   int top = 0;
   stack[top++] = {0, 1};
   stack[top++] = {0, 0};
+  std::array<Float4, kMaxGroup> eo;
+  std::array<Int4, kMaxGroup> visible, straddles;
   while (top > 0) {
     const Item it = stack[--top];
     const NodeFamily& f = levels_[it.level][it.family];
     const bool points = finest_points && it.level == finest_;
-    const Float4 eo =
-        points ? one_minus_dot_unit(f.omega_mean, rx, ry, rz) : one_minus_dot(f.omega_mean, f.omega_gap, rx, ry, rz);
-    const Int4 visible = eo <= splat(skip_above[it.level]);
-    const Int4 straddles = eo > splat(straddle_above[it.level]);
-    Int4 refine = eo < splat(refine_below[it.level]);
-    if (horizon_refine[it.level]) refine |= straddles;
-    refine &= visible;
-    const Int4 summed = visible & ~refine;
-    if (lanes_of(summed)) {
+    // A node is refined for the whole group when any direction needs it refined: the others then sum its children,
+    // which is finer than they need and never less exact.
+    Int4 refine = {};
+    for (int t = 0; t < n; ++t) {
+      const Direction& d = dir[t];
+      eo[t] = points ? one_minus_dot_unit(f.omega_mean, d.x, d.y, d.z)
+                     : one_minus_dot(f.omega_mean, f.omega_gap, d.x, d.y, d.z);
+      visible[t] = eo[t] <= splat(skip_above[it.level]);
+      straddles[t] = eo[t] > splat(straddle_above[it.level]);
+      Int4 wants = eo[t] < splat(refine_below[it.level]);
+      if (horizon_refine[it.level]) wants |= straddles[t];
+      refine |= wants & visible[t];
+    }
+    for (int t = 0; t < n; ++t) {
+      const Int4 summed = visible[t] & ~refine;
+      if (!lanes_of(summed)) continue;
+      const Direction& d = dir[t];
       Float4 wf, wo;
       if (points) {
-        wf = lobe.weight(one_minus_dot_unit(f.flux_mean, rx, ry, rz));
-        wo = lobe.weight(eo);
+        wf = lobe.weight(one_minus_dot_unit(f.flux_mean, d.x, d.y, d.z));
+        wo = lobe.weight(eo[t]);
       } else {
-        const Float4 ef = one_minus_dot(f.flux_mean, f.flux_gap, rx, ry, rz);
+        const Float4 ef = one_minus_dot(f.flux_mean, f.flux_gap, d.x, d.y, d.z);
         // The second-order term over the node, E[w(c)] ~ w(E c) + w''(E c) Var(c) / 2; not across the horizon.
-        const Float4 vf = keep(~straddles, quad_form(f.flux_cov, rx, ry, rz));
-        const Float4 vo = keep(~straddles, quad_form(f.omega_cov, rx, ry, rz));
+        const Float4 vf = keep(~straddles[t], quad_form(f.flux_cov, d.x, d.y, d.z));
+        const Float4 vo = keep(~straddles[t], quad_form(f.omega_cov, d.x, d.y, d.z));
         wf = lobe.weight_over(ef, vf);
-        wo = lobe.weight_over(eo, vo);
+        wo = lobe.weight_over(eo[t], vo);
       }
       wf = keep(summed, wf);
-      for (int c = 0; c < channels_; ++c) acc[c] += wf * f.flux[c];
-      weight += keep(summed, wo) * f.omega;
+      for (int c = 0; c < channels_; ++c) acc[t][c] += wf * f.flux[c];
+      weight[t] += keep(summed, wo) * f.omega;
     }
     const int refined = lanes_of(refine);
     for (int q = 0; q < 4; ++q)
@@ -372,13 +390,15 @@ void GgxPyramid::filter(const Vec3& r, double alpha, double accuracy, float* out
         if (child < levels_[it.level + 1].size()) stack[top++] = {it.level + 1, child};
       }
   }
-  double total_weight = 0.0;
-  for (int q = 0; q < 4; ++q) total_weight += weight[q];
-  for (int c = 0; c < channels_; ++c) {
-    double sum = 0.0;
-    for (int q = 0; q < 4; ++q) sum += acc[c][q];
-    const double v = total_weight > 0.0 ? sum / total_weight : 0.0;
-    out[c] = std::isfinite(v) ? float(v) : 0.0f;
+  for (int t = 0; t < n; ++t) {
+    double total_weight = 0.0;
+    for (int q = 0; q < 4; ++q) total_weight += weight[t][q];
+    for (int c = 0; c < channels_; ++c) {
+      double sum = 0.0;
+      for (int q = 0; q < 4; ++q) sum += acc[t][c][q];
+      const double v = total_weight > 0.0 ? sum / total_weight : 0.0;
+      out[std::size_t(t) * channels_ + c] = std::isfinite(v) ? float(v) : 0.0f;
+    }
   }
 }
 

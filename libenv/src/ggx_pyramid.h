@@ -7,6 +7,7 @@
 #include <envkit/vec.h>
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace envkit::detail {
@@ -36,8 +37,13 @@ class GgxPyramid {
   // cube texel that holds each source texel's centre, then sums upward.
   GgxPyramid(const MapRef& src, int face_size);
 
-  // The split-sum average around unit r (world frame) for alpha > 0 (prefilter.h); writes channels() values.
-  void filter(const Vec3& r, double alpha, double accuracy, float* out) const;
+  static constexpr int kMaxGroup = 16;
+
+  // The split-sum average around each unit direction of r (world frame) for alpha > 0 (prefilter.h); writes
+  // channels() values per direction to out. Up to kMaxGroup directions walk the pyramid together, a node being
+  // refined for all when one needs it: neighbouring directions share nearly all their walk, which then loads each
+  // node once for the group. The values depend on the grouping only within the walk's accuracy.
+  void filter(std::span<const Vec3> r, double alpha, double accuracy, std::span<float> out) const;
 
   int channels() const { return channels_; }
 

@@ -85,17 +85,34 @@ Image convolve_level(const detail::GgxPyramid& pyramid, const Parameterization& 
   Image out(param.width(), param.height(), like.channels);
   out.channel_names = like.channel_names;
   out.alpha_channel = like.alpha_channel;
-  tbb::parallel_for(0, out.height, [&](int y) {
-    for (int x = 0; x < out.width; ++x) {
-      Vec3 d;
-      float* px = out.at(x, y);
-      if (!dirs.centre(x, y, d)) {
-        std::fill(px, px + out.channels, 0.0f);
-        continue;
-      }
-      pyramid.filter(apply(to_world, d).normalized(), alpha, accuracy, px);
+  // Blocks of 4 x 4 texels walk the pyramid together (GgxPyramid::filter): neighbours on the map, and on the sphere
+  // but where a block crosses a cube face's edge, which costs only time.
+  constexpr int kBlock = 4;
+  static_assert(kBlock * kBlock <= detail::GgxPyramid::kMaxGroup);
+  const int rows = (out.height + kBlock - 1) / kBlock;
+  tbb::parallel_for(0, rows, [&](int by) {
+    const int y0 = by * kBlock, y1 = std::min(out.height, y0 + kBlock);
+    std::array<Vec3, kBlock * kBlock> r;
+    std::array<float*, kBlock * kBlock> px;
+    std::array<float, kBlock * kBlock * 4> values;
+    for (int x0 = 0; x0 < out.width; x0 += kBlock) {
+      int n = 0;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < std::min(out.width, x0 + kBlock); ++x) {
+          Vec3 d;
+          float* p = out.at(x, y);
+          if (!dirs.centre(x, y, d)) {
+            std::fill(p, p + out.channels, 0.0f);
+            continue;
+          }
+          r[n] = apply(to_world, d).normalized();
+          px[n++] = p;
+        }
+      if (n == 0) continue;
+      pyramid.filter(std::span(r.data(), n), alpha, accuracy, std::span(values.data(), std::size_t(n) * out.channels));
+      for (int t = 0; t < n; ++t) std::copy_n(values.data() + std::size_t(t) * out.channels, out.channels, px[t]);
     }
-    if (rows_done) rows_done(out.width);
+    if (rows_done) rows_done(out.width * (y1 - y0));
   });
   return out;
 }
