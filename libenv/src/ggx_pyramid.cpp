@@ -185,11 +185,20 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
   const TexelDirections dirs(src.param);
   const SolidAngleTable omega(src.param);
   const TexelSource coverage(src.image, src.param);
+  // A node's sums over its texels, in float: a node holds a few dozen texels, and the directions enter as offsets
+  // from the node's centre, whose moments keep float's digits (raw moments of d would lose them to the
+  // subtraction of the mean below). Half the memory of doubles, which a big gather pays for in page faults.
   struct Acc {
-    std::array<double, 4> flux{};
-    double omega = 0.0, weight = 0.0;
-    Vec3 flux_sum{0.0}, omega_sum{0.0};
-    Moments6 flux_m2{}, omega_m2{};
+    std::array<float, 4> flux{};
+    float omega = 0.0f, weight = 0.0f;
+    std::array<float, 3> flux_sum{}, omega_sum{};  // of (d - centre), weighted
+    std::array<float, 6> flux_m2{}, omega_m2{};    // of (d - centre)(d - centre)^T, weighted
+  };
+  // The centre of a finest node: the centre of its texel on the gathering cube.
+  auto centre_of = [&](int i, int row) {
+    Vec3 c;
+    cube.to_direction(Vec2(i + 0.5, row + 0.5), c);
+    return c;
   };
   const std::uint32_t face_nodes = std::uint32_t(face_size) * std::uint32_t(face_size);
   // Source rows in fixed bands, each band gathering into its own run-length list; bands merge in order, so the sums
@@ -204,6 +213,7 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
       std::vector<std::pair<std::uint32_t, Acc>>& out = partial[b - b0];
       out.clear();
       std::uint32_t last = UINT32_MAX;
+      Vec3 centre(0.0);
       for (int y = y0; y < y1; ++y)
         for (int x = 0; x < w; ++x) {
           const std::size_t index = std::size_t(y) * w + x;
@@ -220,22 +230,27 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
           if (node != last) {
             out.push_back({node, Acc{}});
             last = node;
+            centre = centre_of(i, row);
           }
           Acc& a = out.back().second;
           const float* px = src.image.pixels.data() + index * channels;
           double lum = 0.0;
           for (int c = 0; c < channels; ++c) {
-            a.flux[c] += double(px[c]) * o;
+            a.flux[c] += float(double(px[c]) * o);
             if (c != alpha_channel) lum += std::abs(double(px[c]));
           }
-          a.omega += o;
-          a.omega_sum += o * d;
-          a.weight += lum * o;
-          a.flux_sum += (lum * o) * d;
-          const Moments6 dd = outer(d);
+          const Vec3 off = d - centre;
+          const double lo = lum * o;
+          a.omega += float(o);
+          a.weight += float(lo);
+          for (int e = 0; e < 3; ++e) {
+            a.omega_sum[e] += float(o * off[e]);
+            a.flux_sum[e] += float(lo * off[e]);
+          }
+          const Moments6 dd = outer(off);
           for (int q = 0; q < 6; ++q) {
-            a.omega_m2[q] += o * dd[q];
-            a.flux_m2[q] += lum * o * dd[q];
+            a.omega_m2[q] += float(o * dd[q]);
+            a.flux_m2[q] += float(lo * dd[q]);
           }
         }
     });
@@ -245,8 +260,10 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
         for (int c = 0; c < 4; ++c) to.flux[c] += a.flux[c];
         to.omega += a.omega;
         to.weight += a.weight;
-        to.omega_sum += a.omega_sum;
-        to.flux_sum += a.flux_sum;
+        for (int e = 0; e < 3; ++e) {
+          to.omega_sum[e] += a.omega_sum[e];
+          to.flux_sum[e] += a.flux_sum[e];
+        }
         for (int q = 0; q < 6; ++q) {
           to.omega_m2[q] += a.omega_m2[q];
           to.flux_m2[q] += a.flux_m2[q];
@@ -254,27 +271,42 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
       }
     }
   }
-  // Central moments from the raw sums in double, where they still hold the few digits that survive the subtraction.
-  auto central = [](const Moments6& sum_dd, double weight, const Vec3& mean) {
+  // Mean offsets and central moments from the offsets' sums, in double.
+  auto mean_offset = [](const std::array<float, 3>& sum, double weight) {
+    return weight > 0.0 ? Vec3(sum[0], sum[1], sum[2]) / weight : Vec3(0.0);
+  };
+  auto central = [](const std::array<float, 6>& sum_dd, double weight, const Vec3& mean_off) {
     Moments6 c{};
     if (!(weight > 0.0)) return c;
-    const Moments6 mm = outer(mean);
-    for (int e = 0; e < 6; ++e) c[e] = sum_dd[e] / weight - mm[e];
+    const Moments6 mm = outer(mean_off);
+    for (int e = 0; e < 6; ++e) c[e] = double(sum_dd[e]) / weight - mm[e];
     for (int e = 0; e < 3; ++e) c[e] = std::max(c[e], 0.0);  // variances, >= 0 but for rounding
     return c;
   };
   auto& finest = levels_[finest_];
   tbb::parallel_for(std::size_t(0), finest.size(), [&](std::size_t fam) {
     for (int q = 0; q < 4; ++q) {
-      const Acc& a = acc[fam * 4 + q];
+      const std::uint32_t node = std::uint32_t(fam * 4 + q);
+      const Acc& a = acc[node];
       NodeSums s;
-      s.flux = a.flux;
+      for (int c = 0; c < 4; ++c) s.flux[c] = a.flux[c];
       s.omega = a.omega;
       s.weight = a.weight;
-      s.omega_mean = a.omega > 0.0 ? a.omega_sum / a.omega : Vec3(0.0);
-      s.flux_mean = a.weight > 0.0 ? a.flux_sum / a.weight : s.omega_mean;
-      s.omega_cov = central(a.omega_m2, a.omega, s.omega_mean);
-      s.flux_cov = a.weight > 0.0 ? central(a.flux_m2, a.weight, s.flux_mean) : s.omega_cov;
+      if (s.omega > 0.0) {
+        const std::uint32_t f = node / face_nodes, m = node % face_nodes;
+        std::uint32_t i = 0, j = 0;
+        for (int bit = 0; bit < 16; ++bit) {  // Morton index back to (i, j)
+          i |= ((m >> (2 * bit)) & 1u) << bit;
+          j |= ((m >> (2 * bit + 1)) & 1u) << bit;
+        }
+        const Vec3 centre = centre_of(int(i), int(f * std::uint32_t(face_size) + j));
+        const Vec3 om = mean_offset(a.omega_sum, s.omega);
+        const Vec3 fm = s.weight > 0.0 ? mean_offset(a.flux_sum, s.weight) : om;
+        s.omega_mean = centre + om;
+        s.flux_mean = centre + fm;
+        s.omega_cov = central(a.omega_m2, s.omega, om);
+        s.flux_cov = s.weight > 0.0 ? central(a.flux_m2, s.weight, fm) : s.omega_cov;
+      }
       write_lane(finest[fam], q, s);
     }
   });
