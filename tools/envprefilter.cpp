@@ -16,6 +16,7 @@
 #include <cctype>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -192,13 +193,6 @@ int run(Options& o) {
   if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
   const auto thread_limit = tools::limit_threads(o.threads);
 
-  tools::LoadedInput in = tools::load_input(o.in);
-  tools::report_input(in, o.quiet);
-  if (!o.rotate.empty()) in.map.rotation = envkit::parse_rotation(o.rotate);
-  const envkit::MapRef src = in.map.ref();
-  const Kind kind = o.octahedral ? Kind::Octahedral : Kind::CubeMap;
-  const envkit::GpuFormat format = envkit::parse_gpu_format(o.format);
-
   // Every output goes to a temp file next to its target; all are renamed together once everything is written.
   std::vector<std::unique_ptr<envkit::AtomicOutput>> pending;
   auto stage = [&](const std::string& target) -> const std::string& {
@@ -206,6 +200,37 @@ int run(Options& o) {
     return pending.back()->temp_path();
   };
   std::vector<std::string> summary;
+
+  // The DFG LUT depends on no input: it is computed and written while the input is read and filtered, whose serial
+  // stretches (decoding, first touch of big buffers) leave a core idle; a PNG's image library loads meanwhile.
+  std::future<std::string> lut_written;
+  if (!o.lut.empty())
+    lut_written = std::async(std::launch::async, [&o, temp = stage(o.lut)] {
+      envkit::DfgOptions d;
+      d.width = d.height = o.lut_size;
+      d.layout = envkit::parse_dfg_layout(o.lut_layout);
+      const envkit::Image lut = envkit::dfg_lut(d);
+      envkit::WriteOptions w;
+      if (extension(o.lut) == ".png") {
+        w.pixel_type = envkit::PixelType::UInt16;
+        w.encode_colorspace = "raw";  // LUT values are data, not colour
+      }
+      envkit::write_image(temp, lut, w);
+      return o.lut + ": DFG LUT " + std::to_string(o.lut_size) + "^2, layout " + o.lut_layout;
+    });
+
+  tools::LoadedInput in = tools::load_input(o.in);
+  tools::report_input(in, o.quiet);
+  if (!o.rotate.empty()) in.map.rotation = envkit::parse_rotation(o.rotate);
+  const envkit::MapRef src = in.map.ref();
+  const Kind kind = o.octahedral ? Kind::Octahedral : Kind::CubeMap;
+  const envkit::GpuFormat format = envkit::parse_gpu_format(o.format);
+
+  // Spherical harmonics likewise, beside the GGX levels.
+  std::future<envkit::ShCoefficients> sh_projected;
+  if (!o.sh.empty())
+    sh_projected = std::async(
+        std::launch::async, [&] { return envkit::project_sh(src, o.sh_order, envkit::parse_sh_window(o.sh_window)); });
 
   if (!o.out.empty()) {
     envkit::PrefilterOptions po;
@@ -228,7 +253,7 @@ int run(Options& o) {
                       (extension(o.out) == ".exr" ? "" : ", " + o.format));
   }
   if (!o.sh.empty()) {
-    const envkit::ShCoefficients sh = envkit::project_sh(src, o.sh_order, envkit::parse_sh_window(o.sh_window));
+    const envkit::ShCoefficients sh = sh_projected.get();
     nlohmann::json j = sh.to_json();
     j["source"] = fs::path(o.in.path).filename().string();
     std::ofstream os(stage(o.sh));
@@ -247,19 +272,7 @@ int run(Options& o) {
     summary.push_back(o.irradiance + ": irradiance E/pi, " + envkit::kind_name(kind) + " " +
                       std::to_string(o.irradiance_size));
   }
-  if (!o.lut.empty()) {
-    envkit::DfgOptions d;
-    d.width = d.height = o.lut_size;
-    d.layout = envkit::parse_dfg_layout(o.lut_layout);
-    const envkit::Image lut = envkit::dfg_lut(d);
-    envkit::WriteOptions w;
-    if (extension(o.lut) == ".png") {
-      w.pixel_type = envkit::PixelType::UInt16;
-      w.encode_colorspace = "raw";  // LUT values are data, not colour
-    }
-    envkit::write_image(stage(o.lut), lut, w);
-    summary.push_back(o.lut + ": DFG LUT " + std::to_string(o.lut_size) + "^2, layout " + o.lut_layout);
-  }
+  if (lut_written.valid()) summary.push_back(lut_written.get());
   for (auto& p : pending) p->commit();
   if (!o.quiet)
     for (const std::string& s : summary) tools::info("wrote " + s);
