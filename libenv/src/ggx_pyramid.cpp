@@ -6,6 +6,7 @@
 #include <envkit/huge_page_allocator.h>
 #include <envkit/solid_angle_table.h>
 #include <envkit/texel_directions.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -189,10 +190,10 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
   // from the node's centre, whose moments keep float's digits (raw moments of d would lose them to the
   // subtraction of the mean below). Half the memory of doubles, which a big gather pays for in page faults.
   struct Acc {
-    std::array<float, 4> flux{};
-    float omega = 0.0f, weight = 0.0f;
-    std::array<float, 3> flux_sum{}, omega_sum{};  // of (d - centre), weighted
-    std::array<float, 6> flux_m2{}, omega_m2{};    // of (d - centre)(d - centre)^T, weighted
+    std::array<float, 4> flux;
+    float omega, weight;
+    std::array<float, 3> flux_sum, omega_sum;  // of (d - centre), weighted
+    std::array<float, 6> flux_m2, omega_m2;    // of (d - centre)(d - centre)^T, weighted
   };
   // The centre of a finest node: the centre of its texel on the gathering cube.
   auto centre_of = [&](int i, int row) {
@@ -205,7 +206,10 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
   // do not depend on the thread count. Chunks of bands at a time bound the memory of the lists, and the chunks
   // reuse the same lists (fresh ones would fault in new pages for every chunk).
   const int bands = std::min(h, 256), chunk = 16;
-  std::vector<Acc, HugePageAllocator<Acc>> acc(std::size_t(6) * face_nodes);
+  std::vector<Acc, UninitialisedAllocator<Acc>> acc(std::size_t(6) * face_nodes);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, acc.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::fill(acc.begin() + r.begin(), acc.begin() + r.end(), Acc{});
+  });
   std::vector<std::vector<std::pair<std::uint32_t, Acc>>> partial(chunk);
   for (int b0 = 0; b0 < bands; b0 += chunk) {
     tbb::parallel_for(b0, std::min(bands, b0 + chunk), [&](int b) {
