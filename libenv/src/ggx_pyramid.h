@@ -8,7 +8,6 @@
 
 #include <cstdint>
 #include <span>
-#include <utility>
 #include <vector>
 
 namespace envkit::detail {
@@ -30,27 +29,6 @@ struct alignas(16) NodeFamily {
   Float4 flux_cov[6];
   Float4 flux[4];  // exact flux per channel (radiance x exact solid angle, summed)
   Float4 omega;    // exact solid angle
-};
-
-// Huge-page storage whose elements start uninitialised (value-initialisation would first-touch, and so zero, the
-// whole block on one thread); for buffers that parallel loops fill completely before anything reads them.
-template <class T>
-struct UninitialisedAllocator : HugePageAllocator<T> {
-  template <class U>
-  struct rebind {
-    using other = UninitialisedAllocator<U>;
-  };
-  UninitialisedAllocator() = default;
-  template <class U>
-  UninitialisedAllocator(const UninitialisedAllocator<U>&) noexcept {}
-  template <class U>
-  void construct(U* p) noexcept {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-  }
 };
 
 class GgxPyramid {

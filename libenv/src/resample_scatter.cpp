@@ -1,11 +1,9 @@
 // The `area` filter's scatter (see resample.h): for shrinking, each source texel is read once and its flux is
 // spread over the output texels that a square of its solid angle, centred on its projection, overlaps.
-#include "resample_common.h"
-
 #include <envkit/huge_page_allocator.h>
 #include <envkit/latlong.h>
 #include <envkit/texel_directions.h>
-
+#include <tbb/blocked_range.h>
 #include <tbb/concurrent_queue.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -14,6 +12,8 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+
+#include "resample_common.h"
 
 namespace envkit::detail {
 
@@ -178,7 +178,10 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   };
 
   // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
-  std::vector<Real, HugePageAllocator<Real>> sum(std::size_t(DW) * std::size_t(DH) * stride, Real(0));
+  std::vector<Real, UninitialisedAllocator<Real>> sum(std::size_t(DW) * std::size_t(DH) * stride);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sum.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::fill(sum.begin() + r.begin(), sum.begin() + r.end(), Real(0));
+  });
   int next_row = 0;
   // Chunks are recycled: a fresh multi-megabyte buffer per chunk would page-fault all over again. A chunk reserves
   // one run (its cell and C + 1 sums) per texel.

@@ -10,6 +10,7 @@
 /// Small blocks go to operator new as usual.
 #include <cstddef>
 #include <new>
+#include <utility>
 #include <vector>
 
 namespace envkit {
@@ -38,6 +39,28 @@ struct HugePageAllocator {
 
   template <class U>
   bool operator==(const HugePageAllocator<U>&) const noexcept { return true; }
+};
+
+/// HugePageAllocator whose containers leave elements without initialisers uninitialised (vector(n), resize(n)):
+/// value-initialisation would first-touch, and so zero, the whole block on one thread. For buffers that parallel
+/// loops fill (or zero) completely before anything reads them.
+template <class T>
+struct UninitialisedAllocator : HugePageAllocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UninitialisedAllocator<U>;
+  };
+  UninitialisedAllocator() = default;
+  template <class U>
+  UninitialisedAllocator(const UninitialisedAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
 };
 
 /// Float storage of images and tables.
