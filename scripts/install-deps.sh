@@ -27,23 +27,26 @@ PACKAGES=(
   libhealpix-cxx-dev                        # HEALPix pixel geometry (Healpix_Base: xyf2loc, vec2pix, RING/NESTED)
   python3-healpy                            # independent HEALPix implementation the tests compare against
   # envprefilter (real-time IBL outputs)
-  nodejs                                    # runs ktx-parse, the independent KTX2 reader of the container tests (brings npm)
+  nodejs                                    # runs ktx-parse and parse-dds, the independent KTX2 and DDS readers (brings npm)
   # The three.js viewer (web/) and its test: Debian's Chromium renders the page headless, WebGL on SwiftShader
   # (bundled with the package; no GPU, no display server, no browser download)
   chromium
   blender blender-data                      # Cycles, the renderer peer of scripts/bench_cycles.sh; blender-data's HDRIs
 )
 
-# npm packages, each folder pinned by its package-lock.json: tests/js (ktx-parse, the independent KTX2 reader) and
-# web/ (three, the viewer's renderer). Skipped where the package is already installed.
+# npm packages, each folder pinned by its package-lock.json: tests/js (ktx-parse and parse-dds, the independent KTX2
+# and DDS readers) and web/ (three, the viewer's renderer). Skipped where the packages are already installed.
 install_js_packages() {
-  local root dir package entry
+  local root dir package entry missing_package
   root="$(cd "$(dirname "$0")/.." && pwd)"
   command -v npm >/dev/null 2>&1 || return 0
-  for entry in "tests/js:ktx-parse" "web:three"; do
+  for entry in "tests/js:ktx-parse parse-dds" "web:three"; do
     dir="$root/${entry%%:*}"
-    package="${entry#*:}"
-    if [ -f "$dir/package-lock.json" ] && [ ! -d "$dir/node_modules/$package" ]; then
+    missing_package=0
+    for package in ${entry#*:}; do
+      [ -d "$dir/node_modules/$package" ] || missing_package=1
+    done
+    if [ -f "$dir/package-lock.json" ] && [ "$missing_package" = 1 ]; then
       echo "install-deps: npm ci in ${entry%%:*}"
       (cd "$dir" && npm ci --no-audit --no-fund)
     fi

@@ -1,4 +1,5 @@
-// KTX2 and DDS outputs read back by independent readers: ktx-parse (npm, through node) for KTX2, OIIO for DDS.
+// KTX2 and DDS outputs read back by independent readers: ktx-parse (npm, through node) for KTX2, parse-dds (npm) for
+// float DDS cubes; the other DDS formats by Microsoft's documented header fields (OIIO 2.4 reads no float DX10 DDS).
 // Known directions on known texels: every texel of every face holds 1 + its direction, checked against the
 // GL/Vulkan/D3D cube face table written out here from the specifications (major axis, sc, tc).
 #include <Imath/half.h>
@@ -72,12 +73,14 @@ class Containers : public ::testing::Test {
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
-  nlohmann::json ktx_parse(const fs::path& file) {
-    const std::string script = std::string(ENVKIT_SOURCE_DIR) + "/tests/js/ktx_dump.mjs";
-    const test::CommandResult r = test::run_command("node", {script, file.string()}, dir_);
+  // What one of the independent readers of tests/js (node scripts) found in `file`.
+  nlohmann::json node_dump(const std::string& script, const fs::path& file) {
+    const test::CommandResult r =
+        test::run_command("node", {std::string(ENVKIT_SOURCE_DIR) + "/tests/js/" + script, file.string()}, dir_);
     EXPECT_EQ(r.code, 0) << r.err;
     return nlohmann::json::parse(r.out);
   }
+  nlohmann::json ktx_parse(const fs::path& file) { return node_dump("ktx_dump.mjs", file); }
   fs::path dir_;
 };
 
@@ -227,6 +230,42 @@ TEST_F(Containers, DdsHeaderAndFaceOrderFollowTheDirect3DLayout) {
       EXPECT_NE(r.code, 0) << "OIIO now reads float DX10 DDS files: validate the texels through it";
     }
   }
+}
+
+// The float cube read by an independent reader: parse-dds (npm, through node) finds each face's levels, and the
+// texels it points at hold the directions of the Direct3D face table.
+TEST_F(Containers, DdsReadByParseDdsHasKnownDirectionsOnKnownTexels) {
+  const int n = 4, mips = 3;
+  const std::vector<Image> levels = direction_cube(n);
+  const fs::path file = dir_ / "cube.dds";
+  DdsOptions o;
+  o.format = GpuFormat::Rgba32f;
+  write_dds(file.string(), pointers(levels), o);
+  const nlohmann::json j = node_dump("dds_dump.mjs", file);
+  EXPECT_EQ(j["format"], "rgba32f");
+  EXPECT_TRUE(j["cubemap"].get<bool>());
+  ASSERT_EQ(j["images"].size(), std::size_t(6 * mips));
+  const std::string b = test::read_text(file);
+  for (int f = 0; f < 6; ++f)
+    for (int m = 0; m < mips; ++m) {
+      SCOPED_TRACE("face " + std::to_string(f) + " level " + std::to_string(m));
+      const nlohmann::json& image = j["images"][std::size_t(f * mips + m)];
+      const int s = n >> m;
+      EXPECT_EQ(image["shape"][0].get<int>(), s);
+      EXPECT_EQ(image["shape"][1].get<int>(), s);
+      ASSERT_EQ(image["length"].get<std::size_t>(), std::size_t(s) * s * 16);
+      const std::size_t offset = image["offset"].get<std::size_t>();
+      ASSERT_LE(offset + std::size_t(s) * s * 16, b.size());
+      for (int y = 0; y < s; ++y)
+        for (int x = 0; x < s; ++x) {
+          float v[4];
+          std::memcpy(v, b.data() + offset + (std::size_t(y) * s + x) * 16, 16);
+          const Vec3 want = encode(spec_direction(f, x, y, s));
+          EXPECT_NEAR(v[0], want.x, 1e-6);
+          EXPECT_NEAR(v[1], want.y, 1e-6);
+          EXPECT_NEAR(v[2], want.z, 1e-6);
+        }
+    }
 }
 
 TEST_F(Containers, PackedFormatsRoundTrip) {
