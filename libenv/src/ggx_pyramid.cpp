@@ -148,10 +148,9 @@ struct Lobe {
   }
   // weight + weight''(c) var / 2, the second-order mean over a node whose r . d has variance var; at least 0.
   Float4 weight_over(Float4 e, Float4 var) const {
-    const Float4 c = 1.0f - e, tt = t(e), t2 = tt * tt, t3 = t2 * tt;
-    const Float4 w = a2 * c / t2;
+    const Float4 c = 1.0f - e, tt = t(e), t3 = tt * tt * tt;
     const Float4 curvature = a2 * (-4.0f * k / t3 + 6.0f * c * k * k / (t3 * tt));
-    return keep(c > Float4{}, at_least_zero(w + 0.5f * curvature * var));
+    return keep(c > Float4{}, at_least_zero(weight(e) + 0.5f * curvature * var));
   }
 };
 
@@ -335,16 +334,14 @@ void GgxPyramid::sum_upward() {
   }
 }
 
-void GgxPyramid::filter(std::span<const Vec3> r, double alpha, double accuracy, std::span<float> out) const {
-  const int n = int(r.size());
-  if (n < 1 || n > kMaxGroup || out.size() < r.size() * std::size_t(channels_))
-    throw Error("prefilter: a group of 1 to " + std::to_string(kMaxGroup) + " directions");
+GgxPyramid::Walk GgxPyramid::walk(double alpha, double accuracy) const {
+  Walk w;
+  w.alpha = alpha;
   const double spread = 2.0 * alpha;
-  const Lobe lobe{splat(alpha * alpha), splat(0.5 * (1.0 - alpha * alpha)), splat(0.5 * (alpha * alpha - 1.0))};
-  // Finest nodes wider than the lobe's peak act as points at their unit centroids (a second-order expansion over
-  // a node wider than the lobe would be wrong); narrower ones take the second-order term like every other node.
-  const bool finest_points = radius_[finest_] > accuracy * spread;
-  // Per level, as thresholds on e = 1 - r . mean:
+  // A second-order expansion over a node wider than the lobe would be wrong; narrower finest nodes take the
+  // second-order term like every other node.
+  w.finest_points = radius_[finest_] > accuracy * spread;
+  // Per level:
   // - skip: wholly below the horizon of r (every point of a node lies within 2 rho of its mean): c < -sin(2 rho);
   // - straddles: across the horizon, where the weight has its kink (no second-order term there);
   // - refine: a node of radius rho at chord distance d = sqrt(2 e) from r, t = d + spread, is refined while
@@ -353,17 +350,24 @@ void GgxPyramid::filter(std::span<const Vec3> r, double alpha, double accuracy, 
   //   weight, so each ring's share of the error still falls as (spread / t)^(3/2) while the node count per ring
   //   falls as (spread / t)^(1/3) (docs/PREFILTER.md has the exponents tried). Nodes across the horizon also refine
   //   while larger than 0.25 accuracy / alpha.
-  std::array<float, 32> skip_above{}, straddle_above{}, refine_below{};
-  std::array<bool, 32> horizon_refine{};
   for (int k = 0; k <= finest_; ++k) {
     const double edge = std::sin(std::min(2.0 * radius_[k], kPi / 2));
-    skip_above[k] = float(1.0 + edge);
-    straddle_above[k] = float(1.0 - edge);
+    w.skip_above[k] = float(1.0 + edge);
+    w.straddle_above[k] = float(1.0 - edge);
     const double q = radius_[k] / accuracy, q2 = q * q;
     const double limit = std::pow(q2 * q2 * q2 * spread, 1.0 / 7.0) - spread;  // t < limit + spread
-    refine_below[k] = k < finest_ && limit > 0.0 ? float(0.5 * limit * limit) : -1.0f;
-    horizon_refine[k] = k < finest_ && radius_[k] > 0.25 * accuracy / alpha;
+    w.refine_below[k] = k < finest_ && limit > 0.0 ? float(0.5 * limit * limit) : -1.0f;
+    w.horizon_refine[k] = k < finest_ && radius_[k] > 0.25 * accuracy / alpha;
   }
+  return w;
+}
+
+void GgxPyramid::filter(const Walk& walk, std::span<const Vec3> r, std::span<float> out) const {
+  const int n = int(r.size());
+  if (n < 1 || n > kMaxGroup || out.size() < r.size() * std::size_t(channels_))
+    throw Error("prefilter: a group of 1 to " + std::to_string(kMaxGroup) + " directions");
+  const double a2 = walk.alpha * walk.alpha;
+  const Lobe lobe{splat(a2), splat(0.5 * (1.0 - a2)), splat(0.5 * (a2 - 1.0))};
   struct Direction {
     Float4 x, y, z;
   };
@@ -385,7 +389,7 @@ void GgxPyramid::filter(std::span<const Vec3> r, double alpha, double accuracy, 
   while (top > 0) {
     const Item it = stack[--top];
     const NodeFamily& f = levels_[it.level][it.family];
-    const bool points = finest_points && it.level == finest_;
+    const bool points = walk.finest_points && it.level == finest_;
     // A node is refined for the whole group when any direction needs it refined: the others then sum its children,
     // which is finer than they need and never less exact.
     Int4 refine = {};
@@ -393,10 +397,10 @@ void GgxPyramid::filter(std::span<const Vec3> r, double alpha, double accuracy, 
       const Direction& d = dir[t];
       eo[t] = points ? one_minus_dot_unit(f.omega_mean, d.x, d.y, d.z)
                      : one_minus_dot(f.omega_mean, f.omega_gap, d.x, d.y, d.z);
-      visible[t] = eo[t] <= splat(skip_above[it.level]);
-      straddles[t] = eo[t] > splat(straddle_above[it.level]);
-      Int4 wants = eo[t] < splat(refine_below[it.level]);
-      if (horizon_refine[it.level]) wants |= straddles[t];
+      visible[t] = eo[t] <= splat(walk.skip_above[it.level]);
+      straddles[t] = eo[t] > splat(walk.straddle_above[it.level]);
+      Int4 wants = eo[t] < splat(walk.refine_below[it.level]);
+      if (walk.horizon_refine[it.level]) wants |= straddles[t];
       refine |= wants & visible[t];
     }
     for (int t = 0; t < n; ++t) {

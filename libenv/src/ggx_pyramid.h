@@ -6,6 +6,7 @@
 #include <envkit/resample.h>
 #include <envkit/vec.h>
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -39,11 +40,21 @@ class GgxPyramid {
 
   static constexpr int kMaxGroup = 16;
 
-  // The split-sum average around each unit direction of r (world frame) for alpha > 0 (prefilter.h); writes
+  // What the walk needs for one lobe (alpha > 0) and accuracy, per pyramid level: thresholds on e = 1 - r . mean.
+  // Made once per output level (walk()), not per direction.
+  struct Walk {
+    double alpha = 0.0;
+    bool finest_points = false;  // finest nodes wider than the lobe's peak act as points at their unit centroids
+    std::array<float, 32> skip_above{}, straddle_above{}, refine_below{};
+    std::array<bool, 32> horizon_refine{};
+  };
+  Walk walk(double alpha, double accuracy) const;
+
+  // The split-sum average around each unit direction of r (world frame) for the walk's lobe (prefilter.h); writes
   // channels() values per direction to out. Up to kMaxGroup directions walk the pyramid together, a node being
   // refined for all when one needs it: neighbouring directions share nearly all their walk, which then loads each
   // node once for the group. The values depend on the grouping only within the walk's accuracy.
-  void filter(std::span<const Vec3> r, double alpha, double accuracy, std::span<float> out) const;
+  void filter(const Walk& walk, std::span<const Vec3> r, std::span<float> out) const;
 
   int channels() const { return channels_; }
 

@@ -89,6 +89,7 @@ Image convolve_level(const detail::GgxPyramid& pyramid, const Parameterization& 
   // but where a block crosses a cube face's edge, which costs only time.
   constexpr int kBlock = 4;
   static_assert(kBlock * kBlock <= detail::GgxPyramid::kMaxGroup);
+  const detail::GgxPyramid::Walk walk = pyramid.walk(alpha, accuracy);
   const int rows = (out.height + kBlock - 1) / kBlock;
   tbb::parallel_for(0, rows, [&](int by) {
     const int y0 = by * kBlock, y1 = std::min(out.height, y0 + kBlock);
@@ -109,7 +110,7 @@ Image convolve_level(const detail::GgxPyramid& pyramid, const Parameterization& 
           px[n++] = p;
         }
       if (n == 0) continue;
-      pyramid.filter(std::span(r.data(), n), alpha, accuracy, std::span(values.data(), std::size_t(n) * out.channels));
+      pyramid.filter(walk, std::span(r.data(), n), std::span(values.data(), std::size_t(n) * out.channels));
       for (int t = 0; t < n; ++t) std::copy_n(values.data() + std::size_t(t) * out.channels, out.channels, px[t]);
     }
     if (rows_done) rows_done(out.width * (y1 - y0));
