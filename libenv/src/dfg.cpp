@@ -5,9 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <tuple>
 #include <utility>
+
+#include "gauss_legendre.h"
 
 namespace envkit {
 
@@ -21,59 +22,15 @@ DfgLayout parse_dfg_layout(const std::string& name) {
 
 namespace {
 
-// Gauss-Legendre nodes and weights on [0, 1] (Newton on P_n from the Chebyshev guesses), cached per thread and n.
-struct GaussLegendre {
-  int n = 0;
-  std::vector<double> x, w;
-};
-
-const GaussLegendre& gauss_legendre(int n) {
-  thread_local std::vector<std::unique_ptr<GaussLegendre>> cache;
-  for (const auto& g : cache)
-    if (g->n == n) return *g;
-  auto g = std::make_unique<GaussLegendre>();
-  g->n = n;
-  g->x.assign(n, 0.0);
-  g->w.assign(n, 0.0);
-  for (int i = 0; i < (n + 1) / 2; ++i) {
-    double z = std::cos(kPi * (i + 0.75) / (n + 0.5)), dp = 1.0;
-    for (int it = 0; it < 100; ++it) {
-      double p0 = 1.0, p1 = 0.0;
-      for (int k = 1; k <= n; ++k) {
-        const double p2 = p1;
-        p1 = p0;
-        p0 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p2) / k;
-      }
-      dp = n * (z * p0 - p1) / (z * z - 1.0);
-      const double dz = p0 / dp;
-      z -= dz;
-      if (std::abs(dz) < 1e-15) break;
-    }
-    const double weight = 1.0 / ((1.0 - z * z) * dp * dp);  // on [-1, 1]: 2 / ((1 - z^2) P'^2); halved for [0, 1]
-    g->x[i] = 0.5 * (1.0 - z);
-    g->x[n - 1 - i] = 0.5 * (1.0 + z);
-    g->w[i] = g->w[n - 1 - i] = weight;
-  }
-  cache.push_back(std::move(g));
-  return *cache.back();
-}
-
-// Calls f(x, weight) for the Gauss-Legendre nodes of [a, b] (nothing when b <= a).
-template <class F>
-void for_nodes(double a, double b, int n, F&& f) {
-  if (!(b > a)) return;
-  const GaussLegendre& g = gauss_legendre(n);
-  for (int i = 0; i < n; ++i) f(a + (b - a) * g.x[i], (b - a) * g.w[i]);
-}
-
 // The same over [a, b] in the variable t = a + (b - a)(3x^2 - 2x^3): its flat ends turn an integrand that
 // behaves like sqrt(distance to an end), as the visible azimuth range does at the horizon's kinks, into a smooth
 // one in x.
 template <class F>
 void for_nodes_flat_ends(double a, double b, int n, F&& f) {
   if (!(b > a)) return;
-  for_nodes(0.0, 1.0, n,
-            [&](double x, double w) { f(a + (b - a) * x * x * (3.0 - 2.0 * x), (b - a) * 6.0 * x * (1.0 - x) * w); });
+  detail::for_nodes(0.0, 1.0, n, [&](double x, double w) {
+    f(a + (b - a) * x * x * (3.0 - 2.0 * x), (b - a) * 6.0 * x * (1.0 - x) * w);
+  });
 }
 
 // With v at polar angle theta_v (v in the xz plane), the reflection l = 2 (v.h) h - v of a half vector h at polar
@@ -132,7 +89,7 @@ DfgValue dfg_integrate(double nv, double roughness, int theta_samples, int phi_s
     const double cos2 = (1.0 - xi) / (1.0 + (a2 - 1.0) * xi);
     const double ct = std::sqrt(cos2), st = std::sqrt(std::max(0.0, 1.0 - cos2));
     double a_sum = 0.0, b_sum = 0.0;
-    for_nodes(0.0, azimuth_bound(nv, sv, ct, st), phi_samples, [&](double phi, double w) {
+    detail::for_nodes(0.0, azimuth_bound(nv, sv, ct, st), phi_samples, [&](double phi, double w) {
       const double vh = sv * st * std::cos(phi) + nv * ct;  // h = (st cos phi, st sin phi, ct)
       const double nl = 2.0 * vh * ct - nv;                 // l = 2 (v.h) h - v
       if (nl <= 0.0 || vh <= 0.0) return;
@@ -146,7 +103,7 @@ DfgValue dfg_integrate(double nv, double roughness, int theta_samples, int phi_s
     sb += 2.0 * b_sum * dxi;
   };
   const double s_full = s_of(split.full_below), s_none = s_of(split.none_above);
-  for_nodes(s_full, 1.0, theta_samples, ggx_at);
+  detail::for_nodes(s_full, 1.0, theta_samples, ggx_at);
   for_nodes_flat_ends(s_none, s_full, theta_samples, ggx_at);
   out.scale = sa / kTwoPi;
   out.bias = sb / kTwoPi;
@@ -160,7 +117,7 @@ DfgValue dfg_integrate(double nv, double roughness, int theta_samples, int phi_s
     const double s = std::sqrt(std::max(0.0, 1.0 - u * u));
     const double d = norm * std::pow(s, k);
     double sum = 0.0;
-    for_nodes(0.0, azimuth_bound(nv, sv, u, s), phi_samples, [&](double phi, double w) {
+    detail::for_nodes(0.0, azimuth_bound(nv, sv, u, s), phi_samples, [&](double phi, double w) {
       const double vh = sv * s * std::cos(phi) + nv * u;  // h = (s cos phi, s sin phi, u)
       const double nl = 2.0 * vh * u - nv;
       if (nl <= 0.0 || vh <= 0.0) return;
@@ -170,7 +127,7 @@ DfgValue dfg_integrate(double nv, double roughness, int theta_samples, int phi_s
   };
   const double u_full = std::cos(split.full_below), u_none = std::cos(split.none_above);
   for_nodes_flat_ends(std::max(u_none, 0.0), std::min(u_full, u_max), theta_samples, charlie_at);
-  for_nodes(std::max(u_full, 0.0), u_max, theta_samples, charlie_at);
+  detail::for_nodes(std::max(u_full, 0.0), u_max, theta_samples, charlie_at);
   // d omega_h = du dphi over the upper hemisphere of h.
   out.sheen = ss;
   return out;

@@ -5,17 +5,9 @@
 #include <array>
 #include <cmath>
 
+#include "gauss_legendre.h"
+
 namespace envkit {
-
-namespace {
-
-// 8-point Gauss-Legendre nodes and weights on [-1, 1].
-constexpr std::array<double, 4> kGaussNodes = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
-                                               0.9602898564975363};
-constexpr std::array<double, 4> kGaussWeights = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
-                                                 0.1012285362903763};
-
-}  // namespace
 
 bool RadialMap::same_grid(const Parameterization& other) const {
   if (!same_kind_and_size(other)) return false;
@@ -125,17 +117,12 @@ double RadialMap::edge_integral(double ax, double ay, double bx, double by) cons
     const int pieces = std::max(1, static_cast<int>(std::ceil((t1 - t0) * std::sqrt(qa) / 0.125)));
     const double h = (t1 - t0) / pieces;
     double sum = 0.0;
-    for (int p = 0; p < pieces; ++p) {
-      const double c = t0 + (p + 0.5) * h;
-      for (std::size_t g = 0; g < kGaussNodes.size(); ++g) {
-        for (double sign : {-1.0, 1.0}) {
-          const double t = c + sign * 0.5 * h * kGaussNodes[g];
-          const double x = ax + t * dx, y = ay + t * dy;
-          sum += kGaussWeights[g] * cap_density(std::min(std::sqrt(x * x + y * y), 1.0));
-        }
-      }
-    }
-    total += cross * sum * 0.5 * h;
+    for (int p = 0; p < pieces; ++p)
+      detail::for_nodes(t0 + p * h, t0 + (p + 1) * h, 8, [&](double t, double w) {
+        const double x = ax + t * dx, y = ay + t * dy;
+        sum += w * cap_density(std::min(std::sqrt(x * x + y * y), 1.0));
+      });
+    total += cross * sum;
   }
   return total;
 }
