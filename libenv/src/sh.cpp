@@ -27,34 +27,53 @@ ShWindow parse_sh_window(const std::string& name) {
   throw Error("unknown SH window '" + name + "' (expected none, hanning or lanczos)");
 }
 
-void sh_basis(int order, const Vec3& d, double* out) {
+namespace {
+
+/// The real SH basis up to band kOrder at the unit direction d, into out[(kOrder + 1)^2]. A template, inline in the
+/// projection's loop: the band count is then a constant and the values stay in registers.
+template <int kOrder>
+[[gnu::always_inline]] inline void basis(const Vec3& d, double* out) {
   const double x = d.x, y = d.y, z = d.z;
   out[0] = 0.28209479177387814;  // 1 / (2 sqrt(pi))
-  if (order < 1) return;
-  const double c1 = 0.4886025119029199;  // sqrt(3 / (4 pi))
-  out[1] = c1 * y;
-  out[2] = c1 * z;
-  out[3] = c1 * x;
-  if (order < 2) return;
-  const double c2 = 1.0925484305920792;  // sqrt(15 / (4 pi))
-  out[4] = c2 * x * y;
-  out[5] = c2 * y * z;
-  out[6] = 0.31539156525252005 * (3.0 * z * z - 1.0);  // sqrt(5 / (16 pi))
-  out[7] = c2 * x * z;
-  out[8] = 0.5462742152960396 * (x * x - y * y);  // sqrt(15 / (16 pi))
-  if (order < 3) return;
-  const double a = 0.5900435899266435;  // sqrt(35 / (32 pi))
-  const double b = 2.890611442640554;   // sqrt(105 / (4 pi))
-  const double c = 0.4570457994644658;  // sqrt(21 / (32 pi))
-  const double e = 0.3731763325901154;  // sqrt(7 / (16 pi))
-  const double f = 1.445305721320277;   // sqrt(105 / (16 pi))
-  out[9] = a * y * (3.0 * x * x - y * y);
-  out[10] = b * x * y * z;
-  out[11] = c * y * (4.0 * z * z - x * x - y * y);
-  out[12] = e * z * (2.0 * z * z - 3.0 * x * x - 3.0 * y * y);
-  out[13] = c * x * (4.0 * z * z - x * x - y * y);
-  out[14] = f * z * (x * x - y * y);
-  out[15] = a * x * (x * x - 3.0 * y * y);
+  if constexpr (kOrder >= 1) {
+    const double c1 = 0.4886025119029199;  // sqrt(3 / (4 pi))
+    out[1] = c1 * y;
+    out[2] = c1 * z;
+    out[3] = c1 * x;
+  }
+  if constexpr (kOrder >= 2) {
+    const double c2 = 1.0925484305920792;  // sqrt(15 / (4 pi))
+    out[4] = c2 * x * y;
+    out[5] = c2 * y * z;
+    out[6] = 0.31539156525252005 * (3.0 * z * z - 1.0);  // sqrt(5 / (16 pi))
+    out[7] = c2 * x * z;
+    out[8] = 0.5462742152960396 * (x * x - y * y);  // sqrt(15 / (16 pi))
+  }
+  if constexpr (kOrder >= 3) {
+    const double a = 0.5900435899266435;  // sqrt(35 / (32 pi))
+    const double b = 2.890611442640554;   // sqrt(105 / (4 pi))
+    const double c = 0.4570457994644658;  // sqrt(21 / (32 pi))
+    const double e = 0.3731763325901154;  // sqrt(7 / (16 pi))
+    const double f = 1.445305721320277;   // sqrt(105 / (16 pi))
+    out[9] = a * y * (3.0 * x * x - y * y);
+    out[10] = b * x * y * z;
+    out[11] = c * y * (4.0 * z * z - x * x - y * y);
+    out[12] = e * z * (2.0 * z * z - 3.0 * x * x - 3.0 * y * y);
+    out[13] = c * x * (4.0 * z * z - x * x - y * y);
+    out[14] = f * z * (x * x - y * y);
+    out[15] = a * x * (x * x - 3.0 * y * y);
+  }
+}
+
+}  // namespace
+
+void sh_basis(int order, const Vec3& d, double* out) {
+  switch (order) {
+    case 1: return basis<1>(d, out);
+    case 2: return basis<2>(d, out);
+    case 3: return basis<3>(d, out);
+    default: return basis<0>(d, out);  // order < 1: band 0 only; order > 3 is refused by project_sh
+  }
 }
 
 double sh_cosine_lobe(int l) {
@@ -150,6 +169,39 @@ nlohmann::json ShCoefficients::to_json() const {
   return j;
 }
 
+namespace {
+
+/// The sums L x solid angle x Y_i of one row of a map, per colour channel k, into acc[k (kOrder + 1)^2 + i].
+struct RowProjection {
+  const MapRef& src;
+  const TexelDirections& dirs;
+  const SolidAngleTable& omega;
+  const TexelSource& coverage;
+  const std::vector<int>& colour;
+
+  template <int kOrder>
+  void add(int y, double* acc) const {
+    constexpr int kCount = (kOrder + 1) * (kOrder + 1);
+    const Image& img = src.image;
+    double b[kCount];
+    for (int x = 0; x < img.width; ++x) {
+      Vec3 d;
+      if (!coverage.covered(std::size_t(y) * img.width + x) || !dirs.centre(x, y, d)) continue;
+      // Texel directions are unit and to_world is a rotation: no normalisation (its square root and divisions
+      // were most of this loop's time).
+      basis<kOrder>(apply(src.to_world, d), b);
+      const double o = omega(x, y);
+      const float* px = img.at(x, y);
+      for (std::size_t k = 0; k < colour.size(); ++k) {
+        const double v = double(px[colour[k]]) * o;
+        for (int i = 0; i < kCount; ++i) acc[k * kCount + i] += v * b[i];
+      }
+    }
+  }
+};
+
+}  // namespace
+
 ShCoefficients project_sh(const MapRef& src, int order, ShWindow window) {
   if (order < 1 || order > 3) throw Error("SH order must be 1, 2 or 3, not " + std::to_string(order));
   const Image& img = src.image;
@@ -170,19 +222,12 @@ ShCoefficients project_sh(const MapRef& src, int order, ShWindow window) {
   // One partial sum per row (fixed), added in row order: independent of the
   // thread count.
   std::vector<std::vector<double>> rows(img.height, std::vector<double>(colour.size() * count, 0.0));
+  const RowProjection projection{src, dirs, omega, coverage, colour};
   tbb::parallel_for(0, img.height, [&](int y) {
-    std::array<double, 16> basis{};
-    std::vector<double>& acc = rows[y];
-    for (int x = 0; x < img.width; ++x) {
-      Vec3 d;
-      if (!coverage.covered(std::size_t(y) * img.width + x) || !dirs.centre(x, y, d)) continue;
-      sh_basis(order, apply(src.to_world, d).normalized(), basis.data());
-      const double o = omega(x, y);
-      const float* px = img.at(x, y);
-      for (std::size_t k = 0; k < colour.size(); ++k) {
-        const double v = double(px[colour[k]]) * o;
-        for (int i = 0; i < count; ++i) acc[k * count + i] += v * basis[i];
-      }
+    switch (order) {
+      case 1: return projection.add<1>(y, rows[y].data());
+      case 2: return projection.add<2>(y, rows[y].data());
+      default: return projection.add<3>(y, rows[y].data());
     }
   });
   sh.radiance.assign(colour.size(), std::vector<double>(count, 0.0));
