@@ -3,6 +3,8 @@
 #include <envkit/error.h>
 #include <envkit/input_checks.h>
 #include <envkit/ktx2.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -129,39 +131,48 @@ void unpack_e5b9g9r9(std::uint32_t bits, float rgb[3]) {
   for (int i = 0; i < 3; ++i) rgb[i] = float(std::ldexp(double((bits >> (9 * i)) & 0x1ffu), e - 15 - 9));
 }
 
-std::vector<std::uint8_t> pack_texels(const Image& image, GpuFormat format) {
-  const int bytes = gpu_format_bytes(format);
-  std::vector<std::uint8_t> out(image.texel_count() * bytes);
+namespace {
+
+void pack_texel(const Image& image, GpuFormat format, std::size_t t, std::uint8_t* dst) {
   const int colour = std::min(3, image.color_channels());
-  for (std::size_t t = 0; t < image.texel_count(); ++t) {
-    const float* px = image.pixels.data() + t * image.channels;
-    float v[4] = {0.0f, 0.0f, 0.0f, 1.0f};
-    for (int c = 0; c < colour; ++c) v[c] = finite_or_zero(px[c]);
-    if (colour == 1) v[1] = v[2] = v[0];  // grey maps fill RGB
-    if (image.alpha_channel >= 0) v[3] = finite_or_zero(px[image.alpha_channel]);
-    std::uint8_t* dst = out.data() + t * bytes;
-    switch (format) {
-      case GpuFormat::Rgba32f: std::memcpy(dst, v, 16); break;
-      case GpuFormat::Rgba16f:
-        for (int c = 0; c < 4; ++c) {
-          // Beyond half's range: the largest finite half, never Inf.
-          const Imath::half h(std::clamp(v[c], -65504.0f, 65504.0f));
-          const std::uint16_t b = h.bits();
-          std::memcpy(dst + 2 * c, &b, 2);
-        }
-        break;
-      case GpuFormat::B10G11R11: {
-        const std::uint32_t b = pack_b10g11r11(v);
-        std::memcpy(dst, &b, 4);
-        break;
+  const float* px = image.pixels.data() + t * image.channels;
+  float v[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+  for (int c = 0; c < colour; ++c) v[c] = finite_or_zero(px[c]);
+  if (colour == 1) v[1] = v[2] = v[0];  // grey maps fill RGB
+  if (image.alpha_channel >= 0) v[3] = finite_or_zero(px[image.alpha_channel]);
+  switch (format) {
+    case GpuFormat::Rgba32f: std::memcpy(dst, v, 16); break;
+    case GpuFormat::Rgba16f:
+      for (int c = 0; c < 4; ++c) {
+        // Beyond half's range: the largest finite half, never Inf.
+        const Imath::half h(std::clamp(v[c], -65504.0f, 65504.0f));
+        const std::uint16_t b = h.bits();
+        std::memcpy(dst + 2 * c, &b, 2);
       }
-      case GpuFormat::E5B9G9R9: {
-        const std::uint32_t b = pack_e5b9g9r9(v);
-        std::memcpy(dst, &b, 4);
-        break;
-      }
+      break;
+    case GpuFormat::B10G11R11: {
+      const std::uint32_t b = pack_b10g11r11(v);
+      std::memcpy(dst, &b, 4);
+      break;
+    }
+    case GpuFormat::E5B9G9R9: {
+      const std::uint32_t b = pack_e5b9g9r9(v);
+      std::memcpy(dst, &b, 4);
+      break;
     }
   }
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> pack_texels(const Image& image, GpuFormat format) {
+  const std::size_t bytes = std::size_t(gpu_format_bytes(format));
+  std::vector<std::uint8_t> out(image.texel_count() * bytes);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, image.texel_count(), 16384),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t t = r.begin(); t < r.end(); ++t)
+                        pack_texel(image, format, t, out.data() + t * bytes);
+                    });
   return out;
 }
 
@@ -280,20 +291,33 @@ void write_ktx2(const std::string& path, const std::vector<const Image*>& levels
   set32(f, index_at + 12, std::uint32_t(f.size() - kvd_at));
   // sgdByteOffset / sgdByteLength stay 0.
 
-  for (int m = int(level_count) - 1; m >= 0; --m) {  // smallest level first in the file
-    while (f.size() % align != 0) f.push_back(0);
-    const std::vector<std::uint8_t> data = pack_texels(*levels[m], options.format);
+  // Level offsets first (smallest level first in the file), then the header and each level written in turn: no
+  // copy of the levels into one buffer.
+  std::vector<std::size_t> level_at(level_count);
+  std::size_t end = f.size();
+  for (int m = int(level_count) - 1; m >= 0; --m) {
+    const std::size_t size = levels[m]->texel_count() * std::size_t(bytes);
+    end = (end + align - 1) / align * align;
+    level_at[m] = end;
     const std::size_t at = level_index_at + 24 * std::size_t(m);
-    set64(f, at, f.size());
-    set64(f, at + 8, data.size());
-    set64(f, at + 16, data.size());
-    f.insert(f.end(), data.begin(), data.end());
+    set64(f, at, end);
+    set64(f, at + 8, size);
+    set64(f, at + 16, size);
+    end += size;
   }
 
   AtomicOutput out(path);
   {
     std::ofstream os(out.temp_path(), std::ios::binary);
     os.write(reinterpret_cast<const char*>(f.data()), std::streamsize(f.size()));
+    std::size_t written = f.size();
+    for (int m = int(level_count) - 1; m >= 0 && os; --m) {
+      const std::vector<std::uint8_t> data = pack_texels(*levels[m], options.format);
+      const char zeros[16] = {};
+      os.write(zeros, std::streamsize(level_at[m] - written));
+      os.write(reinterpret_cast<const char*>(data.data()), std::streamsize(data.size()));
+      written = level_at[m] + data.size();
+    }
     if (!os) fail(path, "cannot write: " + std::string(std::strerror(errno)));
   }
   out.commit();
