@@ -83,7 +83,7 @@ def main():
         s = time.perf_counter()
         envkit.EnvMap(arr, parameterization="latlong")
         copies.append(time.perf_counter() - s)
-    print("\n   EnvMap(array) of %dx%dx3 float32 (the one input copy + NaN check): %.3f s (median of 3)"
+    print("\n   EnvMap(array) of %dx%dx3 float32 (borrowed, no copy: the NaN/Inf scan): %.3f s (median of 3)"
           % (w, h, statistics.median(copies)))
     del arr
     s = time.perf_counter()

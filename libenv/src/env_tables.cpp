@@ -252,7 +252,7 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
     const std::unique_ptr<Parameterization> coarse = make_grid(options.grid, TW, TH);
     ResampleOptions ro;
     ro.filter = Filter::Area;
-    importance = resample(MapRef{scalar, *grid, identity3()}, *coarse, identity3(), ro).pixels;
+    importance = resample(MapRef{scalar, *grid, identity3()}, *coarse, identity3(), ro).pixels.take();
   }
   t.grid_width_ = W;
   t.grid_height_ = H;

@@ -91,7 +91,7 @@ struct NonFiniteCounts {
 using Range = tbb::blocked_range<std::size_t>;
 constexpr std::size_t kGrain = 1 << 16;
 
-NonFiniteCounts count_nonfinite(const FloatBuffer& values) {
+NonFiniteCounts count_nonfinite(std::span<const float> values) {
   return tbb::parallel_reduce(
       Range(0, values.size(), kGrain), NonFiniteCounts{},
       [&](const Range& r, NonFiniteCounts acc) {
@@ -105,7 +105,7 @@ NonFiniteCounts count_nonfinite(const FloatBuffer& values) {
       std::plus<>());
 }
 
-std::size_t count_negative(const FloatBuffer& values) {
+std::size_t count_negative(std::span<const float> values) {
   return tbb::parallel_reduce(
       Range(0, values.size(), kGrain), std::size_t{0},
       [&](const Range& r, std::size_t acc) {

@@ -3,8 +3,11 @@
 #include <envkit/error.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <cmath>
+#include <functional>
+#include <memory>
 
 namespace envkit::python {
 
@@ -20,8 +23,45 @@ py::array image_array(Image&& image) {
   return image_view(*held, owner);
 }
 
+namespace {
+
+/// Keeps a numpy array alive for the C++ image that borrows its floats; the last owner may be a thread that does
+/// not hold the GIL (a call that released it), so the reference is dropped under the GIL.
+std::shared_ptr<const void> lend(const py::array& array) {
+  return std::shared_ptr<const void>(new py::object(array), [](const void* p) {
+    py::gil_scoped_acquire gil;
+    delete static_cast<const py::object*>(p);
+  });
+}
+
+std::size_t count_nonfinite(const float* v, std::size_t n) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 1 << 16), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) acc += std::isfinite(v[i]) ? 0 : 1;
+        return acc;
+      },
+      std::plus<>());
+}
+
+}  // namespace
+
 Image image_from_array(const py::array& input, const std::string& path) {
-  const FloatArray a = FloatArray::ensure(input);
+  // float32, C-contiguous and writable: the image borrows the array's floats; anything else is converted once.
+  const bool borrowable = py::isinstance<py::array_t<float>>(input) && (input.flags() & py::array::c_style) &&
+                          input.writeable();
+  FloatArray a;
+  if (borrowable) {
+    a = py::reinterpret_borrow<FloatArray>(input);
+  } else {
+    // A fresh float32 copy (also of a read-only float32 array, which the image's writable view must not alias).
+    try {
+      a = py::module_::import("numpy").attr("array")(input, py::arg("dtype") = "float32", py::arg("order") = "C",
+                                                      py::arg("copy") = true);
+    } catch (const py::error_already_set&) {
+      fail(path, "expected an array of real numbers");
+    }
+  }
   if (!a) fail(path, "expected an array of real numbers");
   if (a.ndim() != 2 && a.ndim() != 3)
     fail(path, "expected an H x W x C (or H x W) array, got " + std::to_string(a.ndim()) + " dimensions");
@@ -29,16 +69,17 @@ Image image_from_array(const py::array& input, const std::string& path) {
   const int c = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
   if (h < 1 || w < 1) fail(path, "empty image");
   if (c < 1 || c > 4) fail(path, std::to_string(c) + " channels (envkit handles 1 to 4)");
-  Image image(w, h, c);
+  const std::size_t n = std::size_t(h) * std::size_t(w) * std::size_t(c);
+  if (const std::size_t bad = count_nonfinite(a.data(), n); bad > 0)
+    fail(path, std::to_string(bad) + " non-finite values");
+  Image image;
+  image.width = w;
+  image.height = h;
+  image.channels = c;
   image.channel_names = default_channel_names(c);
   image.alpha_channel = (c == 2 || c == 4) ? c - 1 : -1;
-  const float* src = a.data();
-  std::size_t nonfinite = 0;
-  for (std::size_t k = 0; k < image.pixels.size(); ++k) {
-    image.pixels[k] = src[k];
-    nonfinite += std::isfinite(src[k]) ? 0 : 1;
-  }
-  if (nonfinite > 0) fail(path, std::to_string(nonfinite) + " non-finite values");
+  // a is the caller's array when borrowable, else the converted copy, which the image then keeps alive instead.
+  image.pixels = PixelBuffer::borrow(const_cast<float*>(a.data()), n, lend(a));
   return image;
 }
 

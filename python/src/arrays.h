@@ -26,9 +26,12 @@ py::array image_view(const Image& image, py::handle owner);
 /// Moves `image` into a heap object owned by the returned array (no copy of the
 /// pixels).
 py::array image_array(Image&& image);
-/// Copies an (H, W, C) or (H, W) array (any real dtype) into a float image; C
-/// in 1..4, names Y/YA/RGB/RGBA, alpha last for 2 and 4 channels. Throws
-/// envkit::Error naming `path` for non-finite values or bad shapes.
+/// An (H, W, C) or (H, W) array (any real dtype) as a float image; C in 1..4,
+/// names Y/YA/RGB/RGBA, alpha last for 2 and 4 channels. A writable
+/// C-contiguous float32 array is not copied: the image borrows its floats (a
+/// view: writes show on both sides) and keeps it alive; any other array is
+/// converted once. Throws envkit::Error naming `path` for non-finite values or
+/// bad shapes.
 Image image_from_array(const py::array& array, const std::string& path);
 
 /// A (..., K) array as contiguous doubles; `count` receives the number of

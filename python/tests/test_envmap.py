@@ -158,11 +158,36 @@ def test_errors_carry_the_cli_message(tmp_path):
         envkit.EnvMap(np.zeros((8, 16, 3), np.float32), parameterization="nope")
 
 
-def test_array_input_is_copied_and_blank_maps_are_filled_in_place():
+def test_array_input_is_borrowed_and_blank_maps_are_filled_in_place():
     arr = np.random.default_rng(1).random((16, 32, 3)).astype(np.float32)
     m = envkit.EnvMap(arr, parameterization="latlong")
-    # An input array is copied (docs/PYTHON.md, "Arrays in and out": envkit::Image owns its pixels).
-    assert not np.shares_memory(m.data, arr) and np.array_equal(m.data, arr)
+    # A writable C-contiguous float32 array is borrowed, not copied (docs/PYTHON.md, "Arrays in and out").
+    assert np.shares_memory(m.data, arr) and np.array_equal(m.data, arr)
+    before = np.asarray(m.power())
+    arr[...] *= 2.0  # the map is a view of the array
+    assert np.allclose(np.asarray(m.power()), 2.0 * before, rtol=1e-6)
+    arr[...] *= 0.5
+    del arr  # the map keeps the floats alive
+    import gc
+    gc.collect()
+    assert np.array_equal(m.power(), before)
+    # Results own their storage: a conversion of a borrowed map does not alias it.
+    conv = m.convert("latlong")
+    assert not np.shares_memory(conv.data, m.data)
+    # Anything else is converted once and not aliased: float64, strided, read-only arrays.
+    base = np.random.default_rng(2).random((16, 32, 3))
+    for other in (base, base.astype(np.float32)[:, ::-1], base.astype(np.float32)):
+        if other.dtype == np.float32 and other.flags.c_contiguous:
+            other.flags.writeable = False
+        o = envkit.EnvMap(other, parameterization="latlong")
+        assert not np.shares_memory(o.data, other)
+        assert np.array_equal(o.data, other.astype(np.float32))
+    # The NaN check reads the borrowed array too.
+    bad = np.ones((8, 16, 3), np.float32)
+    bad[3, 4, 1] = np.inf
+    with pytest.raises(envkit.Error, match="1 non-finite"):
+        envkit.EnvMap(bad, parameterization="latlong")
+    arr = np.asarray(m.data).copy()
     b = envkit.EnvMap.blank(16, "latlong")
     assert (b.width, b.height, b.channels, b.convention) == (32, 16, ["R", "G", "B"], "envkit")
     assert not b.data.any()

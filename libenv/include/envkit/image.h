@@ -3,7 +3,7 @@
 /// A float image in linear light, interleaved channels, row-major with row 0 at the top.
 /// Colour is associated with alpha (premultiplied), as in OpenEXR and OIIO.
 /// Texel (x, y) occupies [x, x+1) x [y, y+1) in continuous image coordinates; its centre is (x+0.5, y+0.5).
-#include <envkit/huge_page_allocator.h>
+#include <envkit/pixel_buffer.h>
 
 #include <cstddef>
 #include <map>
@@ -20,8 +20,9 @@ struct Image {
   std::vector<std::string> channel_names;
   /// Index of the alpha/coverage channel, or -1.
   int alpha_channel = -1;
-  /// width * height * channels floats (huge-page backed when large: see huge_page_allocator.h).
-  FloatBuffer pixels;
+  /// width * height * channels floats: the image's own (huge-page backed when large: see huge_page_allocator.h) or
+  /// borrowed from a caller (pixel_buffer.h).
+  PixelBuffer pixels;
   /// Free-form string metadata carried from input to output (envkit:* keys are envkit's own).
   std::map<std::string, std::string> metadata;
 
