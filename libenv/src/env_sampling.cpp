@@ -35,7 +35,7 @@ namespace {
 
 /// Lat-long row of a unit direction from its horizontal length hypot(x, z) and its y: theta = atan2(h, y).
 int latlong_row(double horizontal, double y, int height) {
-  return std::clamp(int(std::atan2(horizontal, y) / kPi * height), 0, height - 1);
+  return std::clamp(int(LatLongMap::v_of_polar_angle(std::atan2(horizontal, y)) * height), 0, height - 1);
 }
 
 bool finite_nonzero(const Vec3& d) {
@@ -68,7 +68,8 @@ Vec3 healpix_direction(const HealpixMap& map, double X, double Y) {
 }  // namespace
 
 SphericalDistribution::RowBand SphericalDistribution::row_band(int j, int height) {
-  const double theta0 = kPi * double(j) / height, theta1 = kPi * double(j + 1) / height;
+  const double theta0 = LatLongMap::polar_angle(double(j) / height);
+  const double theta1 = LatLongMap::polar_angle(double(j + 1) / height);
   RowBand band;
   band.span = 2.0 * std::sin(0.5 * (theta1 + theta0)) * std::sin(0.5 * (theta1 - theta0));
   const bool north = 2 * j + 1 <= height;  // the row's centre is at or above the equator

@@ -29,15 +29,15 @@ std::string LatLongMap::describe() const {
 }
 
 Vec3 LatLongMap::direction_from_uv(double u, double v) {
-  const double lat = kPi * (0.5 - v);
-  const double lon = kPi - kTwoPi * u;
+  const double lat = latitude(v);
+  const double lon = longitude(u);
   const double cos_lat = std::cos(lat);
   return Vec3(std::sin(lon) * cos_lat, std::sin(lat), std::cos(lon) * cos_lat);
 }
 
 double LatLongMap::u_from_direction(const Vec3& d, double horizontal) {
   const double lon = (horizontal == 0.0) ? 0.0 : std::atan2(d.x, d.z);
-  double u = (kPi - lon) / kTwoPi;
+  double u = u_of_longitude(lon);
   if (u >= 1.0) u -= 1.0;
   if (u < 0.0) u = 0.0;
   return u;

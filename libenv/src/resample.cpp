@@ -90,8 +90,10 @@ std::vector<double> latlong_row_extents(const Parameterization& dst) {
   for (int j = 0; j < dst.height(); ++j) {
     const Vec2 a = ll->domain_from_image(Vec2(0.0, j)), b = ll->domain_from_image(Vec2(1.0, j + 1.0));
     const double v0 = std::clamp(a.y, 0.0, 1.0), v1 = std::clamp(b.y, 0.0, 1.0);
-    const double widest = (v0 <= 0.5 && v1 >= 0.5) ? 1.0 : std::max(std::sin(kPi * v0), std::sin(kPi * v1));
-    extent[j] = std::max(kPi * (v1 - v0), kTwoPi * (b.x - a.x) * widest);
+    const double widest = (v0 <= 0.5 && v1 >= 0.5)
+                              ? 1.0
+                              : std::max(std::sin(LatLongMap::polar_angle(v0)), std::sin(LatLongMap::polar_angle(v1)));
+    extent[j] = std::max(LatLongMap::kRadiansPerV * (v1 - v0), LatLongMap::kRadiansPerU * (b.x - a.x) * widest);
   }
   return extent;
 }

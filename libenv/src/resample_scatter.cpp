@@ -53,8 +53,8 @@ RowScales latlong_row_scales(const Parameterization& dst) {
   for (int j = 0; j < H; ++j) {
     const Vec2 a = ll->domain_from_image(Vec2(0.0, j)), b = ll->domain_from_image(Vec2(1.0, j + 1.0));
     const double v = std::clamp(0.5 * (a.y + b.y), 0.0, 1.0);
-    r.x[j] = 1.0 / std::max(kTwoPi * (b.x - a.x) * std::sin(kPi * v), 1e-300);
-    r.y[j] = 1.0 / (kPi * (b.y - a.y));
+    r.x[j] = 1.0 / std::max(LatLongMap::kRadiansPerU * (b.x - a.x) * std::sin(LatLongMap::polar_angle(v)), 1e-300);
+    r.y[j] = 1.0 / (LatLongMap::kRadiansPerV * (b.y - a.y));
   }
   return r;
 }

@@ -14,7 +14,7 @@ TexelDirections::TexelDirections(const Parameterization& param) : param_(param) 
   sin_lon_.resize(W);
   cos_lon_.resize(W);
   for (int i = 0; i < W; ++i) {
-    const double lon = kPi - kTwoPi * latlong->domain_from_image(Vec2(i + 0.5, 0.5)).x;
+    const double lon = LatLongMap::longitude(latlong->domain_from_image(Vec2(i + 0.5, 0.5)).x);
     sin_lon_[i] = std::sin(lon);
     cos_lon_[i] = std::cos(lon);
   }
@@ -22,7 +22,7 @@ TexelDirections::TexelDirections(const Parameterization& param) : param_(param) 
   cos_lat_.resize(H);
   for (int j = 0; j < H; ++j) {
     const double v = std::clamp(latlong->domain_from_image(Vec2(0.5, j + 0.5)).y, 0.0, 1.0);
-    const double lat = kPi * (0.5 - v);
+    const double lat = LatLongMap::latitude(v);
     sin_lat_[j] = std::sin(lat);
     cos_lat_[j] = std::cos(lat);
   }

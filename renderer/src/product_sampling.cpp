@@ -1,9 +1,9 @@
 /// BSDF x environment product sampling by hierarchical warping (see product_sampling.h).
-#include <envkit/render/product_sampling.h>
-
 #include <envkit/distribution_pyramid.h>
 #include <envkit/error.h>
+#include <envkit/latlong.h>
 #include <envkit/octahedral.h>
+#include <envkit/render/product_sampling.h>
 
 #include <algorithm>
 #include <cmath>
@@ -81,7 +81,7 @@ inline bool descend(const double c[4], double& ux, double& uy, int& dx, int& dy)
 
 /// Lat-long table-frame direction for horizontal texel coordinate X (longitude linear) and cos theta.
 inline Vec3 latlong_direction(double X, int width, double cos_theta) {
-  const double lon = kPi - kTwoPi * (X / width);
+  const double lon = LatLongMap::longitude(X / width);
   const double sin_theta = safe_sqrt(1.0 - cos_theta * cos_theta);
   return Vec3(std::sin(lon) * sin_theta, cos_theta, std::cos(lon) * sin_theta);
 }
@@ -130,12 +130,12 @@ ProductSampler::ProductSampler(const SphericalDistribution& env_hierarchical, co
       std::vector<Vec2> columns(std::size_t(pyramid_.level_width(k))), rows(std::size_t(pyramid_.level_height(k)));
       for (std::size_t i = 0; i < columns.size(); ++i) {
         const double x0 = double(i) * span, x1 = std::min(double(i + 1) * span, double(W));
-        const double lon = kPi - kTwoPi * (0.5 * (x0 + x1) / W);
+        const double lon = LatLongMap::longitude(0.5 * (x0 + x1) / W);
         columns[i] = Vec2(std::sin(lon), std::cos(lon));
       }
       for (std::size_t j = 0; j < rows.size(); ++j) {
         const double y0 = double(j) * span, y1 = std::min(double(j + 1) * span, double(H));
-        const double theta = kPi * 0.5 * (y0 + y1) / H;
+        const double theta = LatLongMap::polar_angle(0.5 * (y0 + y1) / H);
         rows[j] = Vec2(std::sin(theta), std::cos(theta));
       }
       column_centres_.push_back(std::move(columns));
@@ -207,7 +207,7 @@ void ProductSampler::precompute_nodes() {
       OctahedralMap(W).to_direction(Vec2(X, Y), d);
       return d;
     }
-    return latlong_direction(X, W, std::cos(kPi * Y / H));
+    return latlong_direction(X, W, std::cos(LatLongMap::polar_angle(Y / H)));
   };
   for (int j = 0; j < coarse_h_; ++j)
     for (int i = 0; i < coarse_w_; ++i) {
@@ -215,7 +215,7 @@ void ProductSampler::precompute_nodes() {
       const double y0 = double(j * span), y1 = double(std::min((j + 1) * span, H));
       const std::size_t node = std::size_t(j) * std::size_t(coarse_w_) + std::size_t(i);
       // Points: S x S cell centres, uniform in solid angle (lat-long: cos theta linear between the node's rows).
-      const double z0 = std::cos(kPi * y0 / H), z1 = std::cos(kPi * y1 / H);
+      const double z0 = std::cos(LatLongMap::polar_angle(y0 / H)), z1 = std::cos(LatLongMap::polar_angle(y1 / H));
       for (int b = 0; b < S; ++b)
         for (int a = 0; a < S; ++a) {
           const double X = x0 + (x1 - x0) * (a + 0.5) / S;
@@ -266,11 +266,11 @@ bool ProductSampler::prepare_lobe(const Material& m, const Frame& frame, const V
   const double radius = 2.0 * std::atan(options_.lobe_extent * alpha);
   if (!(radius < 0.45 * kPi)) return false;
   const int W = env_.width(), H = env_.height();
-  const double texel = kPi / H;
+  const double texel = LatLongMap::kRadiansPerV / H;
   int level = std::max(0, int(std::ceil(std::log2(2.0 * radius / options_.lobe_nodes / texel))));
   const Vec3 axis = apply(table_from_world_, frame.to_world(mirror)).normalized();
-  const double theta_a = std::acos(std::clamp(axis.y, -1.0, 1.0));
-  const double lon_a = std::atan2(axis.x, axis.z);
+  const Vec2 uv_a = LatLongMap::uv_from_direction(axis);
+  const double theta_a = LatLongMap::polar_angle(uv_a.y), lon_a = LatLongMap::longitude(uv_a.x);
   int row0 = 0, rows = 0, col0 = 0, cols = 0, lw = 0;
   level = std::min(level, coarse_level_);
   for (;; ++level) {
@@ -279,14 +279,15 @@ bool ProductSampler::prepare_lobe(const Material& m, const Frame& frame, const V
     lw = pyramid_.level_width(level);
     const int lh = pyramid_.level_height(level);
     const double lo = theta_a - radius, hi = theta_a + radius;
-    const int j0 = std::max(0, int(std::floor(lo / kPi * H / span)));
-    const int j1 = std::min(lh - 1, int(std::floor(hi / kPi * H / span)));
+    const int j0 = std::max(0, int(std::floor(LatLongMap::v_of_polar_angle(lo) * H / span)));
+    const int j1 = std::min(lh - 1, int(std::floor(LatLongMap::v_of_polar_angle(hi) * H / span)));
     row0 = j0;
     rows = j1 - j0 + 1;
     bool full = lo <= 0.0 || hi >= kPi || std::sin(radius) >= std::sin(theta_a);
     if (!full) {
       const double delta = std::asin(std::min(1.0, std::sin(radius) / std::sin(theta_a)));
-      const double x_lo = (kPi - (lon_a + delta)) / kTwoPi * W, x_hi = (kPi - (lon_a - delta)) / kTwoPi * W;
+      const double x_lo = LatLongMap::u_of_longitude(lon_a + delta) * W;
+      const double x_hi = LatLongMap::u_of_longitude(lon_a - delta) * W;
       const int i0 = int(std::floor(x_lo / span)), i1 = int(std::floor(x_hi / span));
       cols = i1 - i0 + 1;
       const bool wraps = i0 < 0 || i1 >= lw;

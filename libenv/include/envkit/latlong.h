@@ -41,6 +41,18 @@ class LatLongMap final : public Parameterization {
   /// duplicated edge columns of a corner-sampled map, which have half of it).
   double row_solid_angle(int j) const;
 
+  /// The domain's axes as angles, the one place that says how (envkit canonical frame, +Y up): longitude
+  /// lon = pi - 2 pi u (u = 0 and 1 at -Z, 1/2 at +Z, lon measured from +Z towards +X), latitude pi (1/2 - v), polar
+  /// angle from +Y theta = pi v; and back. Fast paths that tabulate rows or columns build from these.
+  static double longitude(double u) { return kPi - kTwoPi * u; }
+  static double latitude(double v) { return kPi * (0.5 - v); }
+  static double polar_angle(double v) { return kPi * v; }
+  static double u_of_longitude(double lon) { return (kPi - lon) / kTwoPi; }
+  static double v_of_polar_angle(double theta) { return theta / kPi; }
+  /// Radians per domain unit: along u at the equator (2 pi) and along v (pi).
+  static constexpr double kRadiansPerU = kTwoPi;
+  static constexpr double kRadiansPerV = kPi;
+
   /// Unit direction for (u, v) in the centre-grid domain: u = x / W, v = y / H.
   static Vec3 direction_from_uv(double u, double v);
   /// (u, v) in [0, 1) x [0, 1] of a direction (u = 0 at longitude pi, i.e. -Z).
