@@ -47,9 +47,10 @@ std::size_t count_nonfinite(const float* v, std::size_t n) {
 }  // namespace
 
 Image image_from_array(const py::array& input, const std::string& path) {
-  // float32, C-contiguous and writable: the image borrows the array's floats; anything else is converted once.
+  // float32 (native byte order), C-contiguous, aligned and writable: the image borrows the array's floats; anything
+  // else is converted once.
   const bool borrowable = py::isinstance<py::array_t<float>>(input) && (input.flags() & py::array::c_style) &&
-                          input.writeable();
+                          (input.flags() & py::detail::npy_api::NPY_ARRAY_ALIGNED_) && input.writeable();
   FloatArray a;
   if (borrowable) {
     a = py::reinterpret_borrow<FloatArray>(input);
@@ -57,7 +58,7 @@ Image image_from_array(const py::array& input, const std::string& path) {
     // A fresh float32 copy (also of a read-only float32 array, which the image's writable view must not alias).
     try {
       a = py::module_::import("numpy").attr("array")(input, py::arg("dtype") = "float32", py::arg("order") = "C",
-                                                      py::arg("copy") = true);
+                                                     py::arg("copy") = true);
     } catch (const py::error_already_set&) {
       fail(path, "expected an array of real numbers");
     }

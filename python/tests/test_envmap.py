@@ -176,7 +176,9 @@ def test_array_input_is_borrowed_and_blank_maps_are_filled_in_place():
     assert not np.shares_memory(conv.data, m.data)
     # Anything else is converted once and not aliased: float64, strided, read-only arrays.
     base = np.random.default_rng(2).random((16, 32, 3))
-    for other in (base, base.astype(np.float32)[:, ::-1], base.astype(np.float32)):
+    unaligned = np.zeros(base.size * 4 + 1, np.uint8)[1:].view(np.float32).reshape(base.shape)
+    unaligned[...] = base
+    for other in (base, base.astype(np.float32)[:, ::-1], base.astype(np.float32), unaligned):
         if other.dtype == np.float32 and other.flags.c_contiguous:
             other.flags.writeable = False
         o = envkit.EnvMap(other, parameterization="latlong")
