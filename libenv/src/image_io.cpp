@@ -83,13 +83,10 @@ void use_exr_threads() {
 
 // ---- non-finite values -------------------------------------------------------------------------------------
 
-struct NonFiniteCounts {
-  std::size_t nan = 0, posinf = 0, neginf = 0;
-  NonFiniteCounts operator+(const NonFiniteCounts& o) const { return {nan + o.nan, posinf + o.posinf, neginf + o.neginf}; }
-};
-
 using Range = tbb::blocked_range<std::size_t>;
 constexpr std::size_t kGrain = 1 << 16;
+
+}  // namespace
 
 NonFiniteCounts count_nonfinite(std::span<const float> values) {
   return tbb::parallel_reduce(
@@ -104,6 +101,8 @@ NonFiniteCounts count_nonfinite(std::span<const float> values) {
       },
       std::plus<>());
 }
+
+namespace {
 
 std::size_t count_negative(std::span<const float> values) {
   return tbb::parallel_reduce(

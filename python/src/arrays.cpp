@@ -1,13 +1,13 @@
 #include "arrays.h"
 
 #include <envkit/error.h>
+#include <envkit/image_io.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include <cmath>
-#include <functional>
 #include <memory>
+#include <span>
 
 namespace envkit::python {
 
@@ -32,16 +32,6 @@ std::shared_ptr<const void> lend(const py::array& array) {
     py::gil_scoped_acquire gil;
     delete static_cast<const py::object*>(p);
   });
-}
-
-std::size_t count_nonfinite(const float* v, std::size_t n) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 1 << 16), std::size_t{0},
-      [&](const tbb::blocked_range<std::size_t>& r, std::size_t acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) acc += std::isfinite(v[i]) ? 0 : 1;
-        return acc;
-      },
-      std::plus<>());
 }
 
 }  // namespace
@@ -71,7 +61,7 @@ Image image_from_array(const py::array& input, const std::string& path) {
   if (h < 1 || w < 1) fail(path, "empty image");
   if (c < 1 || c > 4) fail(path, std::to_string(c) + " channels (envkit handles 1 to 4)");
   const std::size_t n = std::size_t(h) * std::size_t(w) * std::size_t(c);
-  if (const std::size_t bad = count_nonfinite(a.data(), n); bad > 0)
+  if (const std::size_t bad = count_nonfinite(std::span<const float>(a.data(), n)).total(); bad > 0)
     fail(path, std::to_string(bad) + " non-finite values");
   Image image;
   image.width = w;

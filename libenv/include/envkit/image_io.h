@@ -57,6 +57,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,16 @@ enum class NonFinitePolicy {
   Zero,   ///< NaN, +Inf, -Inf -> 0
   Clamp,  ///< NaN -> 0, +Inf -> the largest finite value of that channel in the image (0 if none), -Inf -> 0
 };
+
+/// NaN, +Inf and -Inf among `values`, counted on all cores.
+struct NonFiniteCounts {
+  std::size_t nan = 0, posinf = 0, neginf = 0;
+  std::size_t total() const { return nan + posinf + neginf; }
+  NonFiniteCounts operator+(const NonFiniteCounts& o) const {
+    return {nan + o.nan, posinf + o.posinf, neginf + o.neginf};
+  }
+};
+NonFiniteCounts count_nonfinite(std::span<const float> values);
 
 /// "error", "zero", "clamp" (for command lines). Throws Error on other names.
 NonFinitePolicy parse_nonfinite_policy(const std::string& name);
