@@ -7,6 +7,7 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   libopenimageio-dev openimageio-tools      # image I/O (EXR, HDR, PFM, TIFF, PNG, JPEG); maketx for comparisons
   libopenexr-dev libimath-dev openexr       # OpenEXR/Imath; openexr ships exrenvmap for comparisons
+  libpng-dev                                # PNG without loading OIIO's module (LUTs, previews, LDR maps)
   libopencolorio-dev                        # colour-space conversion
   libembree-dev                             # Embree 3 BVH for envrender
   libcli11-dev                              # command-line parsing

@@ -712,7 +712,7 @@ TEST_F(HdrIoTest, BuffersBeyondTheMachinesMemoryAreRefusedNamingTheFileAndSize) 
 
 // ---- OpenImageIO only on demand ----------------------------------------------------------------------------
 
-TEST_F(HdrIoTest, ExrHdrAndPfmRunsNeverLoadOpenImageIO) {
+TEST_F(HdrIoTest, ExrHdrPfmAndPngRunsNeverLoadOpenImageIO) {
   envkit::write_image(path("a.exr"), exact_picture(16, 8));
   // The dynamic loader lists every library it opens under LD_DEBUG=files.
   auto loads_oiio = [&](const std::vector<std::string>& args) {
@@ -725,9 +725,12 @@ TEST_F(HdrIoTest, ExrHdrAndPfmRunsNeverLoadOpenImageIO) {
   EXPECT_FALSE(loads_oiio({path("a.exr"), "-o", path("b.hdr"), "--to", "latlong", "--from", "latlong", "-q"}));
   EXPECT_FALSE(loads_oiio({path("b.hdr"), "-o", path("c.pfm"), "--to", "latlong", "--from", "latlong", "-q"}));
   EXPECT_FALSE(loads_oiio({path("c.pfm"), "-o", path("d.exr"), "--to", "cube", "--from", "latlong", "-q"}));
-  // A PNG needs the module: loaded then, and the file is written.
-  EXPECT_TRUE(loads_oiio({path("a.exr"), "-o", path("e.png"), "--to", "latlong", "--from", "latlong", "-q"}));
-  EXPECT_TRUE(fs::exists(path("e.png")));
+  // PNG goes through libpng in libenv, both ways.
+  EXPECT_FALSE(loads_oiio({path("a.exr"), "-o", path("e.png"), "--to", "latlong", "--from", "latlong", "-q"}));
+  EXPECT_FALSE(loads_oiio({path("e.png"), "-o", path("f.exr"), "--to", "latlong", "--from", "latlong", "-q"}));
+  // A TIFF needs the module: loaded then, and the file is written.
+  EXPECT_TRUE(loads_oiio({path("a.exr"), "-o", path("g.tif"), "--to", "latlong", "--from", "latlong", "-q"}));
+  EXPECT_TRUE(fs::exists(path("g.tif")));
 }
 
 }  // namespace

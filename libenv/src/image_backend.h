@@ -1,7 +1,7 @@
 #pragma once
 // What image_io.cpp needs from a format library, in envkit's own terms, so that OpenImageIO can live in a module loaded
-// on first need (libenvkit_oiio.so, libenv/oiio/image_io_oiio.cpp): a run that only touches OpenEXR, Radiance or PFM
-// files never loads OIIO and its ~250 shared libraries.
+// on first need (libenvkit_oiio.so, libenv/oiio/image_io_oiio.cpp): a run that only touches OpenEXR, Radiance, PFM or
+// PNG files never loads OIIO and its ~250 shared libraries. PNG has a second implementation, on libpng in libenv.
 //
 // The module and libenv are built together by the same compiler, so C++ types cross the boundary; the entry point's
 // name carries the interface version (kOiioEntryPoint), and a module of another version is not found.
@@ -79,5 +79,21 @@ inline constexpr const char* kOiioEntryPoint = "envkit_oiio_backend_v1";
 
 /// The OIIO module, loaded on first call (dlopen). Throws Error("<path>: <why the module is unavailable>").
 ImageBackend& oiio_backend(const std::string& path);
+
+/// PNG through libpng, linked into libenv (image_io_png.cpp): what OIIO's PNG reader and writer do, without
+/// loading the module.
+ImageBackend& png_backend();
+/// Whether the file at `path` starts with PNG's signature (false for a missing file).
+bool is_png_file(const std::string& path);
+/// Whether `path` ends in .png (any case): the extension picks the writer, as for the other formats.
+bool is_png_path(const std::string& path);
+
+/// The backend that reads `path` (by its first bytes) or writes it (by its extension).
+inline ImageBackend& backend_for_reading(const std::string& path) {
+  return is_png_file(path) ? png_backend() : oiio_backend(path);
+}
+inline ImageBackend& backend_for_writing(const std::string& path) {
+  return is_png_path(path) ? png_backend() : oiio_backend(path);
+}
 
 }  // namespace envkit::detail

@@ -328,7 +328,7 @@ std::string exr_envmap(const std::string& path) {
 std::unique_ptr<detail::BackendInput> open_input(const std::string& path) {
   std::string error;
   bool unknown = false;
-  auto in = detail::oiio_backend(path).open(path, error, unknown);
+  auto in = detail::backend_for_reading(path).open(path, error, unknown);
   if (!in) {
     if (unknown) fail(path, "unknown image format (no OpenImageIO reader recognises it)");
     fail(path, "cannot read: " + condense(error));
@@ -354,7 +354,7 @@ Target describe_target(const std::string& path) {
   if (ext.empty()) fail(path, "no file extension: cannot tell which image format to write");
   if (ext == ".exr" || ext == ".sxr" || ext == ".mxr") return {"openexr", true, true, true, false, false};
   detail::WriterInfo info;
-  if (!detail::oiio_backend(path).writer_for(path, info))
+  if (!detail::backend_for_writing(path).writer_for(path, info))
     fail(path, "unknown image format '" + ext + "' (no OpenImageIO writer for it)");
   Target t;
   t.format = info.format;
@@ -611,8 +611,9 @@ void write_exr(const std::string& path, const std::string& file, const Image& da
   }
 }
 
-void write_with_oiio(const std::string& path, const std::string& file, const detail::WriteSpec& spec, const Image& data) {
-  const std::string error = detail::oiio_backend(path).write(file, spec, data.pixels.data());
+void write_with_backend(const std::string& path, const std::string& file, const detail::WriteSpec& spec,
+                        const Image& data) {
+  const std::string error = detail::backend_for_writing(path).write(file, spec, data.pixels.data());
   if (!error.empty()) fail(path, "cannot write: " + condense(error, file, path));
 }
 
@@ -892,7 +893,7 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     } catch (const Error& e) {
       fail(path, e.what());
     }
-    write_with_oiio(path, output.temp_path(), spec, data);
+    write_with_backend(path, output.temp_path(), spec, data);
   }
   output.commit();
 }
