@@ -143,6 +143,42 @@ TEST(EnvSamplingBatch, DistributionSampleTexelsEqualsSampleTexel) {
   }
 }
 
+TEST(EnvSamplingBatch, SampleTexelsEqualsSampleTexelAtTheExtremes) {
+  // Weights that stress the arithmetic of the warps: no light at all (the uniform fallback), totals beyond 2^120
+  // (the pyramid's scaled storage), denormals beside 1e30, one lit texel, and a constant map.
+  const int w = 300, h = 150;
+  std::vector<std::pair<std::string, std::vector<float>>> maps;
+  maps.emplace_back("zero", std::vector<float>(std::size_t(w) * h, 0.0f));
+  maps.emplace_back("huge", std::vector<float>(std::size_t(w) * h, 3e38f));
+  std::vector<float> tiny(std::size_t(w) * h);
+  for (std::size_t i = 0; i < tiny.size(); ++i) tiny[i] = i % 3 == 0 ? 1e-44f : i % 3 == 1 ? 0.0f : 1e-38f;
+  tiny[tiny.size() / 3] = 1e30f;
+  maps.emplace_back("denormals_and_a_sun", tiny);
+  std::vector<float> one(std::size_t(w) * h, 0.0f);
+  one[std::size_t(77) * w + 201] = 2.5f;
+  maps.emplace_back("one_texel", one);
+  maps.emplace_back("constant", std::vector<float>(std::size_t(w) * h, 1.0f));
+  const std::vector<Vec2> u = test_u(1000);
+  for (const auto& [name, weights] : maps) {
+    const CdfDistribution2D cdf(weights.data(), w, h);
+    const AliasDistribution2D alias(weights.data(), w, h);
+    const PyramidDistribution2D pyramid(weights.data(), w, h);
+    for (const Distribution2D* d :
+         {static_cast<const Distribution2D*>(&cdf), static_cast<const Distribution2D*>(&alias),
+          static_cast<const Distribution2D*>(&pyramid)}) {
+      std::vector<TexelSample> batch(u.size());
+      d->sample_texels(u, batch);
+      for (std::size_t k = 0; k < u.size(); ++k) {
+        const TexelSample a = d->sample_texel(u[k]);
+        ASSERT_TRUE(same_bits(a.fx, batch[k].fx) && same_bits(a.fy, batch[k].fy) && same_bits(a.pdf, batch[k].pdf) &&
+                    a.x == batch[k].x && a.y == batch[k].y)
+            << d->method() << " " << name << " element " << k;
+        ASSERT_TRUE(std::isfinite(batch[k].pdf) && batch[k].pdf > 0.0) << d->method() << " " << name << " " << k;
+      }
+    }
+  }
+}
+
 namespace {
 
 /// A distribution that is not one of the built-ins (the default sample_texels loop and sample_general path).

@@ -1,5 +1,6 @@
 // KTX2 and DDS outputs read back by independent readers: ktx-parse (npm, through node) for KTX2, parse-dds (npm) for
-// float DDS cubes; the other DDS formats by Microsoft's documented header fields (OIIO 2.4 reads no float DX10 DDS).
+// float DDS cubes; the other DDS formats by Microsoft's documented header fields and by their texels, which must be
+// the bytes ktx-parse reads from the KTX2 file of the same levels (OIIO 2.4 reads no float DX10 DDS).
 // Known directions on known texels: every texel of every face holds 1 + its direction, checked against the
 // GL/Vulkan/D3D cube face table written out here from the specifications (major axis, sc, tc).
 #include <Imath/half.h>
@@ -266,6 +267,49 @@ TEST_F(Containers, DdsReadByParseDdsHasKnownDirectionsOnKnownTexels) {
           EXPECT_NEAR(v[2], want.z, 1e-6);
         }
     }
+}
+
+// The texels of the formats parse-dds does not read (half and the packed ones), anchored to an independent reader all
+// the same: the DDS payload, cut at Microsoft's layout (face-major, each face's chain in level order after the
+// 148-byte header), holds byte for byte the texels ktx-parse finds in the KTX2 file of the same levels (level-major,
+// faces inside), whose texels the KTX2 tests check against the face table.
+TEST_F(Containers, DdsTexelsOfEveryFormatAreTheTexelsKtxParseReadsFromTheKtx2File) {
+  const int n = 8;
+  const std::vector<Image> levels = direction_cube(n);
+  for (GpuFormat format : {GpuFormat::Rgba16f, GpuFormat::Rgba32f, GpuFormat::B10G11R11, GpuFormat::E5B9G9R9}) {
+    SCOPED_TRACE(gpu_format_name(format));
+    const fs::path ktx = dir_ / ("same_" + gpu_format_name(format) + ".ktx2");
+    const fs::path dds = dir_ / ("same_" + gpu_format_name(format) + ".dds");
+    Ktx2Options ko;
+    ko.format = format;
+    write_ktx2(ktx.string(), pointers(levels), ko);
+    DdsOptions dopt;
+    dopt.format = format;
+    write_dds(dds.string(), pointers(levels), dopt);
+    const nlohmann::json j = ktx_parse(ktx);
+    ASSERT_EQ(j["levels"].size(), levels.size());
+    const std::string d = test::read_text(dds);
+    const std::size_t texel = std::size_t(gpu_format_bytes(format));
+    const std::size_t word_bytes = format == GpuFormat::Rgba16f ? 2 : 4;
+    std::size_t chain = 0;  // bytes of one face's whole chain in the DDS file
+    for (int s = n; s >= 1; s /= 2) chain += std::size_t(s) * s * texel;
+    ASSERT_EQ(d.size(), 148 + 6 * chain);
+    std::size_t before = 0;  // bytes of a face's levels above level m
+    for (std::size_t m = 0; m < levels.size(); ++m) {
+      const std::size_t s = std::size_t(n >> m), face_bytes = s * s * texel;
+      const nlohmann::json& words = j["levels"][m]["words"];
+      ASSERT_EQ(words.size() * word_bytes, 6 * face_bytes) << m;
+      std::string ktx_level(6 * face_bytes, '\0');  // the words ktx-parse read, back to little-endian bytes
+      for (std::size_t w = 0; w < words.size(); ++w) {
+        const std::uint32_t v = words[w].get<std::uint32_t>();
+        for (std::size_t k = 0; k < word_bytes; ++k) ktx_level[w * word_bytes + k] = char((v >> (8 * k)) & 0xff);
+      }
+      for (std::size_t f = 0; f < 6; ++f)
+        EXPECT_EQ(d.compare(148 + f * chain + before, face_bytes, ktx_level, f * face_bytes, face_bytes), 0)
+            << "face " << f << " level " << m;
+      before += face_bytes;
+    }
+  }
 }
 
 TEST_F(Containers, PackedFormatsRoundTrip) {

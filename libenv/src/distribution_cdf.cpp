@@ -1,11 +1,13 @@
 #include <envkit/distribution_cdf.h>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
 #include <string>
+
+#include "distribution_cdf_avx512.h"
+#include "simd_level.h"
 
 namespace envkit {
 
@@ -221,10 +223,25 @@ namespace {
 /// prefetched each cdf[k].t[split], which decides the part to search). Each round takes one halving step of every
 /// search and prefetches its next probe, so the group's probe misses overlap; the steps are those of libstdc++'s
 /// std::upper_bound / std::partition_point in find(), so each search reads the same probes and ends in the same
-/// bin, bit for bit. The steps are conditional jumps, not selects: on peaky maps most searches take the same path,
-/// which the CPU predicts (the select version is in BENCHMARKS.md's Python section, slower on the sun map).
+/// bin, bit for bit. On CPUs with AVX-512 the whole search runs eight lanes per vector with masks
+/// (distribution_cdf_avx512.h). The portable steps are conditional jumps, not selects: on peaky maps most searches
+/// take the same path, which the CPU predicts (a scalar select version measured slower on the sun map).
 void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin, double* fraction, double* step) {
   constexpr std::size_t G = sampling::kSampleGroup;
+  if (n == 0) return;
+  if (detail::use_avx512()) {
+    // The same steps eight searches per vector, with masks instead of branches. A group's searches all lie in one
+    // table (the marginal, or the rows of the conditional array), addressed from the first one's start.
+    std::int64_t start[G];
+    int bins[G], split[G];
+    for (std::size_t k = 0; k < n; ++k) {
+      start[k] = cdf[k].t - cdf[0].t;
+      bins[k] = cdf[k].n;
+      split[k] = cdf[k].split;
+    }
+    detail::cdf_find_group_avx512(cdf[0].t, start, bins, split, u, n, bin, fraction, step);
+    return;
+  }
   double r[G];
   int first[G], len[G];
   bool forward[G];
@@ -259,8 +276,9 @@ void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin
 void CdfDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
   // Rows that stay in a core's L2 have no misses to overlap, and there the group search's bookkeeping costs more
   // than it saves: pick() per sample (the same results).
+  // (With AVX-512 the group search has no branches to mispredict and wins at every size.)
   constexpr std::size_t kCachedBytes = std::size_t(1) << 20;
-  if (conditional_.bytes() < kCachedBytes) {
+  if (conditional_.bytes() < kCachedBytes && !detail::use_avx512()) {
     for (std::size_t k = 0; k < u.size(); ++k) out[k] = pick(u[k]);
     return;
   }
@@ -273,9 +291,18 @@ void CdfDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t 
   TwoSidedCdf cdf[G] = {};  // (initialised: GCC cannot see that the first n are written)
   double v[G] = {}, fraction[G], step_y[G], step_x[G];
   int y[G], x[G];
-  // Rows: the marginal searches, as pick() (H + 1 floats: cached, nothing to overlap).
+  // Rows: the marginal searches, as pick() (H + 1 floats: cached, nothing to overlap; the vector search still saves
+  // the mispredicted branches).
   const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
-  for (std::size_t k = 0; k < n; ++k) y[k] = marginal.find(clamp_decision(u[k].y), fraction[k], step_y[k]);
+  if (detail::use_avx512()) {
+    for (std::size_t k = 0; k < n; ++k) {
+      cdf[k] = marginal;
+      v[k] = clamp_decision(u[k].y);
+    }
+    find_group(cdf, v, n, y, fraction, step_y);
+  } else {
+    for (std::size_t k = 0; k < n; ++k) y[k] = marginal.find(clamp_decision(u[k].y), fraction[k], step_y[k]);
+  }
   // Columns: the chosen rows' searches (a row of W + 1 floats in a table of 4 W H bytes: the misses of this warp);
   // prefetch the entry at each row's split first.
   for (std::size_t k = 0; k < n; ++k) {

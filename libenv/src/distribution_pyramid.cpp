@@ -1,13 +1,15 @@
 #include <envkit/distribution_pyramid.h>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
-#include <string>
 #include <cstdint>
+#include <string>
+
+#include "distribution_pyramid_avx512.h"
+#include "simd_level.h"
 
 namespace envkit {
 
@@ -250,6 +252,19 @@ void PyramidDistribution2D::sample_texels(std::span<const Vec2> u, std::span<Tex
 }
 
 void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t n) const {
+  if (detail::use_avx512() && top_level_ <= detail::PyramidWalk::kMaxLevels) {
+    detail::PyramidWalk walk;
+    walk.nodes = nodes_.data();
+    for (int k = 0; k < top_level_; ++k) {
+      walk.offset[k] = levels_[std::size_t(k)].offset;
+      walk.blocks_per_row[k] = levels_[std::size_t(k)].blocks_per_row;
+    }
+    walk.top = top_level_;
+    walk.prefetch_top = prefetch_top_;
+    walk.pdf_scale = pdf_scale_;
+    detail::pyramid_pick_group_avx512(walk, u, out, n);
+    return;
+  }
   constexpr std::size_t G = sampling::kSampleGroup;
   double ux[G], uy[G];
   std::size_t i[G], j[G];

@@ -128,7 +128,9 @@ class Distribution2D {
   /// tables larger than the caches one sample is a chain of dependent misses; the built-in distributions override
   /// this with warps that take the samples in groups of sampling::kSampleGroup and run each step of the chain for
   /// the whole group, prefetching the next step's table entries, so that the group's misses overlap instead of
-  /// following one another. This default is the plain loop.
+  /// following one another. On CPUs with AVX-512 the cdf and pyramid warps run each step eight samples per vector,
+  /// with masks instead of their unpredictable branches (the same operations, so the same bits; ENVKIT_SIMD=none
+  /// turns the vector paths off). This default is the plain loop.
   virtual void sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
     for (std::size_t k = 0; k < u.size(); ++k) out[k] = sample_texel(u[k]);
   }
