@@ -96,6 +96,27 @@ void expect_batch_matches_scalar(const SphericalDistribution& d, const std::vect
   }
 }
 
+/// sample_texels == sample_texel, bit for bit, for the three built-in distributions of `weights` (w x h); the pdf
+/// of every drawn sample finite and positive.
+void expect_texels_match_scalar(const std::vector<float>& weights, int w, int h, const std::vector<Vec2>& u,
+                                const std::string& what) {
+  const CdfDistribution2D cdf(weights.data(), w, h);
+  const AliasDistribution2D alias(weights.data(), w, h);
+  const PyramidDistribution2D pyramid(weights.data(), w, h);
+  for (const Distribution2D* d : {static_cast<const Distribution2D*>(&cdf), static_cast<const Distribution2D*>(&alias),
+                                  static_cast<const Distribution2D*>(&pyramid)}) {
+    std::vector<TexelSample> batch(u.size());
+    d->sample_texels(u, batch);
+    for (std::size_t k = 0; k < u.size(); ++k) {
+      const TexelSample a = d->sample_texel(u[k]);
+      ASSERT_TRUE(same_bits(a.fx, batch[k].fx) && same_bits(a.fy, batch[k].fy) && same_bits(a.pdf, batch[k].pdf) &&
+                  a.x == batch[k].x && a.y == batch[k].y)
+          << d->method() << " " << what << " element " << k;
+      ASSERT_TRUE(std::isfinite(batch[k].pdf) && batch[k].pdf > 0.0) << d->method() << " " << what << " " << k;
+    }
+  }
+}
+
 }  // namespace
 
 TEST(EnvSamplingBatch, EqualsScalarForEveryMethodAndGrid) {
@@ -124,22 +145,7 @@ TEST(EnvSamplingBatch, DistributionSampleTexelsEqualsSampleTexel) {
     std::uniform_real_distribution<float> U(0.0f, 1.0f);
     for (float& v : weights) v = U(rng) < 0.2f ? 0.0f : U(rng);
     weights[weights.size() / 2] = 1e6f;
-    const CdfDistribution2D cdf(weights.data(), w, h);
-    const AliasDistribution2D alias(weights.data(), w, h);
-    const PyramidDistribution2D pyramid(weights.data(), w, h);
-    const std::vector<Vec2> u = test_u(500);
-    for (const Distribution2D* d :
-         {static_cast<const Distribution2D*>(&cdf), static_cast<const Distribution2D*>(&alias),
-          static_cast<const Distribution2D*>(&pyramid)}) {
-      std::vector<TexelSample> batch(u.size());
-      d->sample_texels(u, batch);
-      for (std::size_t k = 0; k < u.size(); ++k) {
-        const TexelSample a = d->sample_texel(u[k]);
-        ASSERT_TRUE(same_bits(a.fx, batch[k].fx) && same_bits(a.fy, batch[k].fy) && same_bits(a.pdf, batch[k].pdf) &&
-                    a.x == batch[k].x && a.y == batch[k].y)
-            << d->method() << " " << w << "x" << h << " element " << k;
-      }
-    }
+    expect_texels_match_scalar(weights, w, h, test_u(500), std::to_string(w) + "x" + std::to_string(h));
   }
 }
 
@@ -159,24 +165,7 @@ TEST(EnvSamplingBatch, SampleTexelsEqualsSampleTexelAtTheExtremes) {
   maps.emplace_back("one_texel", one);
   maps.emplace_back("constant", std::vector<float>(std::size_t(w) * h, 1.0f));
   const std::vector<Vec2> u = test_u(1000);
-  for (const auto& [name, weights] : maps) {
-    const CdfDistribution2D cdf(weights.data(), w, h);
-    const AliasDistribution2D alias(weights.data(), w, h);
-    const PyramidDistribution2D pyramid(weights.data(), w, h);
-    for (const Distribution2D* d :
-         {static_cast<const Distribution2D*>(&cdf), static_cast<const Distribution2D*>(&alias),
-          static_cast<const Distribution2D*>(&pyramid)}) {
-      std::vector<TexelSample> batch(u.size());
-      d->sample_texels(u, batch);
-      for (std::size_t k = 0; k < u.size(); ++k) {
-        const TexelSample a = d->sample_texel(u[k]);
-        ASSERT_TRUE(same_bits(a.fx, batch[k].fx) && same_bits(a.fy, batch[k].fy) && same_bits(a.pdf, batch[k].pdf) &&
-                    a.x == batch[k].x && a.y == batch[k].y)
-            << d->method() << " " << name << " element " << k;
-        ASSERT_TRUE(std::isfinite(batch[k].pdf) && batch[k].pdf > 0.0) << d->method() << " " << name << " " << k;
-      }
-    }
-  }
+  for (const auto& [name, weights] : maps) expect_texels_match_scalar(weights, w, h, u, name);
 }
 
 namespace {

@@ -4,15 +4,7 @@
 #include <algorithm>
 #include <cstdint>
 
-#if defined(__x86_64__) && defined(__GNUC__)
-// GCC 12's AVX-512 headers start masked operations from _mm512_undefined_*(), which -Wmaybe-uninitialized reports
-// wherever they are inlined (GCC bug 105593); the value is never read.
-#if !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-#include <immintrin.h>
-#define ENVKIT_AVX512 __attribute__((target("avx512f,avx512dq")))
-#endif
+#include "avx512_target.h"
 
 namespace envkit::detail {
 
