@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -285,7 +287,19 @@ TEST(PngCodec, DamagedFilesGiveOneErrorNamingTheFile) {
     std::fputc(0xa5, f);
     std::fclose(f);
   }
-  for (const std::string& path : {cut, flipped}) {
+  // A text chunk whose length claims 1.8 GB in a file of a few hundred bytes: refused before libpng allocates it.
+  const std::string liar = tmp("liar.png");
+  {
+    std::string bytes;
+    {
+      std::ifstream in(good, std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const std::string chunk = std::string("\x6f\x00\x00\x00tEXt", 8) + "Comment";  // 1862270976 bytes claimed
+    bytes.insert(33, chunk);                                                       // after the signature and IHDR
+    std::ofstream(liar, std::ios::binary) << bytes;
+  }
+  for (const std::string& path : {cut, flipped, liar}) {
     try {
       (void)envkit::read_image(path);
       ADD_FAILURE() << path << " was read";
@@ -293,6 +307,9 @@ TEST(PngCodec, DamagedFilesGiveOneErrorNamingTheFile) {
       const std::string what = e.what();
       EXPECT_EQ(what.rfind(path + ": ", 0), 0u) << what;
       EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+      if (path == liar) {
+        EXPECT_NE(what.find("claims 1862270976 bytes"), std::string::npos) << what;
+      }
     }
   }
 }

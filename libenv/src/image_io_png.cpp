@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <csetjmp>
 #include <cstdint>
@@ -59,6 +60,34 @@ bool has_png_signature(std::FILE* f) {
 
 // ---- reading --------------------------------------------------------------------------------------------------
 
+/// Walks the chunk list after the signature and checks that no chunk claims more bytes than the file holds after
+/// its header: libpng allocates what a text chunk's length says before reading it (1.8 GB for a 500-byte file in
+/// fuzzing), whatever png_set_chunk_malloc_max says. Returns "" or the problem; leaves `f` just after the signature.
+std::string check_chunk_lengths(std::FILE* f) {
+  if (std::fseek(f, 0, SEEK_END) != 0) return "cannot seek";
+  const long size = std::ftell(f);
+  long at = 8;
+  std::string problem;
+  while (at + 8 <= size) {
+    unsigned char head[8];
+    if (std::fseek(f, at, SEEK_SET) != 0 || std::fread(head, 1, 8, f) != 8) break;
+    const std::uint32_t length = (std::uint32_t(head[0]) << 24) | (std::uint32_t(head[1]) << 16) |
+                                 (std::uint32_t(head[2]) << 8) | std::uint32_t(head[3]);
+    const long left = size - at - 12;  // after the length, type and CRC
+    if (length > 0x7fffffffu || long(length) > left) {
+      char type[5] = {};
+      for (int i = 0; i < 4; ++i) type[i] = std::isprint(head[4 + i]) ? char(head[4 + i]) : '?';
+      problem = "chunk '" + std::string(type) + "' at byte " + std::to_string(at) + " claims " +
+                std::to_string(length) + " bytes, more than the file holds (truncated or corrupt PNG)";
+      break;
+    }
+    if (std::memcmp(head + 4, "IEND", 4) == 0) break;
+    at += 12 + long(length);
+  }
+  std::fseek(f, 8, SEEK_SET);
+  return problem;
+}
+
 /// What read_header() learns, in plain fields (set under setjmp).
 struct Header {
   png_uint_32 width = 0, height = 0;
@@ -81,6 +110,12 @@ bool read_header(png_structp png, png_infop info, std::FILE* f, Header& h) {
   // A PNG that claims more than this is refused by libpng before any pixel memory exists; image_io.cpp's limits
   // (ReadOptions) then apply to the dimensions as for every format.
   png_set_user_limits(png, 1u << 20, 1u << 20);
+  // A hostile header can declare an ancillary chunk (text, ICC profile, compressed text) of gigabytes, or thousands
+  // of them: libpng allocates what a chunk's length says, so the length and the count are bounded here. (16 MiB holds
+  // any real ICC profile or caption.)
+  png_set_chunk_malloc_max(png, png_alloc_size_t(16) << 20);
+  png_set_chunk_cache_max(png, 1000);
+  png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, nullptr, 0);  // skipped, never buffered
   png_read_info(png, info);
   png_set_expand(png);
   png_set_swap(png);  // PNG stores 16-bit samples big-endian (a no-op for 8-bit data)
@@ -299,6 +334,10 @@ class PngBackend final : public ImageBackend {
     if (!has_png_signature(f.get())) {
       unknown_format = true;
       error = "not a PNG file";
+      return nullptr;
+    }
+    if (std::string problem = check_chunk_lengths(f.get()); !problem.empty()) {
+      error = problem;
       return nullptr;
     }
     auto sink = std::make_unique<ErrorSink>();

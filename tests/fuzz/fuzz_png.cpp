@@ -1,12 +1,15 @@
 // libFuzzer target: envkit's PNG reader (libpng, libenv/src/image_io_png.cpp) on raw bytes, then the writer.
 //
-// The input is the file. It is read with read_image (small size limits: 1024 per side, 2^16 texels); a file that
-// reads is written back as 8- and 16-bit PNG and read again, and must keep its size. Every failure must be an
-// envkit::Error whose message names the path, on one line; anything else is a finding (__builtin_trap after
-// printing it). libpng's errors arrive through longjmp, so this is also where a broken setjmp discipline shows.
+// The input is the file, with PNG's signature put over its first 8 bytes (so that every input reaches libpng, not
+// the OpenImageIO module that read_image uses for other files). It is read with read_image (small size limits: 1024 per
+// side, 2^16 texels); a file that reads is written back as 8- and 16-bit PNG and read again, and must keep its size.
+// Every failure must be an envkit::Error whose message names the path, on one line; anything else is a finding
+// (__builtin_trap after printing it). libpng's errors arrive through longjmp, so this is also where a broken setjmp
+// discipline shows.
 #include <envkit/error.h>
 #include <envkit/image_io.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
@@ -38,8 +41,11 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  static const char kSignature[8] = {'\x89', 'P', 'N', 'G', '\r', '\n', '\x1a', '\n'};
+  std::string bytes(reinterpret_cast<const char*>(data), size);
+  bytes.replace(0, std::min<std::size_t>(8, bytes.size()), kSignature, 8);
   const std::string path = (envkit::fuzz::scratch_dir() / "in.png").string();
-  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(data), std::streamsize(size));
+  std::ofstream(path, std::ios::binary) << bytes;
   envkit::ReadOptions options;
   options.max_side = 1024;
   options.max_texels = std::int64_t(1) << 16;
