@@ -110,9 +110,9 @@ bool read_header(png_structp png, png_infop info, std::FILE* f, Header& h) {
   // A PNG that claims more than this is refused by libpng before any pixel memory exists; image_io.cpp's limits
   // (ReadOptions) then apply to the dimensions as for every format.
   png_set_user_limits(png, 1u << 20, 1u << 20);
-  // A hostile header can declare an ancillary chunk (text, ICC profile, compressed text) of gigabytes, or thousands
-  // of them: libpng allocates what a chunk's length says, so the length and the count are bounded here. (16 MiB holds
-  // any real ICC profile or caption.)
+  // Bounds on what hostile ancillary chunks may cost: their number, and what compressed text or an ICC profile may
+  // expand to (16 MiB holds any real one). The declared lengths themselves are checked by check_chunk_lengths():
+  // this libpng allocates a text chunk's declared length whatever the limit below says.
   png_set_chunk_malloc_max(png, png_alloc_size_t(16) << 20);
   png_set_chunk_cache_max(png, 1000);
   png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, nullptr, 0);  // skipped, never buffered
