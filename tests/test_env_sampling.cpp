@@ -281,6 +281,28 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, EnvSampling, ::testing::ValuesIn(catalogue()
 // ---------------------------------------------------------------------------------------------------------------
 // Importance
 
+TEST(EnvTablesBake, SelectTablesByName) {
+  BakeOptions b;
+  select_tables({"pyramid", "compensated"}, b);
+  EXPECT_TRUE(b.hierarchical && b.compensated);
+  EXPECT_FALSE(b.cdf || b.alias);
+  select_tables({"alias", "cdf", "hierarchical"}, b);
+  EXPECT_TRUE(b.cdf && b.alias && b.hierarchical);
+  EXPECT_FALSE(b.compensated);
+  try {
+    select_tables({"cdf", "guide"}, b);
+    ADD_FAILURE() << "an unknown table name was accepted";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "unknown table 'guide' (cdf, alias, hierarchical, compensated)");
+  }
+  try {
+    select_tables({"compensated"}, b);
+    ADD_FAILURE() << "a bake of no method was accepted";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "name at least one of cdf, alias, hierarchical");
+  }
+}
+
 TEST(EnvTablesBake, TotalImportanceMatchesAnalyticPower) {
   // A uniform grey sky and a sun with closed-form power, rasterized flux-exactly; luminance of grey = grey.
   const LatLongMap map(256, 128);

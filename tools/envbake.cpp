@@ -58,18 +58,14 @@ struct Options {
 };
 
 void parse_tables(const std::string& list, envkit::BakeOptions& b) {
-  b.cdf = b.alias = b.hierarchical = b.compensated = false;
+  std::vector<std::string> names;
   std::stringstream ss(list);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (item == "cdf") b.cdf = true;
-    else if (item == "alias") b.alias = true;
-    else if (item == "hierarchical" || item == "pyramid") b.hierarchical = true;
-    else if (item == "compensated") b.compensated = true;
-    else throw CLI::ValidationError("--tables", "unknown table '" + item + "' (cdf, alias, hierarchical, compensated)");
+  for (std::string item; std::getline(ss, item, ',');) names.push_back(item);
+  try {
+    envkit::select_tables(names, b);
+  } catch (const envkit::Error& e) {
+    throw CLI::ValidationError("--tables", e.what());
   }
-  if (!b.cdf && !b.alias && !b.hierarchical)
-    throw CLI::ValidationError("--tables", "name at least one of cdf, alias, hierarchical");
 }
 
 void parse_resolution(const std::string& text, envkit::BakeOptions& b) {

@@ -180,6 +180,27 @@ FloatBuffer dilate_3x3(const FloatBuffer& values, const Parameterization& grid, 
 
 }  // namespace
 
+void select_tables(const std::vector<std::string>& names, BakeOptions& options) {
+  options.cdf = options.alias = options.hierarchical = options.compensated = false;
+  for (const std::string& name : names) {
+    if (name == "compensated") {
+      options.compensated = true;
+      continue;
+    }
+    SamplingMethod method;
+    try {
+      method = parse_method(name);
+    } catch (const Error&) {
+      throw Error("unknown table '" + name + "' (cdf, alias, hierarchical, compensated)");
+    }
+    (method == SamplingMethod::Cdf     ? options.cdf
+     : method == SamplingMethod::Alias ? options.alias
+                                       : options.hierarchical) = true;
+  }
+  if (!options.cdf && !options.alias && !options.hierarchical)
+    throw Error("name at least one of cdf, alias, hierarchical");
+}
+
 EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const std::string& source_path,
                           std::string source_hash) {
   if (options.grid != Kind::LatLong && options.grid != Kind::Octahedral && options.grid != Kind::HEALPix)

@@ -20,23 +20,6 @@ namespace {
 
 using TablesPtr = std::shared_ptr<const EnvTables>;
 
-void parse_table_list(const std::vector<std::string>& names, BakeOptions& b) {
-  b.cdf = b.alias = b.hierarchical = false;
-  for (const std::string& item : names) {
-    if (item == "cdf")
-      b.cdf = true;
-    else if (item == "alias")
-      b.alias = true;
-    else if (item == "hierarchical" || item == "pyramid")
-      b.hierarchical = true;
-    else if (item == "compensated")
-      b.compensated = true;
-    else
-      throw Error("tables: unknown table '" + item + "' (cdf, alias, hierarchical, compensated)");
-  }
-  if (!b.cdf && !b.alias && !b.hierarchical) throw Error("tables: name at least one of cdf, alias, hierarchical");
-}
-
 TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::string& grid, int size,
                const std::optional<std::pair<int, int>>& resolution, const std::vector<std::string>& tables,
                bool conservative, const std::string& source_path, const std::string& source_hash) {
@@ -44,7 +27,11 @@ TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::st
   b.importance = parse_importance(importance);
   b.grid = parse_kind(grid);
   b.conservative = conservative;
-  parse_table_list(tables, b);
+  try {
+    select_tables(tables, b);
+  } catch (const Error& e) {
+    throw Error(std::string("tables: ") + e.what());
+  }
   if (resolution) {
     b.importance_width = resolution->first;
     b.importance_height = resolution->second;

@@ -71,6 +71,12 @@ struct BakeOptions {
   std::function<void(double fraction, const char* stage)> progress;  ///< optional, from the calling thread
 };
 
+/// Sets which tables a bake builds from their names, as envbake's --tables and Python's bake(tables=...) take them:
+/// the methods ("cdf", "alias", "hierarchical", also spelled "pyramid") and "compensated". The others are cleared.
+/// Throws Error("unknown table '...' (cdf, alias, hierarchical, compensated)") for another name and
+/// Error("name at least one of cdf, alias, hierarchical") when no method is named.
+void select_tables(const std::vector<std::string>& names, BakeOptions& options);
+
 /// Content hash of an image (size, channel names and pixel bytes): XXH3-128 as 32 hex digits. Used for maps
 /// that exist only in memory.
 std::string image_content_hash(const Image& image);
