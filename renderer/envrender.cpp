@@ -131,22 +131,21 @@ int run(const Args& a) {
   if (integrator.nonfinite_count() > 0)
     tools::warn(std::to_string(integrator.nonfinite_count()) + " non-finite estimates replaced by 0");
 
-  std::map<std::string, std::string> meta = {
-      {"envkit:renderer", "envrender"},
-      {"envkit:scene", a.scene.empty() ? "built-in default" : a.scene},
-      {"envkit:strategy", a.strategy},
-      {"envkit:light_method", a.light_method},
-      {"envkit:heuristic", a.heuristic},
-      {"envkit:mis_model", a.mis_model},
-      {"envkit:bsdf_samples", std::to_string(a.bsdf_samples)},
-      {"envkit:light_samples", std::to_string(a.light_samples)},
-      {"envkit:max_depth", std::to_string(a.max_depth)},
-      {"envkit:product_resolution", std::to_string(a.product_resolution)},
-      {"envkit:product_reuse_deg", tools::fmt(a.product_reuse_deg, 3)},
-      {"envkit:spp", std::to_string(stats.spp)},
-      {"envkit:seed", std::to_string(a.seed)},
-      {"envkit:seconds", tools::fmt(stats.seconds, 4)},
-      {"envkit:environment", scene.environment_description}};
+  std::map<std::string, std::string> meta = {{"envkit:renderer", "envrender"},
+                                             {"envkit:scene", a.scene.empty() ? "built-in default" : a.scene},
+                                             {"envkit:strategy", a.strategy},
+                                             {"envkit:light_method", envkit::method_name(io.light_method)},
+                                             {"envkit:heuristic", a.heuristic},
+                                             {"envkit:mis_model", a.mis_model},
+                                             {"envkit:bsdf_samples", std::to_string(a.bsdf_samples)},
+                                             {"envkit:light_samples", std::to_string(a.light_samples)},
+                                             {"envkit:max_depth", std::to_string(a.max_depth)},
+                                             {"envkit:product_resolution", std::to_string(a.product_resolution)},
+                                             {"envkit:product_reuse_deg", tools::fmt(a.product_reuse_deg, 3)},
+                                             {"envkit:spp", std::to_string(stats.spp)},
+                                             {"envkit:seed", std::to_string(a.seed)},
+                                             {"envkit:seconds", tools::fmt(stats.seconds, 4)},
+                                             {"envkit:environment", scene.environment_description}};
   // The EXR and its preview are one output: both appear, or neither (also on a signal, a full disk or ulimit -f).
   envkit::OutputGroup outputs;
   film.write_exr(a.output, meta);
@@ -179,7 +178,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"bsdf", "light", "mis", "mis-compensated", "product", "product-mis"}))
       ->capture_default_str();
   app.add_option("--light-method", a.light_method, "environment sampling table: cdf|alias|hierarchical")
-      ->check(CLI::IsMember({"cdf", "alias", "hierarchical"}))
+      ->check(tools::method_validator())
       ->capture_default_str();
   app.add_option("--heuristic", a.heuristic, "MIS heuristic: balance|power")
       ->check(CLI::IsMember({"balance", "power"}))

@@ -189,7 +189,7 @@ int main(int argc, char** argv) {
   app.add_option("-n,--samples", o.n, "number of samples")->transform(tools::integer_in(1, 1LL << 32))
       ->capture_default_str();
   app.add_option("--method", o.method, "cdf, alias or hierarchical")
-      ->check(CLI::IsMember({"cdf", "alias", "hierarchical", "pyramid"}))
+      ->check(tools::method_validator())
       ->capture_default_str();
   app.add_option("--sequence", o.sequence, "random or sobol")
       ->check(CLI::IsMember({"random", "sobol"}))

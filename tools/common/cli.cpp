@@ -4,18 +4,18 @@
 #include <envkit/color.h>
 #include <envkit/convention.h>
 #include <envkit/cubemap.h>
+#include <envkit/env_sampling.h>
 #include <envkit/error.h>
 #include <envkit/filter.h>
 #include <envkit/image_io.h>
 #include <envkit/parameterization.h>
 #include <envkit/view.h>
-
 #include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <new>
 
@@ -80,6 +80,9 @@ CLI::Validator rotation_validator() {
 }
 CLI::Validator lens_validator() {
   return parsed_by([](const std::string& s) { parse_lens(s); });
+}
+CLI::Validator method_validator() {
+  return parsed_by([](const std::string& s) { parse_method(s); });
 }
 CLI::Validator colorspace_validator() {
   return parsed_by([](const std::string& s) { canonical_colorspace(s); });

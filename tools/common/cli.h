@@ -40,6 +40,7 @@ CLI::Validator filter_validator();      ///< parse_filter
 CLI::Validator rotation_validator();    ///< parse_rotation
 CLI::Validator colorspace_validator();  ///< canonical_colorspace (the active OCIO config)
 CLI::Validator lens_validator();        ///< parse_lens (fisheye lenses)
+CLI::Validator method_validator();      ///< parse_method (sampling tables: cdf, alias, hierarchical)
 
 /// "a|b|c" lists for help texts.
 std::string kind_choices();
