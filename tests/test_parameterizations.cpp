@@ -6,13 +6,15 @@
 #include <envkit/latlong.h>
 #include <envkit/mirrorball.h>
 #include <envkit/octahedral.h>
-#include <envkit/param_factory.h>
 #include <envkit/paraboloid.h>
-
+#include <envkit/param_factory.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -223,6 +225,47 @@ TEST(Parameterizations, SolidAngleIsAdditiveOverSubRectangles) {
         EXPECT_NEAR(whole, parts, 1e-12 + 1e-12 * whole) << p->describe();
       }
     }
+  }
+}
+
+// twin_texels() names exactly the texels whose centres are one point of the sphere (the seam columns of a
+// corner-sampled lat-long map, the edges and corners of a corner-sampled cube), has_blank_texels() is true wherever a
+// texel holds no data, and only lat-long and cube maps report a grid other than Centre. Found here from the texel
+// centres alone.
+TEST(Parameterizations, TwinAndBlankTexelsAreWhatTheTexelCentresSay) {
+  for (const Case& c : all_cases()) {
+    const auto p = c.make();
+    const int W = p->width(), H = p->height();
+    if (std::size_t(W) * std::size_t(H) > 20000) continue;
+    if (p->kind() != Kind::LatLong && p->kind() != Kind::CubeMap) EXPECT_EQ(p->grid(), TexelGrid::Centre) << c.name;
+    // Texels keyed by their centre's direction, rounded far below the smallest texel here (1e-2 rad) and far above
+    // rounding. A lat-long map's pole row is one point too, but each texel keeps its own longitude's part of the
+    // cap: its key adds the column's direction on the equator.
+    std::map<std::array<long long, 6>, std::vector<std::size_t>> by_point;
+    bool blank = false;
+    for (int j = 0; j < H; ++j)
+      for (int i = 0; i < W; ++i) {
+        Vec3 d;
+        if (!(p->texel_solid_angle(i, j) > 0.0) || !p->to_direction(Vec2(i + 0.5, j + 0.5), d)) {
+          blank = true;
+          continue;
+        }
+        Vec3 column(0.0, 0.0, 0.0);
+        if (p->kind() == Kind::LatLong) p->to_direction(Vec2(i + 0.5, 0.5 * H), column);
+        const auto key = [](double x) { return std::llround(x * 1e7); };
+        d = d.normalized();
+        by_point[{key(d.x), key(d.y), key(d.z), key(column.x), key(column.y), key(column.z)}].push_back(
+            std::size_t(j) * std::size_t(W) + std::size_t(i));
+      }
+    std::vector<std::vector<std::size_t>> want;
+    for (auto& [key, group] : by_point)
+      if (group.size() > 1) want.push_back(group);
+    std::vector<std::vector<std::size_t>> got = p->twin_texels();
+    for (auto& group : got) std::sort(group.begin(), group.end());
+    std::sort(want.begin(), want.end());
+    std::sort(got.begin(), got.end());
+    EXPECT_EQ(got, want) << c.name;
+    if (blank) EXPECT_TRUE(p->has_blank_texels()) << c.name;
   }
 }
 

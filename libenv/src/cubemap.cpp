@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
+#include <map>
 
 namespace envkit {
 
@@ -125,6 +127,37 @@ bool CubeMap::same_grid(const Parameterization& other) const {
   if (!same_kind_and_size(other)) return false;
   const auto& c = static_cast<const CubeMap&>(other);
   return c.n_ == n_ && c.layout_ == layout_ && c.basis_ == basis_ && c.grid_ == grid_;
+}
+
+bool CubeMap::has_blank_texels() const {
+  return layout_ == CubeLayout::HorizontalCross || layout_ == CubeLayout::VerticalCross;
+}
+
+std::vector<std::vector<std::size_t>> CubeMap::twin_texels() const {
+  if (grid_ != TexelGrid::Corner || n_ < 2) return {};
+  // A corner grid's edge texel centres lie on the cube's edges: the point where a centre's direction meets the cube
+  // has coordinates on the grid -1 + 2k / (N - 1), and those integer k name the texel's twins exactly.
+  const std::size_t W = std::size_t(width_);
+  std::map<std::uint64_t, std::vector<std::size_t>> by_point;
+  for (const CubeFace& face : faces_)
+    for (int j = 0; j < n_; ++j)
+      for (int i = 0; i < n_; ++i) {
+        if (i != 0 && i != n_ - 1 && j != 0 && j != n_ - 1) continue;
+        const int x = face.origin_x + i, y = face.origin_y + j;
+        Vec3 d;
+        if (!to_direction(Vec2(x + 0.5, y + 0.5), d)) continue;
+        const double m = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+        if (!(m > 0.0)) continue;
+        std::uint64_t key = 0;
+        for (double p : {d.x / m, d.y / m, d.z / m})
+          key = key * std::uint64_t(n_) + std::uint64_t(std::clamp(std::llround((p + 1.0) * 0.5 * (n_ - 1)), 0LL,
+                                                                   static_cast<long long>(n_ - 1)));
+        by_point[key].push_back(std::size_t(y) * W + std::size_t(x));
+      }
+  std::vector<std::vector<std::size_t>> groups;
+  for (auto& [key, group] : by_point)
+    if (group.size() > 1) groups.push_back(std::move(group));
+  return groups;
 }
 
 std::string CubeMap::describe() const {

@@ -198,10 +198,7 @@ Vec3 SphericalDistribution::direction_in_texel(int x, int y, double fx, double f
     const double lo = healpix_margin_, hi = 1.0 - healpix_margin_;
     return healpix_direction(*healpix_, x + std::clamp(fx, lo, hi), y + std::clamp(fy, lo, hi));
   }
-  if (grid_ == Kind::Octahedral) {
-    const Vec3 o = OctahedralMap::square_to_sphere(Vec2((x + fx) / W, (y + fy) / W));
-    return Vec3(o.y, o.z, o.x);  // octahedron coordinates (x_o, y_o, z_o) = (Z, X, Y), as OctahedralMap
-  }
+  if (grid_ == Kind::Octahedral) return OctahedralMap::direction_from_unit(Vec2((x + fx) / W, (y + fy) / W));
   return latlong_direction<false>(rows_[std::size_t(y)], x, fx, fy);
 }
 
@@ -209,8 +206,7 @@ void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double
   const int W = width(), H = height();
   Vec3 d = finite_nonzero(direction) ? direction.normalized() : Vec3(0.0, 1.0, 0.0);
   if (grid_ != Kind::LatLong) {
-    const Vec2 p = grid_ == Kind::HEALPix ? healpix_->to_image(d)
-                                          : OctahedralMap::sphere_to_square(Vec3(d.z, d.x, d.y)) * Vec2(W, H);
+    const Vec2 p = grid_ == Kind::HEALPix ? healpix_->to_image(d) : OctahedralMap::unit_from_direction(d) * Vec2(W, H);
     x = std::clamp(int(std::floor(p.x)), 0, W - 1);
     y = std::clamp(int(std::floor(p.y)), 0, H - 1);
     fx = std::clamp(p.x - x, 0.0, 1.0);

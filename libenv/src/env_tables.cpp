@@ -102,8 +102,7 @@ bool on_bake_grid(const EnvMap& map, Kind grid) {
   if (map.param->kind() != grid || !is_identity(map.to_world())) return false;
   if (grid == Kind::Octahedral) return map.image.width == map.image.height;
   if (grid == Kind::HEALPix) return true;  // its layout is fixed by N_side: any HEALPix map is a HEALPix grid
-  const auto* latlong = dynamic_cast<const LatLongMap*>(map.param.get());
-  return latlong != nullptr && latlong->grid() == TexelGrid::Centre;
+  return map.param->grid() == TexelGrid::Centre;
 }
 
 /// True when W x H is a valid size for `grid`: octahedral N x N, HEALPix 4 N_side x 3 N_side, lat-long any.

@@ -247,8 +247,7 @@ std::string exr_envmap_attribute(const EnvMap& map, const std::string& path) {
   if (ext != ".exr" || map.convention != "openexr") return "";
   const Mat3 id = identity3();
   if (map.rotation != id) return "";
-  if (const auto* ll = dynamic_cast<const LatLongMap*>(map.param.get()))
-    return ll->grid() == TexelGrid::Corner ? "latlong" : "";
+  if (map.param->kind() == Kind::LatLong) return map.param->grid() == TexelGrid::Corner ? "latlong" : "";
   if (const auto* cube = dynamic_cast<const CubeMap*>(map.param.get()))
     return cube->layout() == CubeLayout::VerticalStrip && cube->basis() == CubeBasis::Envkit &&
                    cube->grid() == TexelGrid::Corner

@@ -1,4 +1,3 @@
-#include <envkit/cubemap.h>
 #include <envkit/error.h>
 #include <envkit/filter.h>
 
@@ -35,12 +34,7 @@ TexelSource::TexelSource(const Image& image, const Parameterization& param) : im
     throw Error("image size " + std::to_string(image.width) + "x" + std::to_string(image.height) +
                 " does not match the parameterization (" + param.describe() + ")");
   // Only maps with blank regions (crosses, balls, paraboloids) need a coverage mask.
-  const Kind k = param.kind();
-  bool may_have_holes =
-      k == Kind::MirrorBall || k == Kind::AngularMap || k == Kind::DualParaboloid || k == Kind::Fisheye;
-  if (const auto* cube = dynamic_cast<const CubeMap*>(&param))
-    may_have_holes = cube->layout() == CubeLayout::HorizontalCross || cube->layout() == CubeLayout::VerticalCross;
-  if (may_have_holes) {
+  if (param.has_blank_texels()) {
     covered_.assign(image.texel_count(), 0);
     tbb::parallel_for(0, image.height, [&](int j) {
       for (int i = 0; i < image.width; ++i)

@@ -21,6 +21,36 @@ bool LatLongMap::same_grid(const Parameterization& other) const {
   return same_kind_and_size(other) && static_cast<const LatLongMap&>(other).grid_ == grid_;
 }
 
+LatLongMap::CentreAngles LatLongMap::centre_angles() const {
+  // The same expressions as direction_from_uv, evaluated once per column and per row.
+  CentreAngles a;
+  a.sin_lon.resize(std::size_t(width_));
+  a.cos_lon.resize(std::size_t(width_));
+  for (int i = 0; i < width_; ++i) {
+    const double lon = longitude(domain_from_image(Vec2(i + 0.5, 0.5)).x);
+    a.sin_lon[std::size_t(i)] = std::sin(lon);
+    a.cos_lon[std::size_t(i)] = std::cos(lon);
+  }
+  a.sin_lat.resize(std::size_t(height_));
+  a.cos_lat.resize(std::size_t(height_));
+  for (int j = 0; j < height_; ++j) {
+    const double lat = latitude(std::clamp(domain_from_image(Vec2(0.5, j + 0.5)).y, 0.0, 1.0));
+    a.sin_lat[std::size_t(j)] = std::sin(lat);
+    a.cos_lat[std::size_t(j)] = std::cos(lat);
+  }
+  return a;
+}
+
+std::vector<std::vector<std::size_t>> LatLongMap::twin_texels() const {
+  // A corner grid's first and last columns both sit on the seam (u = 0 and u = 1 look along -Z). Its pole rows
+  // are not grouped: each texel of a pole row keeps its own longitude's half-texel of the cap.
+  if (grid_ != TexelGrid::Corner || width_ < 2) return {};
+  const std::size_t W = std::size_t(width_);
+  std::vector<std::vector<std::size_t>> groups(static_cast<std::size_t>(height_));
+  for (std::size_t j = 0; j < groups.size(); ++j) groups[j] = {j * W, j * W + W - 1};
+  return groups;
+}
+
 std::string LatLongMap::describe() const {
   return "latlong " + std::to_string(width_) + "x" + std::to_string(height_) +
          (grid_ == TexelGrid::Corner       ? ", corner-sampled (OpenEXR)"

@@ -6,15 +6,10 @@
 
 namespace envkit {
 
-OctahedralMap::OctahedralMap(int size) : Parameterization(size, size) {
-  if (size <= 0) throw Error("octahedral map size must be positive");
-}
+namespace {
 
-std::string OctahedralMap::describe() const {
-  return "octahedral " + std::to_string(width_) + "x" + std::to_string(height_) + " (equal-area, centre +Y)";
-}
-
-Vec3 OctahedralMap::square_to_sphere(Vec2 p) {
+/// Unit square [0,1]^2 -> unit direction in octahedron coordinates (pole +z_o).
+Vec3 square_to_sphere(Vec2 p) {
   const double u = 2.0 * p.x - 1.0, v = 2.0 * p.y - 1.0;
   const double up = std::abs(u), vp = std::abs(v);
   // Signed distance from the diagonal |u| + |v| = 1 decides the hemisphere; r is the distance from the pole.
@@ -27,7 +22,8 @@ Vec3 OctahedralMap::square_to_sphere(Vec2 p) {
   return Vec3(cos_phi * s, sin_phi * s, z);
 }
 
-Vec2 OctahedralMap::sphere_to_square(const Vec3& d_in) {
+/// Inverse of square_to_sphere.
+Vec2 sphere_to_square(const Vec3& d_in) {
   const Vec3 d = d_in.normalized();
   const double x = std::abs(d.x), y = std::abs(d.y), z = std::abs(d.z);
   // r = sqrt(1 - |z|), computed as sqrt((x^2 + y^2) / (1 + |z|)) to keep precision near the poles.
@@ -46,14 +42,30 @@ Vec2 OctahedralMap::sphere_to_square(const Vec3& d_in) {
   return Vec2(0.5 * (u + 1.0), 0.5 * (v + 1.0));
 }
 
+}  // namespace
+
+Vec3 OctahedralMap::direction_from_unit(Vec2 p) {
+  const Vec3 o = square_to_sphere(p);
+  return Vec3(o.y, o.z, o.x);  // octahedron coordinates (x_o, y_o, z_o) = (Z, X, Y)
+}
+
+Vec2 OctahedralMap::unit_from_direction(const Vec3& dir) { return sphere_to_square(Vec3(dir.z, dir.x, dir.y)); }
+
+OctahedralMap::OctahedralMap(int size) : Parameterization(size, size) {
+  if (size <= 0) throw Error("octahedral map size must be positive");
+}
+
+std::string OctahedralMap::describe() const {
+  return "octahedral " + std::to_string(width_) + "x" + std::to_string(height_) + " (equal-area, centre +Y)";
+}
+
 bool OctahedralMap::to_direction(Vec2 pos, Vec3& dir) const {
-  const Vec3 o = square_to_sphere(Vec2(pos.x / width_, pos.y / height_));
-  dir = Vec3(o.y, o.z, o.x);  // (x_o, y_o, z_o) = (Z, X, Y)
+  dir = direction_from_unit(Vec2(pos.x / width_, pos.y / height_));
   return true;
 }
 
 Vec2 OctahedralMap::to_image(const Vec3& dir) const {
-  const Vec2 p = sphere_to_square(Vec3(dir.z, dir.x, dir.y));
+  const Vec2 p = unit_from_direction(dir);
   const double limit = std::nextafter(static_cast<double>(width_), 0.0);
   return Vec2(std::clamp(p.x * width_, 0.0, limit), std::clamp(p.y * height_, 0.0, limit));
 }

@@ -1,6 +1,4 @@
 #include <envkit/convention.h>
-#include <envkit/cubemap.h>
-#include <envkit/latlong.h>
 #include <envkit/oiio_env_tags.h>
 
 #include <cstdlib>
@@ -17,12 +15,6 @@ bool close_to(const Mat3& a, const Mat3& b) {
     for (int j = 0; j < 3; ++j)
       if (std::abs(a[i][j] - b[i][j]) > 1e-9) return false;
   return true;
-}
-
-std::optional<TexelGrid> grid_of(const Parameterization& param) {
-  if (const auto* ll = dynamic_cast<const LatLongMap*>(&param)) return ll->grid();
-  if (const auto* cube = dynamic_cast<const CubeMap*>(&param)) return cube->grid();
-  return std::nullopt;
 }
 
 }  // namespace
@@ -53,10 +45,10 @@ std::optional<OiioEnvReading> read_oiio_env_tags(const std::map<std::string, std
 
 std::map<std::string, std::string> oiio_env_tags_for(const Parameterization& param, const Mat3& to_world) {
   std::map<std::string, std::string> tags;
-  const std::optional<TexelGrid> grid = grid_of(param);
-  if (!grid) return tags;
-  if (*grid == TexelGrid::Centre || *grid == TexelGrid::Corner)
-    tags[kSampleBorder] = *grid == TexelGrid::Corner ? "1" : "0";
+  // OIIO's environment tags describe lat-long and cube maps only.
+  if (param.kind() != Kind::LatLong && param.kind() != Kind::CubeMap) return tags;
+  if (param.grid() == TexelGrid::Centre || param.grid() == TexelGrid::Corner)
+    tags[kSampleBorder] = param.grid() == TexelGrid::Corner ? "1" : "0";
   if (param.kind() == Kind::LatLong) {
     if (close_to(to_world, identity3()))
       tags[kUpDirection] = "y";

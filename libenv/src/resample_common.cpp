@@ -1,13 +1,9 @@
 #include "resample_common.h"
 
-#include <envkit/cubemap.h>
-#include <envkit/latlong.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <map>
 #include <utility>
 
 namespace envkit::detail {
@@ -195,39 +191,7 @@ void average_twins(const std::vector<std::vector<std::size_t>>& groups, const So
 }  // namespace
 
 void merge_twin_texels(const Parameterization& dst, const SolidAngleTable& omega, Image& out) {
-  std::vector<std::vector<std::size_t>> groups;
-  const std::size_t W = static_cast<std::size_t>(out.width);
-  if (const auto* ll = dynamic_cast<const LatLongMap*>(&dst); ll && ll->grid() == TexelGrid::Corner) {
-    if (out.width < 2) return;
-    for (std::size_t j = 0; j < std::size_t(out.height); ++j) groups.push_back({j * W, j * W + W - 1});
-  } else if (const auto* cube = dynamic_cast<const CubeMap*>(&dst); cube && cube->grid() == TexelGrid::Corner) {
-    const int N = cube->face_size();
-    if (N < 2) return;
-    // Edge texel centres lie on the cube's edges: the point where the centre's direction meets the cube has
-    // coordinates on the grid -1 + 2k / (N - 1), and those integer k name the texel's twins exactly.
-    std::map<std::uint64_t, std::vector<std::size_t>> by_point;
-    for (int f = 0; f < 6; ++f) {
-      const CubeFace& face = cube->face(f);
-      for (int j = 0; j < N; ++j)
-        for (int i = 0; i < N; ++i) {
-          if (i != 0 && i != N - 1 && j != 0 && j != N - 1) continue;
-          const int x = face.origin_x + i, y = face.origin_y + j;
-          Vec3 d;
-          if (!cube->to_direction(Vec2(x + 0.5, y + 0.5), d)) continue;
-          const double m = std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
-          if (!(m > 0.0)) continue;
-          std::uint64_t key = 0;
-          for (double p : {d.x / m, d.y / m, d.z / m})
-            key = key * std::uint64_t(N) + std::uint64_t(std::clamp(std::llround((p + 1.0) * 0.5 * (N - 1)), 0LL,
-                                                                       static_cast<long long>(N - 1)));
-          by_point[key].push_back(std::size_t(y) * W + std::size_t(x));
-        }
-    }
-    for (auto& [key, group] : by_point) groups.push_back(std::move(group));
-  } else {
-    return;
-  }
-  average_twins(groups, omega, out);
+  average_twins(dst.twin_texels(), omega, out);
 }
 
 }  // namespace envkit::detail

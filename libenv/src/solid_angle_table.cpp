@@ -1,16 +1,14 @@
 #include <envkit/cubemap.h>
-#include <envkit/latlong.h>
 #include <envkit/solid_angle_table.h>
-
 #include <tbb/parallel_for.h>
 
 namespace envkit {
 
 SolidAngleTable::SolidAngleTable(const Parameterization& param) : width_(param.width()) {
   const int W = param.width(), H = param.height();
-  if (const auto* ll = dynamic_cast<const LatLongMap*>(&param)) {
+  if (param.kind() == Kind::LatLong) {
     per_row_.resize(H);
-    halve_edge_columns_ = ll->grid() == TexelGrid::Corner && W > 1;
+    halve_edge_columns_ = param.grid() == TexelGrid::Corner && W > 1;
     for (int j = 0; j < H; ++j) {
       per_row_[j] = halve_edge_columns_ ? 2.0 * param.texel_solid_angle(0, j) : param.texel_solid_angle(0, j);
       total_ += per_row_[j] * (halve_edge_columns_ ? W - 1 : W);

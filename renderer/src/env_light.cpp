@@ -1,5 +1,4 @@
 #include <envkit/error.h>
-#include <envkit/latlong.h>
 #include <envkit/param_factory.h>
 #include <envkit/render/env_light.h>
 #include <envkit/resample.h>
@@ -11,16 +10,10 @@ namespace envkit::render {
 
 namespace {
 
-
 /// True if `map` already is the distribution grid (same kind and size, centre-sampled, identity transform).
 bool on_grid(const EnvMap& map, Kind grid, int width, int height) {
   if (map.param->kind() != grid || map.image.width != width || map.image.height != height) return false;
-  if (!is_identity(map.to_world(), 1e-12)) return false;
-  if (grid == Kind::LatLong) {
-    const auto* ll = dynamic_cast<const LatLongMap*>(map.param.get());
-    return ll && ll->grid() == TexelGrid::Centre;
-  }
-  return true;
+  return is_identity(map.to_world(), 1e-12) && map.param->grid() == TexelGrid::Centre;
 }
 
 bool same_frame(const Mat3& a, const Mat3& b) {

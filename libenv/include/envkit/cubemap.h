@@ -61,7 +61,9 @@ class CubeMap final : public Parameterization {
   int face_size() const { return n_; }
   CubeLayout layout() const { return layout_; }
   CubeBasis basis() const { return basis_; }
-  TexelGrid grid() const { return grid_; }
+  TexelGrid grid() const override { return grid_; }
+  bool has_blank_texels() const override;
+  std::vector<std::vector<std::size_t>> twin_texels() const override;
   /// The placed face with face number `face` (0..5).
   const CubeFace& face(int face) const { return faces_[face]; }
   /// Index into face() of the face that holds image texel (i, j), or -1 for blank cells and outside.

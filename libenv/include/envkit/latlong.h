@@ -29,7 +29,8 @@ class LatLongMap final : public Parameterization {
   std::string describe() const override;
   std::unique_ptr<Parameterization> clone() const override { return std::make_unique<LatLongMap>(*this); }
   bool same_grid(const Parameterization& other) const override;
-  TexelGrid grid() const { return grid_; }
+  TexelGrid grid() const override { return grid_; }
+  std::vector<std::vector<std::size_t>> twin_texels() const override;
 
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;
@@ -60,6 +61,13 @@ class LatLongMap final : public Parameterization {
   /// The u of uv_from_direction alone, given horizontal = hypot(dir.x, dir.z) (callers that measure theta
   /// themselves skip the latitude).
   static double u_from_direction(const Vec3& dir, double horizontal);
+  /// Sines and cosines of the texel centres' longitudes (one per column) and latitudes (one per row), for loops that
+  /// visit every texel: the centre of texel (i, j) sees (sin_lon[i] cos_lat[j], sin_lat[j], cos_lon[i] cos_lat[j]),
+  /// bit for bit to_direction at the centre.
+  struct CentreAngles {
+    std::vector<double> sin_lon, cos_lon, sin_lat, cos_lat;
+  };
+  CentreAngles centre_angles() const;
   /// Domain coordinates (u, v) of a continuous image position, per grid (u depends on x only, v on y only:
   /// to_direction(pos) == direction_from_uv(u, clamp(v, 0, 1))).
   Vec2 domain_from_image(Vec2 pos) const;

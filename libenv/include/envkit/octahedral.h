@@ -26,10 +26,11 @@ class OctahedralMap final : public Parameterization {
   double solid_angle_density(Vec2) const override { return kFourPi / (double(width_) * height_); }
   bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
 
-  /// Unit square [0,1]^2 -> unit direction in octahedron coordinates (pole +z_o).
-  static Vec3 square_to_sphere(Vec2 p);
-  /// Inverse of square_to_sphere.
-  static Vec2 sphere_to_square(const Vec3& d);
+  /// Unit direction (map frame) seen at p in the unit square [0, 1]^2 (p = image position / N): the map without its
+  /// size, for samplers that hold their own grid.
+  static Vec3 direction_from_unit(Vec2 p);
+  /// Inverse of direction_from_unit: the point of [0, 1]^2 that sees `dir` (any non-zero length).
+  static Vec2 unit_from_direction(const Vec3& dir);
 };
 
 }  // namespace envkit

@@ -12,8 +12,10 @@
 /// octahedral.h, paraboloid.h, healpix.h, perspective.h, fisheye.h).
 #include <envkit/vec.h>
 
+#include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace envkit {
 
@@ -60,6 +62,17 @@ class Parameterization {
   virtual bool covers_sphere() const { return true; }
   /// The view parameters of a camera view (recorded in metadata), nullptr for environment maps.
   virtual const ViewParams* view() const { return nullptr; }
+  /// Where the texel centres lie. Lat-long and cube maps take the grid their file calls for; every other
+  /// parameterization is centre-sampled.
+  virtual TexelGrid grid() const { return TexelGrid::Centre; }
+  /// True when some texels may hold no data (outside a disk, the blank cells of a cross): filters then keep a
+  /// coverage mask. False when every texel sees part of the sphere.
+  virtual bool has_blank_texels() const { return false; }
+  /// Groups of texels (indices j * W + i) whose centres are one point of the sphere: the duplicated seam columns of
+  /// a corner-sampled lat-long map, the texels a corner-sampled cube shares along its edges and corners. Each
+  /// group must hold one value; resampling gives it the solid-angle weighted mean of what its copies received.
+  /// Empty when all texel centres are distinct.
+  virtual std::vector<std::vector<std::size_t>> twin_texels() const { return {}; }
 
   /// Direction (unit length, map frame) seen at continuous image position `pos`.
   /// Returns false where the image holds no data (outside a mirror ball, blank cells of a cross).

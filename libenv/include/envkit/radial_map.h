@@ -34,6 +34,8 @@ class RadialMap : public Parameterization {
   double solid_angle_density(Vec2 pos) const override;
   /// Same kind and size, and the same disks (centres, radii and frames).
   bool same_grid(const Parameterization& other) const override;
+  /// The corners outside the disks hold no data.
+  bool has_blank_texels() const override { return true; }
 
   const std::vector<Disk>& disks() const { return disks_; }
 

@@ -2,12 +2,11 @@
 /// @file texel_directions.h
 /// Directions of texel centres (map frame), for loops that visit every texel of a map.
 ///
-/// Lat-long maps are separable: the direction of texel (i, j) is (sin lon_i cos lat_j, sin lat_j, cos lon_i cos
-/// lat_j), so one sin/cos table per column and per row replaces the trigonometry per texel (bit-identical to
-/// LatLongMap::to_direction at the centre). Other maps call Parameterization::to_direction.
+/// Lat-long maps are separable: LatLongMap::centre_angles() gives one sin/cos table per column and per row, which
+/// replaces the trigonometry per texel (bit-identical to LatLongMap::to_direction at the centre). Other maps call
+/// Parameterization::to_direction.
+#include <envkit/latlong.h>
 #include <envkit/parameterization.h>
-
-#include <vector>
 
 namespace envkit {
 
@@ -18,8 +17,9 @@ class TexelDirections {
 
   /// Unit direction seen at the centre (i + 0.5, j + 0.5) of texel (i, j); false where the map holds no data.
   bool centre(int i, int j, Vec3& dir) const {
-    if (!cos_lat_.empty()) {
-      dir = Vec3(sin_lon_[i] * cos_lat_[j], sin_lat_[j], cos_lon_[i] * cos_lat_[j]);
+    if (!latlong_.cos_lat.empty()) {
+      const LatLongMap::CentreAngles& a = latlong_;
+      dir = Vec3(a.sin_lon[i] * a.cos_lat[j], a.sin_lat[j], a.cos_lon[i] * a.cos_lat[j]);
       return true;
     }
     return param_.to_direction(Vec2(i + 0.5, j + 0.5), dir);
@@ -27,8 +27,7 @@ class TexelDirections {
 
  private:
   const Parameterization& param_;
-  std::vector<double> sin_lon_, cos_lon_;  // per column (lat-long only)
-  std::vector<double> sin_lat_, cos_lat_;  // per row (lat-long only)
+  LatLongMap::CentreAngles latlong_;  // empty unless param_ is a lat-long map
 };
 
 }  // namespace envkit
