@@ -710,17 +710,22 @@ TEST_F(HdrIoTest, BuffersBeyondTheMachinesMemoryAreRefusedNamingTheFileAndSize) 
   EXPECT_NE(msg.find(" GiB available"), std::string::npos) << msg;
 }
 
-// ---- OpenImageIO only on demand ----------------------------------------------------------------------------
+// ---- OpenImageIO and libhealpix only on demand -------------------------------------------------------------
+
+/// Whether `envconvert args` (which must succeed) loads a shared library whose name contains `library`: the dynamic
+/// loader lists every library it opens under LD_DEBUG=files.
+bool envconvert_loads(const std::string& library, const std::vector<std::string>& args, const std::string& dir) {
+  std::vector<std::string> a = {"LD_DEBUG=files", std::string(ENVKIT_BIN_DIR) + "/envconvert"};
+  a.insert(a.end(), args.begin(), args.end());
+  const envkit::test::CommandResult r = envkit::test::run_command("/usr/bin/env", a, dir);
+  EXPECT_EQ(r.code, 0) << r.err.substr(r.err.size() > 2000 ? r.err.size() - 2000 : 0);
+  return r.err.find(library) != std::string::npos;
+}
 
 TEST_F(HdrIoTest, ExrHdrPfmAndPngRunsNeverLoadOpenImageIO) {
   envkit::write_image(path("a.exr"), exact_picture(16, 8));
-  // The dynamic loader lists every library it opens under LD_DEBUG=files.
   auto loads_oiio = [&](const std::vector<std::string>& args) {
-    std::vector<std::string> a = {"LD_DEBUG=files", std::string(ENVKIT_BIN_DIR) + "/envconvert"};
-    a.insert(a.end(), args.begin(), args.end());
-    const envkit::test::CommandResult r = envkit::test::run_command("/usr/bin/env", a, dir_);
-    EXPECT_EQ(r.code, 0) << r.err.substr(r.err.size() > 2000 ? r.err.size() - 2000 : 0);
-    return r.err.find("libOpenImageIO") != std::string::npos;
+    return envconvert_loads("libOpenImageIO", args, dir_);
   };
   EXPECT_FALSE(loads_oiio({path("a.exr"), "-o", path("b.hdr"), "--to", "latlong", "--from", "latlong", "-q"}));
   EXPECT_FALSE(loads_oiio({path("b.hdr"), "-o", path("c.pfm"), "--to", "latlong", "--from", "latlong", "-q"}));
@@ -731,6 +736,16 @@ TEST_F(HdrIoTest, ExrHdrPfmAndPngRunsNeverLoadOpenImageIO) {
   // A TIFF needs the module: loaded then, and the file is written.
   EXPECT_TRUE(loads_oiio({path("a.exr"), "-o", path("g.tif"), "--to", "latlong", "--from", "latlong", "-q"}));
   EXPECT_TRUE(fs::exists(path("g.tif")));
+}
+
+// libhealpix-cxx brings cfitsio, curl and GnuTLS, whose start-up every run would pay: only HEALPix maps load it.
+TEST_F(HdrIoTest, OnlyHealpixRunsLoadLibhealpix) {
+  envkit::write_image(path("a.exr"), exact_picture(16, 8));
+  auto loads_healpix = [&](const std::vector<std::string>& args) { return envconvert_loads("libhealpix", args, dir_); };
+  EXPECT_FALSE(loads_healpix({path("a.exr"), "-o", path("b.exr"), "--to", "cube", "--from", "latlong", "-q"}));
+  EXPECT_TRUE(loads_healpix({path("a.exr"), "-o", path("h.exr"), "--to", "healpix", "--from", "latlong", "-q"}));
+  // Reading it back (a HEALPix map by its metadata) loads the module too.
+  EXPECT_TRUE(loads_healpix({path("h.exr"), "-o", path("c.exr"), "--to", "latlong", "-q"}));
 }
 
 }  // namespace

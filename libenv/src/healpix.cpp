@@ -1,68 +1,28 @@
 #include <envkit/error.h>
 #include <envkit/healpix.h>
 
-#include <healpix_cxx/healpix_base.h>
-
 #include <algorithm>
 #include <cmath>
-#include <optional>
+
+#include "healpix_geometry.h"
 
 namespace envkit {
 
 namespace {
 
-// libhealpix keeps its continuous face-coordinate map (xyf2loc) protected; a
-// derived class may call it.
-class ContinuousBase : public T_Healpix_Base<int64> {
-public:
-  ContinuousBase(int64 nside, Healpix_Ordering_Scheme scheme)
-      : T_Healpix_Base<int64>(nside, scheme, SET_NSIDE) {}
-  ContinuousBase(int order, Healpix_Ordering_Scheme scheme)
-      : T_Healpix_Base<int64>(order, scheme) {}
-  // Face coordinates (x, y) in [0, 1]^2 of base pixel `face` -> unit vector in
-  // the HEALPix frame.
-  vec3 face_point(double x, double y, int face) const {
-    double z = 0.0, phi = 0.0, sth = 0.0;
-    bool have_sth = false;
-    xyf2loc(x, y, face, z, phi, sth, have_sth);
-    const double s =
-        have_sth ? sth : std::sqrt(std::max(0.0, (1.0 - z) * (1.0 + z)));
-    return vec3(s * std::cos(phi), s * std::sin(phi), z);
-  }
-};
+constexpr double kFineScale = double(std::int64_t(1) << detail::HealpixGeometry::kFineOrder);
 
-// Finest NESTED order libhealpix supports with 64-bit indices: its in-face
-// indices, divided by 2^29, are the continuous face coordinates of a direction
-// to 2^-29 of a base pixel (about 2e-9 rad).
-constexpr int kFineOrder = 29;
-constexpr double kFineScale = double(std::int64_t(1) << kFineOrder);
+}  // namespace
 
-} // namespace
-
-struct HealpixMap::Geometry {
-  explicit Geometry(int nside)
-      : ring(int64(nside), RING), fine(kFineOrder, NEST) {
-    if ((nside & (nside - 1)) == 0)
-      nested.emplace(int64(nside), NEST);
-  }
-  ContinuousBase ring; // face_point (any scheme), RING indices
-  std::optional<ContinuousBase>
-      nested;          // NESTED indices (power-of-two N_side only)
-  ContinuousBase fine; // direction -> continuous face coordinates
-};
-
-HealpixMap::HealpixMap(int nside)
-    : Parameterization(4 * nside, 3 * nside), nside_(nside) {
+HealpixMap::HealpixMap(int nside) : Parameterization(4 * nside, 3 * nside), nside_(nside) {
   if (nside <= 0 || nside > (1 << 15))
-    throw Error("HEALPix N_side must be in [1, 32768], not " +
-                std::to_string(nside));
-  geometry_ = std::make_shared<const Geometry>(nside);
+    throw Error("HEALPix N_side must be in [1, 32768], not " + std::to_string(nside));
+  geometry_ = detail::healpix_geometry(nside);
   tap_cell_ = nside;
 }
 
 std::string HealpixMap::describe() const {
-  return "healpix N_side " + std::to_string(nside_) + " (" +
-         std::to_string(width_) + "x" + std::to_string(height_) +
+  return "healpix N_side " + std::to_string(nside_) + " (" + std::to_string(width_) + "x" + std::to_string(height_) +
          ", 4x3 base pixels, equal-area)";
 }
 
@@ -71,29 +31,24 @@ namespace {
 int face_column(int face) { return 3 - face % 4; }
 int face_row(int face) { return face / 4; }
 int face_at_cell(int column, int row) { return 4 * row + (3 - column); }
-} // namespace
+}  // namespace
 
-bool HealpixMap::to_direction(Vec2 pos, Vec3 &dir) const {
+bool HealpixMap::to_direction(Vec2 pos, Vec3& dir) const {
   const double n = nside_;
   const int column = static_cast<int>(std::clamp(std::floor(pos.x / n), 0.0, 3.0));
   const int row = static_cast<int>(std::clamp(std::floor(pos.y / n), 0.0, 2.0));
-  const double lx = std::clamp(pos.x - column * n, 0.0, n),
-               ly = std::clamp(pos.y - row * n, 0.0, n);
-  const vec3 h = geometry_->ring.face_point(1.0 - ly / n, lx / n,
-                                            face_at_cell(column, row));
-  dir = from_healpix_frame(Vec3(h.x, h.y, h.z)).normalized();
+  const double lx = std::clamp(pos.x - column * n, 0.0, n), ly = std::clamp(pos.y - row * n, 0.0, n);
+  const Vec3 h = geometry_->face_point(1.0 - ly / n, lx / n, face_at_cell(column, row));
+  dir = from_healpix_frame(h).normalized();
   return true;
 }
 
-Vec2 HealpixMap::to_image(const Vec3 &dir) const {
+Vec2 HealpixMap::to_image(const Vec3& dir) const {
   const Vec3 h = to_healpix_frame(dir);
   const double len = h.length();
-  if (!(len > 0.0))
-    return Vec2(0.5, 0.5);
+  if (!(len > 0.0)) return Vec2(0.5, 0.5);
   int ix = 0, iy = 0, face = 0;
-  geometry_->fine.pix2xyf(
-      geometry_->fine.vec2pix(vec3(h.x / len, h.y / len, h.z / len)), ix, iy,
-      face);
+  geometry_->locate_fine(h / len, ix, iy, face);
   const double n = nside_;
   const double x = (ix + 0.5) / kFineScale, y = (iy + 0.5) / kFineScale;
   const double limit = std::nextafter(n, 0.0);
@@ -106,25 +61,20 @@ double HealpixMap::to_image_tolerance() const {
   return double(nside_) / kFineScale + 1e-9;
 }
 
-double HealpixMap::solid_angle(double x0, double y0, double x1,
-                               double y1) const {
-  const double w =
-      std::clamp(x1, 0.0, double(width_)) - std::clamp(x0, 0.0, double(width_));
-  const double h = std::clamp(y1, 0.0, double(height_)) -
-                   std::clamp(y0, 0.0, double(height_));
+double HealpixMap::solid_angle(double x0, double y0, double x1, double y1) const {
+  const double w = std::clamp(x1, 0.0, double(width_)) - std::clamp(x0, 0.0, double(width_));
+  const double h = std::clamp(y1, 0.0, double(height_)) - std::clamp(y0, 0.0, double(height_));
   return (w > 0.0 && h > 0.0) ? pixel_solid_angle() * w * h : 0.0;
 }
 
-bool HealpixMap::resolve_tap(int anchor_i, int anchor_j, int &i, int &j) const {
+bool HealpixMap::resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const {
   const int n = nside_;
   const bool inside = i >= 0 && j >= 0 && i < width_ && j < height_;
-  if (inside && i / n == anchor_i / n && j / n == anchor_j / n)
-    return true;
+  if (inside && i / n == anchor_i / n && j / n == anchor_j / n) return true;
   // Another base pixel: continue the anchor's local tangent plane across the
   // edge and find the texel that sees that direction (the cube map's
   // re-projection, with libhealpix deciding which face it falls on).
-  const int ai = std::clamp(anchor_i, 0, width_ - 1),
-            aj = std::clamp(anchor_j, 0, height_ - 1);
+  const int ai = std::clamp(anchor_i, 0, width_ - 1), aj = std::clamp(anchor_j, 0, height_ - 1);
   Vec3 c, xm, xp, ym, yp;
   to_direction(Vec2(ai + 0.5, aj + 0.5), c);
   to_direction(Vec2(ai + 0.01, aj + 0.5), xm);
@@ -133,56 +83,45 @@ bool HealpixMap::resolve_tap(int anchor_i, int anchor_j, int &i, int &j) const {
   to_direction(Vec2(ai + 0.5, aj + 0.99), yp);
   const Vec3 ex = (xp - xm) / 0.98, ey = (yp - ym) / 0.98;
   const Vec3 d = c + double(i - ai) * ex + double(j - aj) * ey;
-  if (!(d.length() > 0.0))
-    return clamp_tap(i, j);
+  if (!(d.length() > 0.0)) return clamp_tap(i, j);
   const Vec2 p = to_image(d);
   i = std::clamp(static_cast<int>(p.x), 0, width_ - 1);
   j = std::clamp(static_cast<int>(p.y), 0, height_ - 1);
   return true;
 }
 
-void HealpixMap::texel_to_xyf(int i, int j, int &ix, int &iy, int &face) const {
+void HealpixMap::texel_to_xyf(int i, int j, int& ix, int& iy, int& face) const {
   const int column = i / nside_, row = j / nside_;
   face = face_at_cell(column, row);
   iy = i - column * nside_;
   ix = nside_ - 1 - (j - row * nside_);
 }
 
-void HealpixMap::xyf_to_texel(int ix, int iy, int face, int &i, int &j) const {
+void HealpixMap::xyf_to_texel(int ix, int iy, int face, int& i, int& j) const {
   i = face_column(face) * nside_ + iy;
   j = face_row(face) * nside_ + (nside_ - 1 - ix);
 }
 
-std::int64_t HealpixMap::pixel_index(int i, int j,
-                                     HealpixOrdering ordering) const {
+std::int64_t HealpixMap::pixel_index(int i, int j, HealpixOrdering ordering) const {
   if (i < 0 || j < 0 || i >= width_ || j >= height_)
-    throw Error("texel (" + std::to_string(i) + ", " + std::to_string(j) +
-                ") is outside the HEALPix image");
+    throw Error("texel (" + std::to_string(i) + ", " + std::to_string(j) + ") is outside the HEALPix image");
   int ix = 0, iy = 0, face = 0;
   texel_to_xyf(i, j, ix, iy, face);
-  if (ordering == HealpixOrdering::Ring)
-    return geometry_->ring.xyf2pix(ix, iy, face);
-  if (!geometry_->nested)
-    throw Error("NESTED ordering needs a power-of-two N_side, not " +
-                std::to_string(nside_));
-  return geometry_->nested->xyf2pix(ix, iy, face);
+  const bool nested = ordering == HealpixOrdering::Nested;
+  if (nested && !geometry_->has_nested())
+    throw Error("NESTED ordering needs a power-of-two N_side, not " + std::to_string(nside_));
+  return geometry_->xyf2pix(ix, iy, face, nested);
 }
 
-void HealpixMap::texel_of_pixel(std::int64_t pixel, HealpixOrdering ordering,
-                                int &i, int &j) const {
+void HealpixMap::texel_of_pixel(std::int64_t pixel, HealpixOrdering ordering, int& i, int& j) const {
   if (pixel < 0 || pixel >= pixel_count())
-    throw Error("HEALPix pixel " + std::to_string(pixel) + " is outside [0, " +
-                std::to_string(pixel_count()) + ")");
+    throw Error("HEALPix pixel " + std::to_string(pixel) + " is outside [0, " + std::to_string(pixel_count()) + ")");
   int ix = 0, iy = 0, face = 0;
-  if (ordering == HealpixOrdering::Ring) {
-    geometry_->ring.pix2xyf(pixel, ix, iy, face);
-  } else {
-    if (!geometry_->nested)
-      throw Error("NESTED ordering needs a power-of-two N_side, not " +
-                  std::to_string(nside_));
-    geometry_->nested->pix2xyf(pixel, ix, iy, face);
-  }
+  const bool nested = ordering == HealpixOrdering::Nested;
+  if (nested && !geometry_->has_nested())
+    throw Error("NESTED ordering needs a power-of-two N_side, not " + std::to_string(nside_));
+  geometry_->pix2xyf(pixel, nested, ix, iy, face);
   xyf_to_texel(ix, iy, face, i, j);
 }
 
-} // namespace envkit
+}  // namespace envkit
