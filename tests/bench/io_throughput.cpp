@@ -1,7 +1,12 @@
-// One timed image read or write, by envkit (read_image / write_image) or by OpenImageIO, for scripts/bench_io.sh.
+// One timed image read or write, by envkit (read_image / write_image) or by OpenImageIO, for scripts/bench_io.sh, and
+// a conversion's I/O floor for scripts/bench_io_floor.sh.
 //
-//   io_throughput envkit|oiio read  IN          time reading IN into float RGB(A) io_throughput envkit|oiio write IN
-//   OUT      read IN (untimed), time writing OUT (format from the extension)
+//   io_throughput envkit|oiio read  IN         time reading IN into float RGB(A)
+//   io_throughput envkit|oiio write IN OUT     read IN (untimed), time writing OUT (format from the extension)
+//   io_throughput envkit floor IN RESULT OUT [COMPRESSION]
+//       a conversion's I/O floor: read RESULT (a conversion's output, untimed), then time reading IN and writing
+//       RESULT's pixels to OUT (same format; COMPRESSION as envconvert's --compression): what the conversion
+//       IN -> RESULT would take without resampling
 //
 // Prints "<seconds> <megabytes of float pixels>"; the script turns the pair into MB/s.
 #include <OpenImageIO/imageio.h>
@@ -18,7 +23,7 @@ namespace {
 double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 int usage() {
-  std::fprintf(stderr, "usage: io_throughput envkit|oiio read IN | write IN OUT\n");
+  std::fprintf(stderr, "usage: io_throughput envkit|oiio read IN | write IN OUT | envkit floor IN RESULT OUT [COMP]\n");
   return 2;
 }
 
@@ -28,6 +33,17 @@ int main(int argc, char** argv) {
   if (argc < 4) return usage();
   const std::string lib = argv[1], op = argv[2], in = argv[3];
   if (op == "write" && argc < 5) return usage();
+  if (op == "floor") {
+    if (lib != "envkit" || argc < 6) return usage();
+    const envkit::Image result = envkit::read_image(argv[4]);
+    envkit::WriteOptions options;
+    if (argc > 6) options.compression = argv[6];
+    const double t0 = now();
+    const envkit::Image input = envkit::read_image(in);
+    envkit::write_image(argv[5], result, options);
+    std::printf("%.4f %.1f\n", now() - t0, static_cast<double>(input.pixels.size() + result.pixels.size()) * 4e-6);
+    return 0;
+  }
   const envkit::Image image = op == "write" ? envkit::read_image(in) : envkit::Image();
   double t0 = 0, t1 = 0, mb = 0;
   if (lib == "envkit") {
