@@ -323,6 +323,41 @@ TEST(CdfDistribution2D, LoadRefusesSplitIndicesOutOfRange) {
   }
 }
 
+// The search sends every u < 1/2 to the forward part, so a table whose split leaves more than half the mass behind
+// it would send some u past the forward part's last entry into the junction bin, whatever that bin's step (a zero
+// step: a drawn sample with pdf 0, as fuzz_table_values found; a small one: samples in the wrong bin). Such a table
+// rises, falls and sums to 1 like a valid one, and must be refused all the same.
+TEST(CdfDistribution2D, LoadRefusesASplitWithMoreThanHalfTheMassBehindIt) {
+  const std::vector<float> w = {1, 2, 3, 4, 5, 6, 0, 1, 9, 2, 2, 2};  // row sums 10, 12, 15: marginal split 2
+  const CdfDistribution2D built(w.data(), 4, 3);
+  BlobWriter writer;
+  built.save(writer);
+  const std::vector<std::byte> good = writer.flatten();
+  // The marginal t = {0, 10/37 (forward), 15/37 (backward, at the split), 0}: find its middle entries.
+  const float t1 = float(10.0 / 37.0), t2 = float(15.0 / 37.0);
+  std::size_t at = 0;
+  for (std::size_t k = 0; k + 8 <= good.size(); k += 4)
+    if (std::memcmp(good.data() + k, &t1, 4) == 0 && std::memcmp(good.data() + k + 4, &t2, 4) == 0) at = k + 4;
+  ASSERT_NE(at, 0u) << "marginal not found in the blob";
+  // 0.7 at the split: rising forward part {0, 0.27}, falling backward part {0.7, 0}, junction step 0.03 >= 0.
+  std::vector<std::byte> blob = good;
+  const float behind = 0.7f;
+  std::memcpy(blob.data() + at, &behind, sizeof behind);
+  BlobReader in(blob.data(), blob.size(), "t.envtbl: section cdf");
+  try {
+    CdfDistribution2D d(in);
+    ADD_FAILURE() << "a split with 0.7 of the mass behind it was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("t.envtbl: section cdf: invalid marginal CDF"), std::string::npos) << e.what();
+  }
+  // At exactly one half it is a table a build can write (a remaining mass just below 1/2 rounds to it): accepted.
+  const float half = 0.5f;
+  std::vector<std::byte> edge = good;
+  std::memcpy(edge.data() + at, &half, sizeof half);
+  BlobReader edge_in(edge.data(), edge.size(), "t.envtbl: section cdf");
+  EXPECT_NO_THROW(CdfDistribution2D d(edge_in));
+}
+
 TEST(CdfDistribution2D, DeterministicAcrossThreadCounts) {
   const int W = 1024, H = 512;  // above the parallel threshold
   std::vector<float> w(std::size_t(W) * H);

@@ -178,9 +178,12 @@ CdfDistribution2D::CdfDistribution2D(BlobReader& in) : Distribution2D(in) {
     throw Error(in.context() + ": CDF split index out of range");
   // A checksum only says the bytes are as written, not that they form a CDF: every table must start at 0, rise
   // (forward part) and fall (backward part) in [0, 1], and end at 0, so every bin probability is finite and >= 0
-  // and sums to 1. One pass over the entries, like the checksum.
+  // and sums to 1. And the split must be where a build puts it, with at most half the mass behind it: the search
+  // sends every u < 1/2 to the forward part, and only then is the bin it lands in never a zero-step bin (a forward
+  // part holding less than half would send some u past its last entry, into the junction bin, whatever its step).
+  // One pass over the entries, like the checksum.
   const auto valid_cdf = [](const float* t, int n, int split) {
-    if (t[0] != 0.0f || t[n] != 0.0f) return false;
+    if (t[0] != 0.0f || t[n] != 0.0f || !(double(t[split]) <= 0.5)) return false;
     for (int i = 0; i <= n; ++i)
       if (!(t[i] >= 0.0f && t[i] <= 1.0f)) return false;
     for (int i = 1; i < split; ++i)

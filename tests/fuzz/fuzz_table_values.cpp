@@ -69,6 +69,11 @@ void patch(std::vector<std::byte>& file, std::size_t begin, std::size_t size, st
   else file[at] = std::byte(raw);  // one raw byte
 }
 
+std::string where(envkit::SamplingMethod method, bool compensated, envkit::Vec2 u) {
+  return std::string(envkit::method_name(method)) + (compensated ? " (compensated)" : "") + " at u = (" +
+         std::to_string(u.x) + ", " + std::to_string(u.y) + ")";
+}
+
 void check_tables(const envkit::EnvTables& tables) {
   for (auto method : {envkit::SamplingMethod::Cdf, envkit::SamplingMethod::Alias, envkit::SamplingMethod::Hierarchical})
     for (bool comp : {false, true}) {
@@ -79,7 +84,10 @@ void check_tables(const envkit::EnvTables& tables) {
         for (int j = 0; j < 8; ++j) {
           const envkit::Vec2 u((i + 0.37) / 8.0, (j + 0.61) / 8.0);
           const envkit::DirectionSample s = d->sample(u);
-          if (!(std::isfinite(s.pdf) && s.pdf > 0.0)) finding("a drawn sample with a pdf that is not finite and > 0");
+          if (!(std::isfinite(s.pdf) && s.pdf > 0.0))
+            finding("a drawn sample with a pdf that is not finite and > 0: " + where(method, comp, u) +
+                    " gives texel (" + std::to_string(s.x) + ", " + std::to_string(s.y) + ") with pdf " +
+                    std::to_string(s.pdf));
           if (s.x < 0 || s.x >= W || s.y < 0 || s.y >= H) finding("a sample outside the grid");
           const double len = std::sqrt(s.direction.x * s.direction.x + s.direction.y * s.direction.y +
                                        s.direction.z * s.direction.z);
