@@ -6,7 +6,7 @@
 #include <cmath>
 #include <string>
 
-#include "distribution_cdf_avx512.h"
+#include "distribution_cdf_simd.h"
 #include "simd_level.h"
 
 namespace envkit {
@@ -226,15 +226,15 @@ namespace {
 /// prefetched each cdf[k].t[split], which decides the part to search). Each round takes one halving step of every
 /// search and prefetches its next probe, so the group's probe misses overlap; the steps are those of libstdc++'s
 /// std::upper_bound / std::partition_point in find(), so each search reads the same probes and ends in the same
-/// bin, bit for bit. On CPUs with AVX-512 the whole search runs eight lanes per vector with masks
-/// (distribution_cdf_avx512.h). The portable steps are conditional jumps, not selects: on peaky maps most searches
+/// bin, bit for bit. On CPUs with AVX-512 (AVX2) the whole search runs eight (four) lanes per vector with masks
+/// (distribution_cdf_simd.h). The portable steps are conditional jumps, not selects: on peaky maps most searches
 /// take the same path, which the CPU predicts (a scalar select version measured slower on the sun map).
 void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin, double* fraction, double* step) {
   constexpr std::size_t G = sampling::kSampleGroup;
   if (n == 0) return;
-  if (detail::use_avx512()) {
-    // The same steps eight searches per vector, with masks instead of branches. A group's searches all lie in one
-    // table (the marginal, or the rows of the conditional array), addressed from the first one's start.
+  if (detail::use_avx2()) {
+    // The same steps eight (four) searches per vector, with masks instead of branches. A group's searches all lie in
+    // one table (the marginal, or the rows of the conditional array), addressed from the first one's start.
     std::int64_t start[G];
     int bins[G], split[G];
     for (std::size_t k = 0; k < n; ++k) {
@@ -242,7 +242,8 @@ void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin
       bins[k] = cdf[k].n;
       split[k] = cdf[k].split;
     }
-    detail::cdf_find_group_avx512(cdf[0].t, start, bins, split, u, n, bin, fraction, step);
+    const auto search = detail::use_avx512() ? detail::cdf_find_group_avx512 : detail::cdf_find_group_avx2;
+    search(cdf[0].t, start, bins, split, u, n, bin, fraction, step);
     return;
   }
   double r[G];
@@ -279,9 +280,9 @@ void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin
 void CdfDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
   // Rows that stay in a core's L2 have no misses to overlap, and there the group search's bookkeeping costs more
   // than it saves: pick() per sample (the same results).
-  // (With AVX-512 the group search has no branches to mispredict and wins at every size.)
+  // (With AVX-512 or AVX2 the group search has no branches to mispredict and wins at every size.)
   constexpr std::size_t kCachedBytes = std::size_t(1) << 20;
-  if (conditional_.bytes() < kCachedBytes && !detail::use_avx512()) {
+  if (conditional_.bytes() < kCachedBytes && !detail::use_avx2()) {
     for (std::size_t k = 0; k < u.size(); ++k) out[k] = pick(u[k]);
     return;
   }
@@ -297,7 +298,7 @@ void CdfDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t 
   // Rows: the marginal searches, as pick() (H + 1 floats: cached, nothing to overlap; the vector search still saves
   // the mispredicted branches).
   const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
-  if (detail::use_avx512()) {
+  if (detail::use_avx2()) {
     for (std::size_t k = 0; k < n; ++k) {
       cdf[k] = marginal;
       v[k] = clamp_decision(u[k].y);

@@ -1,9 +1,8 @@
 // Built with -ffp-contract=off (libenv/CMakeLists.txt): a fused multiply-add would round differently from find().
-#include "distribution_cdf_avx512.h"
-
 #include <envkit/distribution.h>
 
 #include "avx512_target.h"
+#include "distribution_cdf_simd.h"
 
 namespace envkit::detail {
 

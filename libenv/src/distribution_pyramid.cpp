@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <string>
 
-#include "distribution_pyramid_avx512.h"
+#include "distribution_pyramid_simd.h"
 #include "simd_level.h"
 
 namespace envkit {
@@ -252,7 +252,7 @@ void PyramidDistribution2D::sample_texels(std::span<const Vec2> u, std::span<Tex
 }
 
 void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t n) const {
-  if (detail::use_avx512() && top_level_ <= detail::PyramidWalk::kMaxLevels) {
+  if (detail::use_avx2() && top_level_ <= detail::PyramidWalk::kMaxLevels) {
     detail::PyramidWalk walk;
     walk.nodes = nodes_.data();
     for (int k = 0; k < top_level_; ++k) {
@@ -262,7 +262,10 @@ void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::siz
     walk.top = top_level_;
     walk.prefetch_top = prefetch_top_;
     walk.pdf_scale = pdf_scale_;
-    detail::pyramid_pick_group_avx512(walk, u, out, n);
+    if (detail::use_avx512())
+      detail::pyramid_pick_group_avx512(walk, u, out, n);
+    else
+      detail::pyramid_pick_group_avx2(walk, u, out, n);
     return;
   }
   constexpr std::size_t G = sampling::kSampleGroup;

@@ -1,10 +1,8 @@
 // Built with -ffp-contract=off (libenv/CMakeLists.txt): a fused multiply-add would round differently from pick().
-#include "distribution_pyramid_avx512.h"
-
-#include <algorithm>
 #include <cstdint>
 
 #include "avx512_target.h"
+#include "distribution_pyramid_simd.h"
 
 namespace envkit::detail {
 
@@ -63,17 +61,13 @@ ENVKIT_AVX512 inline __m512i block_index(const PyramidWalk& w, int k, __m512i i,
 }  // namespace
 
 ENVKIT_AVX512 void pyramid_pick_group_avx512(const PyramidWalk& w, const Vec2* u, TexelSample* out, std::size_t n) {
-  constexpr std::size_t G = sampling::kSampleGroup;
-  static_assert(G % 8 == 0);
-  alignas(64) double ux[G], uy[G], leaf[G];
-  alignas(64) std::int64_t is[G], js[G], next[8];
+  static_assert(sampling::kSampleGroup % 8 == 0);
   const std::size_t vectors = (n + 7) / 8;
-  // Lanes past n descend from u = 0 (a valid path: visited nodes have a positive sum) and are dropped at the end.
-  for (std::size_t s = 0; s < vectors * 8; ++s) {
-    ux[s] = s < n ? sampling::clamp_decision(u[s].x) : 0.0;
-    uy[s] = s < n ? sampling::clamp_decision(u[s].y) : 0.0;
-    is[s] = js[s] = 0;
-  }
+  PyramidLanes lanes;
+  lanes.start(u, n, vectors * 8);
+  double *ux = lanes.ux, *uy = lanes.uy, *leaf = lanes.leaf;
+  std::int64_t *is = lanes.i, *js = lanes.j;
+  alignas(64) std::int64_t next[8];
   for (int k = w.top - 1; k >= 0; --k) {
     const bool prefetch = k > 0 && k <= w.prefetch_top;  // as pick_group(): the large levels' next blocks
     for (std::size_t v = 0; v < vectors; ++v) {
@@ -91,13 +85,7 @@ ENVKIT_AVX512 void pyramid_pick_group_avx512(const PyramidWalk& w, const Vec2* u
       }
     }
   }
-  for (std::size_t s = 0; s < n; ++s) {
-    out[s].fx = std::min(kTexelOffsetMax, ux[s]);
-    out[s].fy = std::min(kTexelOffsetMax, uy[s]);
-    out[s].pdf = leaf[s] * w.pdf_scale;
-    out[s].x = int(is[s]);
-    out[s].y = int(js[s]);
-  }
+  lanes.finish(w, out, n);
 }
 
 #else
