@@ -233,7 +233,7 @@ void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin
   constexpr std::size_t G = sampling::kSampleGroup;
   if (n == 0) return;
   if (detail::use_avx2()) {
-    // The same steps eight (four) searches per vector, with masks instead of branches. A group's searches all lie in
+    // The same steps eight (four) searches per vector, with masks instead of jumps. A group's searches all lie in
     // one table (the marginal, or the rows of the conditional array), addressed from the first one's start.
     std::int64_t start[G];
     int bins[G], split[G];
@@ -280,7 +280,7 @@ void find_group(const TwoSidedCdf* cdf, const double* u, std::size_t n, int* bin
 void CdfDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
   // Rows that stay in a core's L2 have no misses to overlap, and there the group search's bookkeeping costs more
   // than it saves: pick() per sample (the same results).
-  // (With AVX-512 or AVX2 the group search has no branches to mispredict and wins at every size.)
+  // (With AVX-512 or AVX2 the group search has no conditional jumps to mispredict and wins at every size.)
   constexpr std::size_t kCachedBytes = std::size_t(1) << 20;
   if (conditional_.bytes() < kCachedBytes && !detail::use_avx2()) {
     for (std::size_t k = 0; k < u.size(); ++k) out[k] = pick(u[k]);
@@ -296,7 +296,7 @@ void CdfDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t 
   double v[G] = {}, fraction[G], step_y[G], step_x[G];
   int y[G], x[G];
   // Rows: the marginal searches, as pick() (H + 1 floats: cached, nothing to overlap; the vector search still saves
-  // the mispredicted branches).
+  // the mispredicted conditional jumps).
   const TwoSidedCdf marginal{marginal_.data(), height_, marginal_split_};
   if (detail::use_avx2()) {
     for (std::size_t k = 0; k < n; ++k) {

@@ -1,7 +1,7 @@
 #pragma once
 // detail::TwoSidedCdf::find() of a group of searches on AVX-512 (eight per vector) and AVX2 (four): the same part
 // decision, the same probes and comparisons (libstdc++'s std::upper_bound / std::partition_point) and the same step
-// and fraction arithmetic, so the same bins and bits, without the unpredictable branch per probe.
+// and fraction arithmetic, so the same bins and bits, without an unpredictable jump per probe.
 #include <cstddef>
 #include <cstdint>
 

@@ -1,6 +1,6 @@
 #pragma once
 // The pyramid's group descent on AVX-512 (eight samples per vector) and AVX2 (four): the same operations on the same
-// values as PyramidDistribution2D::pick() (so the same bits), without its two unpredictable branches per level.
+// values as PyramidDistribution2D::pick() (so the same bits), without its two unpredictable jumps per level.
 #include <envkit/distribution.h>
 
 #include <algorithm>
