@@ -1,17 +1,20 @@
 // envrender: renders a scene lit by an environment map through envkit's baked sampling tables.
-#include "common/cli.h"
-#include "common/progress.h"
-
 #include <envkit/atomic_file.h>
 #include <envkit/envmap.h>
 #include <envkit/error.h>
 #include <envkit/render/integrator.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
+#include <envkit/sun_split.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
+
+#include "common/cli.h"
+#include "common/progress.h"
 
 namespace {
 
@@ -48,6 +51,7 @@ struct Args {
   double time = 0.0;
   int bsdf_samples = 1;
   int light_samples = 1;
+  int sun_samples = envkit::render::IntegratorOptions{}.sun_samples;
   int max_depth = 1;
   int product_resolution = 8;  // measured best (docs/bench_product.md)
   double product_reuse_deg = 17.0;  // measured (docs/bench_product.md): about 0.3 rad
@@ -112,10 +116,18 @@ int run(const Args& a) {
   io.mis_model = parse_mis_model(a.mis_model);
   io.bsdf_samples = a.bsdf_samples;
   io.light_samples = a.light_samples;
+  io.sun_samples = a.sun_samples;
   io.max_depth = a.max_depth;
   io.product_resolution = a.product_resolution;
   io.product_reuse_angle = a.product_reuse_deg * (envkit::kPi / 180.0);
   const Integrator integrator(*scene.scene, *scene.light, io);
+  if (const envkit::SunSplit* sun = integrator.sun_split(); sun && !a.quiet) {
+    const envkit::Vec3 d = envkit::apply(scene.light->rotation(), sun->sun().direction);
+    tools::info("sampling the sun apart from the rest of the map: " + std::to_string(sun->sun().texels) +
+                " texels at elevation " + tools::fmt(std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / envkit::kPi, 3) +
+                " deg, " + tools::fmt(100.0 * sun->sun().power_share, 3) + "% of the light, " +
+                std::to_string(a.sun_samples) + " sample(s) per shading point");
+  }
 
   RenderOptions ro;
   ro.spp = a.spp;
@@ -131,21 +143,23 @@ int run(const Args& a) {
   if (integrator.nonfinite_count() > 0)
     tools::warn(std::to_string(integrator.nonfinite_count()) + " non-finite estimates replaced by 0");
 
-  std::map<std::string, std::string> meta = {{"envkit:renderer", "envrender"},
-                                             {"envkit:scene", a.scene.empty() ? "built-in default" : a.scene},
-                                             {"envkit:strategy", a.strategy},
-                                             {"envkit:light_method", envkit::method_name(io.light_method)},
-                                             {"envkit:heuristic", a.heuristic},
-                                             {"envkit:mis_model", a.mis_model},
-                                             {"envkit:bsdf_samples", std::to_string(a.bsdf_samples)},
-                                             {"envkit:light_samples", std::to_string(a.light_samples)},
-                                             {"envkit:max_depth", std::to_string(a.max_depth)},
-                                             {"envkit:product_resolution", std::to_string(a.product_resolution)},
-                                             {"envkit:product_reuse_deg", tools::fmt(a.product_reuse_deg, 3)},
-                                             {"envkit:spp", std::to_string(stats.spp)},
-                                             {"envkit:seed", std::to_string(a.seed)},
-                                             {"envkit:seconds", tools::fmt(stats.seconds, 4)},
-                                             {"envkit:environment", scene.environment_description}};
+  std::map<std::string, std::string> meta = {
+      {"envkit:renderer", "envrender"},
+      {"envkit:scene", a.scene.empty() ? "built-in default" : a.scene},
+      {"envkit:strategy", a.strategy},
+      {"envkit:light_method", envkit::method_name(io.light_method)},
+      {"envkit:heuristic", a.heuristic},
+      {"envkit:mis_model", a.mis_model},
+      {"envkit:bsdf_samples", std::to_string(a.bsdf_samples)},
+      {"envkit:light_samples", std::to_string(a.light_samples)},
+      {"envkit:sun_samples", std::to_string(integrator.sun_split() ? a.sun_samples : 0)},
+      {"envkit:max_depth", std::to_string(a.max_depth)},
+      {"envkit:product_resolution", std::to_string(a.product_resolution)},
+      {"envkit:product_reuse_deg", tools::fmt(a.product_reuse_deg, 3)},
+      {"envkit:spp", std::to_string(stats.spp)},
+      {"envkit:seed", std::to_string(a.seed)},
+      {"envkit:seconds", tools::fmt(stats.seconds, 4)},
+      {"envkit:environment", scene.environment_description}};
   // The EXR and its preview are one output: both appear, or neither (also on a signal, a full disk or ulimit -f).
   envkit::OutputGroup outputs;
   film.write_exr(a.output, meta);
@@ -190,6 +204,11 @@ int main(int argc, char** argv) {
       ->transform(tools::integer_in(0, 1024))
       ->capture_default_str();
   app.add_option("--light-samples", a.light_samples, "light (or product) samples per shading point (M)")
+      ->transform(tools::integer_in(0, 1024))
+      ->capture_default_str();
+  app.add_option("--sun-samples", a.sun_samples,
+                 "light, mis, mis-compensated: samples of the map's sun per shading point, drawn apart from the rest "
+                 "of the map (0 = sample the map as one table; ignored when the map has no sun)")
       ->transform(tools::integer_in(0, 1024))
       ->capture_default_str();
   app.add_option("--max-depth", a.max_depth, "scattering events per path (1 = direct light only)")

@@ -140,6 +140,42 @@ TEST_F(RenderCli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(envrender({"--light-method", "best"}).code, 2);
   EXPECT_EQ(envrender({"--product-reuse", "-1"}).code, 2);
   EXPECT_EQ(envrender({"--product-reuse", "91"}).code, 2);
+  EXPECT_EQ(envrender({"--sun-samples", "-1"}).code, 2);
+  EXPECT_EQ(envrender({"--sun-samples", "1.5"}).code, 2);
+}
+
+// A map with a sun: envrender says it samples the sun apart and records the samples; --sun-samples 0 samples the
+// map as one table; both images agree within their noise. A map without a sun records 0.
+TEST_F(RenderCli, SunSamplesAreReportedAndRecorded) {
+  const auto sunny = write("sunny.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                               R"("probe": "sun", "radiance": 2e4, "sky": 0.5, "radius_deg": 0.5, )"
+                                               R"("elevation_deg": 50, "azimuth_deg": 30, "size": [256, 128])"));
+  const auto overcast = write("overcast.json", scene());
+  const auto recorded = [&](const fs::path& out) {
+    Imf::MultiPartInputFile exr(out.string().c_str());
+    const auto* attr = exr.header(0).findTypedAttribute<Imf::StringAttribute>("envkit:sun_samples");
+    return attr ? attr->value() : std::string("missing");
+  };
+  const auto mean_green = [](const fs::path& out) {
+    const Image beauty = read_image(out.string());
+    double sum = 0.0;
+    for (int y = 0; y < beauty.height; ++y)
+      for (int x = 0; x < beauty.width; ++x) sum += beauty.at(x, y, 1);
+    return sum / double(beauty.width * beauty.height);
+  };
+  const fs::path split = dir_ / "split.exr", whole = dir_ / "whole.exr", none = dir_ / "none.exr";
+  auto r = envrender({"--scene", sunny.string(), "-o", split.string(), "--spp", "256", "--bake"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("sampling the sun apart from the rest of the map"), std::string::npos) << r.err;
+  EXPECT_EQ(recorded(split), "1");
+  r = envrender({"--scene", sunny.string(), "-o", whole.string(), "--spp", "256", "--bake", "--sun-samples", "0"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("sampling the sun apart"), std::string::npos) << r.err;
+  EXPECT_EQ(recorded(whole), "0");
+  EXPECT_NEAR(mean_green(split), mean_green(whole), 0.03 * mean_green(whole));
+  r = envrender({"--scene", overcast.string(), "-o", none.string(), "--spp", "1", "--sun-samples", "2", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(recorded(none), "0");
 }
 
 // Product strategies with and without table reuse render finite, positive images that agree within their noise,

@@ -67,6 +67,8 @@ std::vector<Named> strategies(bool include_bsdf) {
   add("light-alias", Strategy::Light, SamplingMethod::Alias, Heuristic::Power, MisModel::Multi, 0, 1);
   add("mis-balance", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Balance, MisModel::Multi, 1, 1);
   add("mis-power", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
+  add("mis-power-whole", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
+  list.back().options.sun_samples = 0;  // the map as one table, also where it has a sun
   add("mis-one", Strategy::Mis, SamplingMethod::Cdf, Heuristic::Power, MisModel::One, 1, 1);
   add("mis-compensated", Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
   if (product_sampling_available()) {
@@ -138,6 +140,8 @@ TEST(RenderStrategies, LightSamplingStrategiesAgreeOnTheSunnyDefaultScene) {
   // With the default probe's sun (3e4, 0.27 deg), BSDF sampling alone almost never finds the sun: its variance
   // estimate is meaningless at a few samples, so it is left out here (it is checked under the overcast sky).
   const LoadedScene scene = default_scene_with(R"("probe": "default", "size": [256, 128])", 48, 24);
+  // The sun is split off (sun_split.h) by the strategies that sample the light, except mis-power-whole.
+  EXPECT_NE(Integrator(*scene.scene, *scene.light, IntegratorOptions{}).sun_split(), nullptr);
   check_agreement(scene, strategies(false), 64, 4.0);
 }
 

@@ -96,6 +96,24 @@ std::unique_ptr<Parameterization> make_grid(Kind grid, int width, int height) {
   return std::make_unique<LatLongMap>(width, height, TexelGrid::Centre);
 }
 
+/// Exact solid angle of the texels of each row: per row for lat-long, constant for the equal-area grids.
+std::vector<double> row_solid_angles(const Parameterization& grid, int height) {
+  std::vector<double> omega(static_cast<std::size_t>(height));
+  for (int y = 0; y < height; ++y) omega[std::size_t(y)] = grid.solid_angle(0.0, y, 1.0, y + 1.0);
+  return omega;
+}
+
+std::shared_ptr<const Distribution2D> make_distribution_2d(SamplingMethod method, const float* weights, int W, int H) {
+  switch (method) {
+    case SamplingMethod::Cdf:
+      return std::make_shared<CdfDistribution2D>(weights, W, H);
+    case SamplingMethod::Alias:
+      return std::make_shared<AliasDistribution2D>(weights, W, H);
+    case SamplingMethod::Hierarchical:
+      return std::make_shared<PyramidDistribution2D>(weights, W, H);
+  }
+  throw Error("unknown sampling method");
+}
 
 /// True when the map's texels are already the bake grid's texels (same kind, centre grid, no transform).
 bool on_bake_grid(const EnvMap& map, Kind grid) {
@@ -297,10 +315,7 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
 void EnvTables::build_distributions(const BakeOptions& options) {
   const int W = width_, H = height_;
   const std::size_t n = std::size_t(W) * std::size_t(H);
-  const std::unique_ptr<Parameterization> grid = make_grid(grid_, W, H);
-  // Exact texel solid angles: per row for lat-long, constant for the equal-area octahedral and HEALPix maps.
-  std::vector<double> row_omega(H);
-  for (int y = 0; y < H; ++y) row_omega[y] = grid->solid_angle(0.0, y, 1.0, y + 1.0);
+  const std::vector<double> row_omega = row_solid_angles(*make_grid(grid_, W, H), H);
 
   double total = 0.0;
   for (int y = 0; y < H; ++y) {
@@ -328,11 +343,8 @@ void EnvTables::build_distributions(const BakeOptions& options) {
       if (options.progress)
         options.progress(0.3 + 0.35 * set + 0.1 * m,
                          m == 0 ? "cdf tables" : m == 1 ? "alias tables" : "sum pyramid");
-      std::shared_ptr<const Distribution2D> d;
-      if (m == 0) d = std::make_shared<CdfDistribution2D>(weights.data(), W, H);
-      if (m == 1) d = std::make_shared<AliasDistribution2D>(weights.data(), W, H);
-      if (m == 2) d = std::make_shared<PyramidDistribution2D>(weights.data(), W, H);
-      distributions_[set][m] = std::make_unique<SphericalDistribution>(grid_, d);
+      distributions_[set][m] =
+          std::make_unique<SphericalDistribution>(grid_, make_distribution_2d(SamplingMethod(m), weights.data(), W, H));
     }
   };
 
@@ -424,6 +436,25 @@ std::string EnvTables::make_descriptor(const BakeOptions* options) const {
   }
   // File names are bytes, not necessarily UTF-8: the descriptor shows U+FFFD for invalid bytes rather than failing.
   return d.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+std::unique_ptr<SphericalDistribution> make_table(Kind grid, int width, int height, std::span<const float> importance,
+                                                  SamplingMethod method) {
+  if (!valid_grid_size(grid, width, height))
+    throw Error(std::string("table: ") + grid_size_rule(grid) + ", got " + std::to_string(width) + "x" +
+                std::to_string(height));
+  if (importance.size() != std::size_t(width) * std::size_t(height))
+    throw Error("table: " + std::to_string(importance.size()) + " importance values for a " + std::to_string(width) +
+                "x" + std::to_string(height) + " grid");
+  const std::vector<double> row_omega = row_solid_angles(*make_grid(grid, width, height), height);
+  FloatBuffer weights(importance.size());
+  tbb::parallel_for(0, height, [&](int y) {
+    for (int x = 0; x < width; ++x) {
+      const std::size_t i = std::size_t(y) * width + x;
+      weights[i] = static_cast<float>(double(importance[i]) * row_omega[std::size_t(y)]);
+    }
+  });
+  return std::make_unique<SphericalDistribution>(grid, make_distribution_2d(method, weights.data(), width, height));
 }
 
 }  // namespace envkit

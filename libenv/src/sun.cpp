@@ -107,6 +107,7 @@ std::optional<SunEstimate> detect_sun(const EnvMap& map, const SunOptions& optio
   }
   sun.clipped =
       sun.clipped_texels >= 3 && 4 * sun.clipped_texels >= sun.texels && peak < options.clipped_contrast * median;
+  sun.region = std::move(region);
   return sun;
 }
 

@@ -1,10 +1,11 @@
 #include <envkit/error.h>
 #include <envkit/render/frame.h>
 #include <envkit/render/integrator.h>
-
-#include "integrator_product.h"
+#include <envkit/sun_split.h>
 
 #include <cmath>
+
+#include "integrator_product.h"
 
 namespace envkit::render {
 
@@ -59,9 +60,22 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (s == Strategy::MisCompensated && options_.bsdf_samples < 1)
     throw Error("strategy mis-compensated needs --bsdf-samples >= 1 (BSDF sampling covers what the compensated "
                 "table leaves out)");
-  if (s == Strategy::Light || s == Strategy::Mis)
-    light_distribution_ = &light_.distribution(options_.light_method, false);
-  if (s == Strategy::MisCompensated) light_distribution_ = &light_.distribution(options_.light_method, true);
+  if (options_.sun_samples < 0) throw Error("--sun-samples must be >= 0");
+  if (s == Strategy::Light || s == Strategy::Mis || s == Strategy::MisCompensated) {
+    const bool compensated = s == Strategy::MisCompensated;
+    light_distribution_ = &light_.distribution(options_.light_method, compensated);
+    techniques_[0] = {light_distribution_, options_.light_samples};
+    technique_count_ = 1;
+    if (options_.sun_samples > 0 && options_.mis_model == MisModel::Multi) {
+      sun_ = SunSplit::make(light_.tables(), options_.light_method, compensated);
+      if (sun_) {
+        techniques_[0].distribution = &sun_->residual();
+        techniques_[1] = {&sun_->sun_distribution(), options_.sun_samples};
+        technique_count_ = 2;
+        sun_axis_ = apply(light_.rotation(), sun_->sun().direction);
+      }
+    }
+  }
   direct_ = s == Strategy::Bsdf                                   ? &Integrator::direct_bsdf
             : s == Strategy::Light                                ? &Integrator::direct_light
             : s == Strategy::Product || s == Strategy::ProductMis ? &Integrator::direct_product
@@ -96,8 +110,12 @@ Vec3 Integrator::escaped_radiance(const Vec3& origin, const Vec3& wi_world) cons
   return light_.radiance(wi_world);
 }
 
-Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, Sampler& sampler,
-                                           const SphericalDistribution* light) const {
+double Integrator::sun_pdf(const Vec3& wi_world) const {
+  if (!sun_ || (wi_world ^ sun_axis_) < sun_->cos_bound()) return 0.0;
+  return light_.pdf(sun_->sun_distribution(), wi_world);
+}
+
+Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, Sampler& sampler, bool light_density) const {
   BsdfTerm t;
   const Vec2 u = sampler.next_2d();
   const double u_lobe = sampler.next_1d();
@@ -108,10 +126,12 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, Sampler& sampl
   t.pdf = bs.pdf;
   t.is_delta = bs.is_delta;
   if (scene_.occluded(Ray{x.origin, t.wi_world})) return t;
-  if (light) {
-    const EnvironmentLight::Lookup l = light_.lookup(*light, t.wi_world);
+  if (light_density) {
+    const LightTechnique& table = techniques_[0];
+    const EnvironmentLight::Lookup l = light_.lookup(*table.distribution, t.wi_world);
     t.value = mul(bs.f_cos, l.radiance) / bs.pdf;
-    t.light_pdf = l.pdf;
+    // The techniques' supports are disjoint (the sun's texels, the rest): at most one term is not 0.
+    t.light_density = table.count * l.pdf + (sun_ ? techniques_[1].count * sun_pdf(t.wi_world) : 0.0);
   } else {
     t.value = mul(bs.f_cos, light_.radiance(t.wi_world)) / bs.pdf;
   }
@@ -145,33 +165,38 @@ Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
-  const int M = options_.light_samples;
   Vec3 sum(0, 0, 0);
-  for (int j = 0; j < M; ++j) {
-    const LightTerm l = light_term(x, *light_distribution_, sampler);
-    if (!is_black(l.value)) sum += l.value / (l.pdf * M);
+  for (int k = 0; k < technique_count_; ++k) {
+    const LightTechnique& t = techniques_[k];
+    for (int j = 0; j < t.count; ++j) {
+      const LightTerm l = light_term(x, *t.distribution, sampler);
+      if (!is_black(l.value)) sum += l.value / (l.pdf * t.count);
+    }
   }
   return sum + delta_lobe_term(x, sampler);  // light samples cannot reach a delta lobe
 }
 
 Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
-  const SphericalDistribution& dist = *light_distribution_;
-  const int N = options_.bsdf_samples, M = options_.light_samples;
+  const int N = options_.bsdf_samples;
   Vec3 sum(0, 0, 0);
-  for (int j = 0; j < M; ++j) {
-    const LightTerm l = light_term(x, dist, sampler);
-    if (is_black(l.value)) continue;
-    const double p_b = x.material.pdf(x.wo, l.wi_local);
-    sum += l.value * (mis_weight(M * l.pdf, N * p_b) / (M * l.pdf));
+  // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
+  for (int k = 0; k < technique_count_; ++k) {
+    const LightTechnique& t = techniques_[k];
+    for (int j = 0; j < t.count; ++j) {
+      const LightTerm l = light_term(x, *t.distribution, sampler);
+      if (is_black(l.value)) continue;
+      const double p_b = x.material.pdf(x.wo, l.wi_local);
+      sum += l.value * (mis_weight(t.count * l.pdf, N * p_b) / (t.count * l.pdf));
+    }
   }
   for (int i = 0; i < N; ++i) {
-    const BsdfTerm b = bsdf_term(x, sampler, &dist);
+    const BsdfTerm b = bsdf_term(x, sampler, true);
     if (!(b.pdf > 0.0) || is_black(b.value)) continue;
     if (b.is_delta) {
       sum += b.value / double(N);
       continue;
     }
-    sum += b.value * (mis_weight(N * b.pdf, M * b.light_pdf) / N);
+    sum += b.value * (mis_weight(N * b.pdf, b.light_density) / N);
   }
   return sum;
 }
@@ -186,10 +211,10 @@ Vec3 Integrator::direct_mis_one(const ShadingPoint& x, Sampler& sampler) const {
     const double p_b = x.material.pdf(x.wo, l.wi_local);
     return l.value * (mis_weight(c_light * l.pdf, c_bsdf * p_b) / (c_light * l.pdf));
   }
-  const BsdfTerm b = bsdf_term(x, sampler, &dist);
+  const BsdfTerm b = bsdf_term(x, sampler, true);
   if (!(b.pdf > 0.0) || is_black(b.value)) return Vec3(0, 0, 0);
   if (b.is_delta) return b.value / c_bsdf;
-  return b.value * (mis_weight(c_bsdf * b.pdf, c_light * b.light_pdf) / c_bsdf);
+  return b.value * (mis_weight(c_bsdf * b.pdf, M > 0 ? c_light * b.light_density / M : 0.0) / c_bsdf);
 }
 
 Vec3 Integrator::direct_product(const ShadingPoint& x, Sampler& sampler) const {

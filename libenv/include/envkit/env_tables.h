@@ -152,6 +152,13 @@ class EnvTables {
   std::array<std::array<std::unique_ptr<SphericalDistribution>, 3>, 2> distributions_;
 };
 
+/// The table of `method` over a bake grid (kind, width, height as EnvTables::grid(), width(), height()) from
+/// per-texel importance (radiance-like, per steradian; row-major, width x height values): weights = importance x
+/// exact texel solid angle, the same weights a bake builds. For tables of importance derived from a bake's, such as
+/// sun_split.h's. Throws Error for a size that does not fit the grid.
+std::unique_ptr<SphericalDistribution> make_table(Kind grid, int width, int height, std::span<const float> importance,
+                                                  SamplingMethod method);
+
 /// The sections of a table file held in memory (name, byte offset and size of each payload), read from its
 /// directory without verifying anything. Empty when `file` is too short or has no envkit table header.
 /// For tools and tests that patch values inside a file (the table fuzzer does) together with reseal_table_file().

@@ -15,6 +15,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace envkit {
 
@@ -45,6 +46,8 @@ struct SunEstimate {
   /// map is then too low (often by orders of magnitude).
   bool clipped = false;
   int clipped_texels = 0;
+  /// The region's texels: indices y * width + x into the map's image, ascending.
+  std::vector<std::size_t> region;
 };
 
 /// The sun of `map`, or nothing when the map has none by the rules above. Colour channels are the first three

@@ -34,9 +34,12 @@
 #include <envkit/render/frame.h>
 #include <envkit/render/sampler.h>
 #include <envkit/render/scene.h>
+#include <envkit/sun_split.h>
 
+#include <array>
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace envkit::render {
@@ -63,6 +66,9 @@ struct IntegratorOptions {
   int product_resolution = 8;   ///< passed to the product sampler (coarse BSDF table size)
   /// Product table reuse (radians, 0 = a table per shading point): ProductSampler::Options::reuse_angle.
   double product_reuse_angle = 0.3;
+  /// Samples of the sun's texels per shading point when the map has a sun (sun_split.h); light_samples then draw
+  /// from the rest of the map. 0 = no split. Used by light, mis and mis-compensated (multi-sample model).
+  int sun_samples = 1;
 };
 
 class ProductSamplers;  // per-thread ProductSampler instances (product_sampling.h)
@@ -85,6 +91,8 @@ class Integrator {
               const Material& material, Sampler& sampler) const;
 
   const IntegratorOptions& options() const { return options_; }
+  /// The sun the light techniques split off (sun_split.h; directions in the tables' frame), or nullptr.
+  const SunSplit* sun_split() const { return sun_ ? &*sun_ : nullptr; }
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
 
  private:
@@ -96,14 +104,19 @@ class Integrator {
     Vec3 wo;  ///< local frame
     const Material& material;
   };
-  /// One BSDF sample: value = f cos L V / pdf; pdf 0 when no direction was drawn. light_pdf: the density of the
-  /// direction under the light distribution bsdf_term() was given, where it escapes (else 0).
+  /// One BSDF sample: value = f cos L V / pdf; pdf 0 when no direction was drawn. light_density: where the
+  /// direction escapes, sum over the light techniques of samples x density (what MIS weighs the BSDF against).
   struct BsdfTerm {
     Vec3 value{0, 0, 0};
     Vec3 wi_world;
     double pdf = 0.0;
-    double light_pdf = 0.0;
+    double light_density = 0.0;
     bool is_delta = false;
+  };
+  /// A light table drawn `count` times per shading point.
+  struct LightTechnique {
+    const SphericalDistribution* distribution = nullptr;
+    int count = 0;
   };
   /// One light sample: value = f cos L V (not divided by the pdf); black when it contributes nothing.
   struct LightTerm {
@@ -116,8 +129,11 @@ class Integrator {
   /// L_env(wi) if the ray from the point towards wi escapes, else 0.
   Vec3 escaped_radiance(const Vec3& origin, const Vec3& wi_world) const;
   double mis_weight(double a, double b) const;
-  /// `light`: also look up the direction's density under that distribution (MIS), in the same texel search.
-  BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, const SphericalDistribution* light = nullptr) const;
+  /// `light_density`: also find the light techniques' density at the direction (MIS), the first in the radiance's
+  /// texel search.
+  BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, bool light_density = false) const;
+  /// Density of the sun technique at a world direction (0 without a split).
+  double sun_pdf(const Vec3& wi_world) const;
   LightTerm light_term(const ShadingPoint& x, const SphericalDistribution& distribution, Sampler& sampler) const;
   /// A material's delta lobe (one BSDF sample kept only when it picked that lobe), for strategies whose other
   /// samples cannot reach it; 0 for materials without one (no sample drawn).
@@ -134,7 +150,12 @@ class Integrator {
   const EnvironmentLight& light_;
   IntegratorOptions options_;
   DirectFn direct_ = nullptr;
-  const SphericalDistribution* light_distribution_ = nullptr;
+  const SphericalDistribution* light_distribution_ = nullptr;  ///< the strategy's table of the whole map
+  /// The light techniques: the whole map's table, or the residual and the sun when the map's sun is split.
+  std::array<LightTechnique, 2> techniques_{};
+  int technique_count_ = 0;
+  std::optional<SunSplit> sun_;
+  Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
   std::unique_ptr<ProductSamplers> product_;
   mutable std::atomic<std::size_t> nonfinite_{0};
 };

@@ -1,0 +1,116 @@
+// The sun split (sun_split.h): the sun's texels and the residual partition the tables' light exactly, each part
+// samples only its own texels, the bounding cone holds every sun sample, and maps without a sun are not split.
+#include <envkit/env_tables.h>
+#include <envkit/envmap.h>
+#include <envkit/latlong.h>
+#include <envkit/octahedral.h>
+#include <envkit/probes.h>
+#include <envkit/sun_split.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace envkit;
+
+namespace {
+
+EnvTables bake(const probes::Probe& probe, std::unique_ptr<Parameterization> param, Kind grid) {
+  EnvMap map;
+  map.image = probes::rasterize(probe, *param);
+  map.param = std::move(param);
+  BakeOptions options;
+  options.grid = grid;
+  options.compensated = true;
+  return EnvTables::bake(map, options);
+}
+
+/// Every texel of the grid belongs to exactly one part: the sun's texels have residual density 0 and the sun's
+/// density in proportion to their importance; every other lit texel has residual density in proportion to its
+/// importance and sun density 0.
+void expect_partition(const EnvTables& tables, const SunSplit& split) {
+  const int W = tables.width(), H = tables.height();
+  const std::span<const float> importance = tables.importance();
+  const SphericalDistribution& sun = split.sun_distribution();
+  const SphericalDistribution& residual = split.residual();
+  double sun_power = 0.0, residual_power = 0.0;
+  for (std::size_t t : split.sun().region) sun_power += importance[t] * sun.texel_solid_angle(int(t % W), int(t / W));
+  residual_power = tables.total_importance() - sun_power;
+  std::vector<char> in_sun(importance.size(), 0);
+  for (std::size_t t : split.sun().region) in_sun[t] = 1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const std::size_t t = std::size_t(y) * W + x;
+      const double own = importance[t];
+      if (in_sun[t]) {
+        ASSERT_EQ(residual.texel_pdf(x, y), 0.0) << x << "," << y;
+        EXPECT_NEAR(sun.texel_pdf(x, y), own / sun_power, 1e-5 * own / sun_power) << x << "," << y;
+      } else {
+        ASSERT_EQ(sun.texel_pdf(x, y), 0.0) << x << "," << y;
+        EXPECT_NEAR(residual.texel_pdf(x, y), own / residual_power, 1e-4 * own / residual_power + 1e-12)
+            << x << "," << y;
+      }
+    }
+}
+
+}  // namespace
+
+TEST(SunSplit, TheTwoPartsPartitionTheLightOnLatLongAndOctahedralGrids) {
+  const probes::SunProbe probe(Vec3(0.4, 0.5, -0.77).normalized(), 0.6 * kPi / 180.0, Vec3(2e4, 1.8e4, 1.5e4),
+                               Vec3(0.3, 0.4, 0.6));
+  struct Case {
+    const char* name;
+    EnvTables tables;
+  };
+  Case cases[] = {{"latlong 256x128", bake(probe, std::make_unique<LatLongMap>(256, 128), Kind::LatLong)},
+                  {"octahedral 128", bake(probe, std::make_unique<OctahedralMap>(128), Kind::Octahedral)}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    for (SamplingMethod method : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical}) {
+      SCOPED_TRACE(method_name(method));
+      const std::optional<SunSplit> split = SunSplit::make(c.tables, method, false);
+      ASSERT_TRUE(split.has_value());
+      EXPECT_GT(split->sun().power_share, 0.5);
+      expect_partition(c.tables, *split);
+    }
+  }
+}
+
+TEST(SunSplit, SunSamplesLieInTheirTexelsAndInsideTheBoundingCone) {
+  const probes::OutdoorProbe probe;  // the default probe: a 0.27 degree sun over a sky
+  const EnvTables tables = bake(probe, std::make_unique<LatLongMap>(512, 256), Kind::LatLong);
+  const std::optional<SunSplit> split = SunSplit::make(tables, SamplingMethod::Hierarchical, false);
+  ASSERT_TRUE(split.has_value());
+  const Vec3 axis = split->sun().direction;
+  EXPECT_GT(split->cos_bound(), std::cos(3.0 * kPi / 180.0));  // a small cone: the test before a search pays
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  for (int i = 0; i < 20000; ++i) {
+    const DirectionSample s = split->sun_distribution().sample(Vec2(u01(rng), u01(rng)));
+    ASSERT_GT(s.pdf, 0.0);
+    ASSERT_GE(s.direction ^ axis, split->cos_bound()) << "a sun sample outside the cone";
+    ASSERT_EQ(split->sun_distribution().pdf(s.direction), s.pdf);
+    ASSERT_EQ(split->residual().pdf(s.direction), 0.0);
+    const DirectionSample r = split->residual().sample(Vec2(u01(rng), u01(rng)));
+    ASSERT_EQ(split->sun_distribution().pdf(r.direction), 0.0);
+  }
+}
+
+TEST(SunSplit, CompensatedResidualKeepsTheSunOut) {
+  const probes::OutdoorProbe probe;
+  const EnvTables tables = bake(probe, std::make_unique<LatLongMap>(256, 128), Kind::LatLong);
+  const std::optional<SunSplit> split = SunSplit::make(tables, SamplingMethod::Hierarchical, true);
+  ASSERT_TRUE(split.has_value());
+  const int W = tables.width();
+  for (std::size_t t : split->sun().region) EXPECT_EQ(split->residual().texel_pdf(int(t % W), int(t / W)), 0.0);
+  // Compensation removes the residual's mean: its dimmest lit texels get density 0, the brightest keep some.
+  int zero = 0;
+  for (int y = 0; y < tables.height(); ++y)
+    for (int x = 0; x < W; ++x) zero += split->residual().texel_pdf(x, y) == 0.0;
+  EXPECT_GT(zero, int(split->sun().region.size()));
+}
+
+TEST(SunSplit, MapsWithoutASunAreNotSplit) {
+  const probes::GradientProbe sky(Vec3(0.2), Vec3(1.0), probes::GradientProbe::Form::Quadratic);
+  const EnvTables tables = bake(sky, std::make_unique<LatLongMap>(256, 128), Kind::LatLong);
+  EXPECT_FALSE(SunSplit::make(tables, SamplingMethod::Hierarchical, false).has_value());
+}
