@@ -27,7 +27,7 @@ Examples:
   envrender --scene my.json --bake                 bake the environment's tables in memory (no table file)
   envrender --strategy light --light-method alias --light-samples 4
   envrender --strategy mis --heuristic balance --bsdf-samples 1 --light-samples 2
-  envrender --strategy mis --mis-model one
+  envrender --sun-samples 0                        sample a sunny map as one table (default: the sun apart)
   envrender --strategy mis-compensated --time 10   render for 10 seconds
   envrender --crop 0,0,240,120 -o tile0.exr        one window of the image (for farms)
   envrender --max-depth 3                          two indirect bounces
@@ -44,7 +44,6 @@ struct Args {
   std::string strategy = "mis";
   std::string light_method = "hierarchical";
   std::string heuristic = "power";
-  std::string mis_model = "multi";
   std::string crop;
   std::string resolution;
   int spp = 16;
@@ -113,7 +112,6 @@ int run(const Args& a) {
   io.strategy = parse_strategy(a.strategy);
   io.light_method = envkit::parse_method(a.light_method);
   io.heuristic = parse_heuristic(a.heuristic);
-  io.mis_model = parse_mis_model(a.mis_model);
   io.bsdf_samples = a.bsdf_samples;
   io.light_samples = a.light_samples;
   io.sun_samples = a.sun_samples;
@@ -149,7 +147,6 @@ int run(const Args& a) {
       {"envkit:strategy", a.strategy},
       {"envkit:light_method", envkit::method_name(io.light_method)},
       {"envkit:heuristic", a.heuristic},
-      {"envkit:mis_model", a.mis_model},
       {"envkit:bsdf_samples", std::to_string(a.bsdf_samples)},
       {"envkit:light_samples", std::to_string(a.light_samples)},
       {"envkit:sun_samples", std::to_string(integrator.sun_split() ? a.sun_samples : 0)},
@@ -196,9 +193,6 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--heuristic", a.heuristic, "MIS heuristic: balance|power")
       ->check(CLI::IsMember({"balance", "power"}))
-      ->capture_default_str();
-  app.add_option("--mis-model", a.mis_model, "MIS model: multi (N + M samples) or one (one sample, technique chosen N:M)")
-      ->check(CLI::IsMember({"multi", "one"}))
       ->capture_default_str();
   app.add_option("--bsdf-samples", a.bsdf_samples, "BSDF samples per shading point (N)")
       ->transform(tools::integer_in(0, 1024))

@@ -6,13 +6,11 @@
 namespace envkit::test {
 
 inline render::IntegratorOptions strategy_options(render::Strategy strategy, SamplingMethod method,
-                                                  render::Heuristic heuristic, render::MisModel model,
-                                                  int bsdf_samples, int light_samples) {
+                                                  render::Heuristic heuristic, int bsdf_samples, int light_samples) {
   render::IntegratorOptions o;
   o.strategy = strategy;
   o.light_method = method;
   o.heuristic = heuristic;
-  o.mis_model = model;
   o.bsdf_samples = bsdf_samples;
   o.light_samples = light_samples;
   return o;

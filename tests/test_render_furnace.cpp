@@ -47,16 +47,16 @@ struct Case {
 std::vector<Case> all_strategies() {
   std::vector<Case> cases;
   auto add = [&](const char* name, Strategy s, SamplingMethod m = SamplingMethod::Hierarchical,
-                 Heuristic h = Heuristic::Power, MisModel model = MisModel::Multi, int n = 1, int mm = 1) {
-    cases.push_back({name, envkit::test::strategy_options(s, m, h, model, n, mm)});
+                 Heuristic h = Heuristic::Power, int n = 1, int mm = 1) {
+    cases.push_back({name, envkit::test::strategy_options(s, m, h, n, mm)});
   };
   add("bsdf", Strategy::Bsdf);
   add("light-cdf", Strategy::Light, SamplingMethod::Cdf);
   add("light-alias", Strategy::Light, SamplingMethod::Alias);
   add("light-hierarchical", Strategy::Light, SamplingMethod::Hierarchical);
   add("mis-balance", Strategy::Mis, SamplingMethod::Cdf, Heuristic::Balance);
-  add("mis-power-2x3", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 2, 3);
-  add("mis-one-sample", Strategy::Mis, SamplingMethod::Alias, Heuristic::Balance, MisModel::One);
+  add("mis-power-2x3", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, 2, 3);
+  add("mis-balance-alias", Strategy::Mis, SamplingMethod::Alias, Heuristic::Balance);
   add("mis-compensated", Strategy::MisCompensated, SamplingMethod::Hierarchical);
   if (product_sampling_available()) {
     add("product", Strategy::Product);

@@ -46,17 +46,17 @@ struct Environment {
 /// is split into k x k cells uniform in longitude and cos theta (equal solid angle), evaluated at cell centres.
 Vec3 reference(const Environment& env, const Material& material, const Frame& frame, const Vec3& wo, int k) {
   const EnvironmentLight& light = *env.light;
-  const int kW = env.width, kH = env.height;
+  const int W = env.width, H = env.height;
   Vec3 sum(0, 0, 0);
   const Mat3& R = light.rotation();
-  for (int y = 0; y < kH; ++y) {
-    const double z0 = std::cos(kPi * y / kH), z1 = std::cos(kPi * (y + 1) / kH);
-    for (int x = 0; x < kW; ++x)
+  for (int y = 0; y < H; ++y) {
+    const double z0 = std::cos(kPi * y / H), z1 = std::cos(kPi * (y + 1) / H);
+    for (int x = 0; x < W; ++x)
       for (int a = 0; a < k; ++a)
         for (int b = 0; b < k; ++b) {
-          const double u = (x + (a + 0.5) / k) / kW;
+          const double u = (x + (a + 0.5) / k) / W;
           const double z = z0 + (z1 - z0) * (b + 0.5) / k;
-          const double d_omega = (kTwoPi / (kW * k)) * (z0 - z1) / k;
+          const double d_omega = (kTwoPi / (W * k)) * (z0 - z1) / k;
           const Vec3 table_dir = LatLongMap::direction_from_uv(u, safe_acos(z) / kPi);
           const Vec3 world = apply(R, table_dir);
           const Vec3 wi = frame.to_local(world);
@@ -71,28 +71,27 @@ Vec3 reference(const Environment& env, const Material& material, const Frame& fr
 
 std::vector<IntegratorOptions> strategies() {
   std::vector<IntegratorOptions> list;
-  auto add = [&](Strategy s, SamplingMethod m, Heuristic h, MisModel model, int n, int mm) {
-    list.push_back(envkit::test::strategy_options(s, m, h, model, n, mm));
+  auto add = [&](Strategy s, SamplingMethod m, Heuristic h, int n, int mm) {
+    list.push_back(envkit::test::strategy_options(s, m, h, n, mm));
   };
-  add(Strategy::Bsdf, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 1, 0);
-  add(Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 0, 1);
-  add(Strategy::Light, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 0, 1);
+  add(Strategy::Bsdf, SamplingMethod::Cdf, Heuristic::Power, 1, 0);
+  add(Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, 0, 1);
+  add(Strategy::Light, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
   list.back().sun_samples = 2;
-  add(Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 0, 1);
+  add(Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, 0, 1);
   list.back().sun_samples = 0;
-  add(Strategy::Light, SamplingMethod::Alias, Heuristic::Power, MisModel::Multi, 0, 1);
-  add(Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Balance, MisModel::Multi, 1, 1);
-  add(Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 2, 1);
-  add(Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
+  add(Strategy::Light, SamplingMethod::Alias, Heuristic::Power, 0, 1);
+  add(Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Balance, 1, 1);
+  add(Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, 2, 1);
+  add(Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   list.back().sun_samples = 0;
-  add(Strategy::Mis, SamplingMethod::Alias, Heuristic::Balance, MisModel::Multi, 1, 2);
+  add(Strategy::Mis, SamplingMethod::Alias, Heuristic::Balance, 1, 2);
   list.back().sun_samples = 3;
-  add(Strategy::Mis, SamplingMethod::Cdf, Heuristic::Power, MisModel::One, 1, 1);
-  add(Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
-  add(Strategy::MisCompensated, SamplingMethod::Alias, Heuristic::Balance, MisModel::One, 1, 1);
+  add(Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
+  add(Strategy::MisCompensated, SamplingMethod::Alias, Heuristic::Balance, 1, 1);
   if (product_sampling_available()) {
-    add(Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 0, 1);
-    add(Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
+    add(Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
+    add(Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   }
   return list;
 }
@@ -100,8 +99,7 @@ std::vector<IntegratorOptions> strategies() {
 std::string describe(const IntegratorOptions& o) {
   return std::string(strategy_name(o.strategy)) + " " + method_name(o.light_method) +
          " N=" + std::to_string(o.bsdf_samples) + " M=" + std::to_string(o.light_samples) +
-         (o.mis_model == MisModel::One ? " one-sample" : "") + (o.heuristic == Heuristic::Balance ? " balance" : "") +
-         " sun=" + std::to_string(o.sun_samples);
+         (o.heuristic == Heuristic::Balance ? " balance" : "") + " sun=" + std::to_string(o.sun_samples);
 }
 
 /// Mean and standard error of `n` estimates of direct() at one shading point (luminance-free: per channel).

@@ -59,21 +59,20 @@ struct Named {
 
 std::vector<Named> strategies(bool include_bsdf) {
   std::vector<Named> list;
-  auto add = [&](const std::string& name, Strategy s, SamplingMethod m, Heuristic h, MisModel model, int n, int mm) {
-    list.push_back({name, envkit::test::strategy_options(s, m, h, model, n, mm)});
+  auto add = [&](const std::string& name, Strategy s, SamplingMethod m, Heuristic h, int n, int mm) {
+    list.push_back({name, envkit::test::strategy_options(s, m, h, n, mm)});
   };
-  if (include_bsdf) add("bsdf", Strategy::Bsdf, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 1, 0);
-  add("light-cdf", Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, MisModel::Multi, 0, 1);
-  add("light-alias", Strategy::Light, SamplingMethod::Alias, Heuristic::Power, MisModel::Multi, 0, 1);
-  add("mis-balance", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Balance, MisModel::Multi, 1, 1);
-  add("mis-power", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
-  add("mis-power-whole", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
+  if (include_bsdf) add("bsdf", Strategy::Bsdf, SamplingMethod::Cdf, Heuristic::Power, 1, 0);
+  add("light-cdf", Strategy::Light, SamplingMethod::Cdf, Heuristic::Power, 0, 1);
+  add("light-alias", Strategy::Light, SamplingMethod::Alias, Heuristic::Power, 0, 1);
+  add("mis-balance", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Balance, 1, 1);
+  add("mis-power", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
+  add("mis-power-whole", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   list.back().options.sun_samples = 0;  // the map as one table, also where it has a sun
-  add("mis-one", Strategy::Mis, SamplingMethod::Cdf, Heuristic::Power, MisModel::One, 1, 1);
-  add("mis-compensated", Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
+  add("mis-compensated", Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   if (product_sampling_available()) {
-    add("product", Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 0, 1);
-    add("product-mis", Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, MisModel::Multi, 1, 1);
+    add("product", Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
+    add("product-mis", Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   }
   return list;
 }

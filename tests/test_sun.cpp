@@ -57,7 +57,9 @@ void expect_found(const EnvMap& map, const SunCase& c, const char* what) {
   // The region's texels: as many as it counts, ascending, each brighter than the sky.
   ASSERT_EQ(sun->region.size(), std::size_t(sun->texels));
   for (std::size_t k = 0; k < sun->region.size(); ++k) {
-    if (k > 0) EXPECT_LT(sun->region[k - 1], sun->region[k]);
+    if (k > 0) {
+      EXPECT_LT(sun->region[k - 1], sun->region[k]);
+    }
     EXPECT_GT(map.image.pixels[sun->region[k] * std::size_t(map.image.channels)], 1.0f);
   }
 }

@@ -87,9 +87,9 @@ def render(
     strategy="mis",
     light_method="hierarchical",
     heuristic="power",
-    mis_model="multi",
     bsdf_samples=1,
     light_samples=1,
+    sun_samples=1,
     max_depth=1,
     product_resolution=8,
     product_reuse_deg=17.0,
@@ -116,7 +116,7 @@ def render(
     elif scene is not None:
         path = _os.fspath(scene)
     return _envkit._render(
-        path, text, base, spp, strategy, light_method, heuristic, mis_model, bsdf_samples, light_samples,
+        path, text, base, spp, strategy, light_method, heuristic, bsdf_samples, light_samples, sun_samples,
         max_depth, product_resolution, product_reuse_deg, seed, width, height, bake,
         tuple(crop) if crop is not None else None,
     )

@@ -18,7 +18,7 @@ void bind_render(py::module_& m) {
       "_render",
       [](const std::optional<std::string>& path, const std::optional<std::string>& text, const std::string& base,
          int spp, const std::string& strategy, const std::string& light_method, const std::string& heuristic,
-         const std::string& mis_model, int bsdf_samples, int light_samples, int max_depth, int product_resolution,
+         int bsdf_samples, int light_samples, int sun_samples, int max_depth, int product_resolution,
          double product_reuse_deg, std::uint32_t seed, int width, int height, bool bake,
          const std::optional<std::tuple<int, int, int, int>>& crop) {
         using namespace envkit::render;
@@ -26,9 +26,9 @@ void bind_render(py::module_& m) {
         io.strategy = parse_strategy(strategy);
         io.light_method = parse_method(light_method);
         io.heuristic = parse_heuristic(heuristic);
-        io.mis_model = parse_mis_model(mis_model);
         io.bsdf_samples = bsdf_samples;
         io.light_samples = light_samples;
+        io.sun_samples = sun_samples;
         io.max_depth = max_depth;
         io.product_resolution = product_resolution;
         io.product_reuse_angle = product_reuse_deg * (kPi / 180.0);
@@ -54,7 +54,7 @@ void bind_render(py::module_& m) {
         return image_array(std::move(image));
       },
       py::arg("path"), py::arg("text"), py::arg("base"), py::arg("spp"), py::arg("strategy"), py::arg("light_method"),
-      py::arg("heuristic"), py::arg("mis_model"), py::arg("bsdf_samples"), py::arg("light_samples"),
+      py::arg("heuristic"), py::arg("bsdf_samples"), py::arg("light_samples"), py::arg("sun_samples"),
       py::arg("max_depth"), py::arg("product_resolution"), py::arg("product_reuse_deg"), py::arg("seed"),
       py::arg("width"), py::arg("height"), py::arg("bake"), py::arg("crop"));
 }

@@ -3,6 +3,7 @@
 #include <envkit/render/env_light.h>
 #include <envkit/resample.h>
 
+#include <cfloat>
 #include <chrono>
 #include <cmath>
 
@@ -24,6 +25,7 @@ bool same_frame(const Mat3& a, const Mat3& b) {
 }
 
 double sanitize(float v) { return (std::isfinite(v) && v > 0.0f) ? double(v) : 0.0; }
+float finite_float(double v) { return float(std::min(v, double(FLT_MAX))); }  // a bright texel x intensity stays finite
 
 }  // namespace
 
@@ -59,7 +61,8 @@ EnvironmentLight::EnvironmentLight(const EnvMap& map, std::shared_ptr<const EnvT
       const float* p = source->at(x, y);
       Vec3 rgb = colours >= 3 ? Vec3(sanitize(p[0]), sanitize(p[1]), sanitize(p[2]))
                               : Vec3(sanitize(p[0]), sanitize(p[0]), sanitize(p[0]));
-      texels_[std::size_t(y) * width_ + x] = rgb * intensity_;
+      rgb = rgb * intensity_;
+      texels_[std::size_t(y) * width_ + x] = Texel{finite_float(rgb.x), finite_float(rgb.y), finite_float(rgb.z)};
     }
 }
 
@@ -75,7 +78,7 @@ Vec3 EnvironmentLight::radiance(const Vec3& d) const {
   }
   x = std::clamp(x, 0, width_ - 1);
   y = std::clamp(y, 0, height_ - 1);
-  return texels_[std::size_t(y) * width_ + x];
+  return texels_[std::size_t(y) * width_ + x].rgb();
 }
 
 const SphericalDistribution& EnvironmentLight::distribution(SamplingMethod method, bool compensated) const {
@@ -97,7 +100,7 @@ LightSample EnvironmentLight::sample(const SphericalDistribution& distribution, 
     s.radiance = radiance(s.direction);  // the distribution's texel holds several radiance texels
   } else {
     const int x = std::clamp(ds.x, 0, width_ - 1), y = std::clamp(ds.y, 0, height_ - 1);
-    s.radiance = texels_[std::size_t(y) * width_ + x];
+    s.radiance = texels_[std::size_t(y) * width_ + x].rgb();
   }
   return s;
 }
@@ -112,7 +115,7 @@ EnvironmentLight::Lookup EnvironmentLight::lookup(const SphericalDistribution& d
     return {radiance(d), pdf(distribution, d)};
   int x = 0, y = 0;
   distribution.texel_of(apply(inverse_rotation_, d), x, y);
-  return {texels_[std::size_t(y) * width_ + x], distribution.texel_pdf(x, y)};
+  return {texels_[std::size_t(y) * width_ + x].rgb(), distribution.texel_pdf(x, y)};
 }
 
 Vec3 EnvironmentLight::mean_radiance() const {
@@ -121,7 +124,7 @@ Vec3 EnvironmentLight::mean_radiance() const {
   for (int y = 0; y < height_; ++y)
     for (int x = 0; x < width_; ++x) {
       const double w = radiance_grid_ ? radiance_grid_->texel_solid_angle(x, y) : lookup_->texel_solid_angle(x, y);
-      sum += texels_[std::size_t(y) * width_ + x] * w;
+      sum += texels_[std::size_t(y) * width_ + x].rgb() * w;
       omega += w;
     }
   return omega > 0 ? sum / omega : sum;

@@ -42,12 +42,6 @@ Heuristic parse_heuristic(const std::string& name) {
   throw Error("unknown heuristic '" + name + "' (valid: balance, power)");
 }
 
-MisModel parse_mis_model(const std::string& name) {
-  if (name == "multi") return MisModel::Multi;
-  if (name == "one") return MisModel::One;
-  throw Error("unknown MIS model '" + name + "' (valid: multi, one)");
-}
-
 Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
     : scene_(scene), light_(light), options_(options) {
   if (options_.bsdf_samples < 0 || options_.light_samples < 0) throw Error("sample counts must be >= 0");
@@ -66,7 +60,7 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
     light_distribution_ = &light_.distribution(options_.light_method, compensated);
     techniques_[0] = {light_distribution_, options_.light_samples};
     technique_count_ = 1;
-    if (options_.sun_samples > 0 && options_.mis_model == MisModel::Multi) {
+    if (options_.sun_samples > 0) {
       sun_ = SunSplit::make(light_.tables(), options_.light_method, compensated);
       if (sun_) {
         techniques_[0].distribution = &sun_->residual();
@@ -79,7 +73,6 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   direct_ = s == Strategy::Bsdf                                   ? &Integrator::direct_bsdf
             : s == Strategy::Light                                ? &Integrator::direct_light
             : s == Strategy::Product || s == Strategy::ProductMis ? &Integrator::direct_product
-            : options_.mis_model == MisModel::One                 ? &Integrator::direct_mis_one
                                                                   : &Integrator::direct_mis;
   if (s == Strategy::Product || s == Strategy::ProductMis) {
     if (options_.product_resolution < 1) throw Error("--product-resolution must be >= 1");
@@ -199,22 +192,6 @@ Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
     sum += b.value * (mis_weight(N * b.pdf, b.light_density) / N);
   }
   return sum;
-}
-
-Vec3 Integrator::direct_mis_one(const ShadingPoint& x, Sampler& sampler) const {
-  const SphericalDistribution& dist = *light_distribution_;
-  const int N = options_.bsdf_samples, M = options_.light_samples;
-  const double c_light = double(M) / double(N + M), c_bsdf = 1.0 - c_light;
-  if (sampler.next_1d() < c_light) {
-    const LightTerm l = light_term(x, dist, sampler);
-    if (is_black(l.value)) return Vec3(0, 0, 0);
-    const double p_b = x.material.pdf(x.wo, l.wi_local);
-    return l.value * (mis_weight(c_light * l.pdf, c_bsdf * p_b) / (c_light * l.pdf));
-  }
-  const BsdfTerm b = bsdf_term(x, sampler, true);
-  if (!(b.pdf > 0.0) || is_black(b.value)) return Vec3(0, 0, 0);
-  if (b.is_delta) return b.value / c_bsdf;
-  return b.value * (mis_weight(c_bsdf * b.pdf, M > 0 ? c_light * b.light_density / M : 0.0) / c_bsdf);
 }
 
 Vec3 Integrator::direct_product(const ShadingPoint& x, Sampler& sampler) const {

@@ -10,15 +10,19 @@
 /// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
 /// --max-depth 1 (the default) is direct illumination only.
 ///
-/// Strategies for D (N = bsdf_samples, M = light_samples):
+/// Strategies for D (N = bsdf_samples, M = light_samples, S = sun_samples):
 ///  - bsdf:  (1/N) sum f cos L / p_bsdf over N BSDF samples.
 ///  - light: (1/M) sum f cos L V / p_light over M environment samples (light_method: cdf|alias|hierarchical).
 ///  - mis:   Veach's multi-sample model, N BSDF + M light samples, weights w_i = (n_i p_i)^b / sum_k (n_k p_k)^b,
-///           b = 1 (balance) or 2 (power); or the one-sample model: one sample per shading point, the technique
-///           chosen with probability c_i = n_i / (N + M), weights from c_i p_i, estimator w_i f cos L / (c_i p_i).
+///           b = 1 (balance) or 2 (power).
 ///  - mis-compensated: as mis with the light technique drawing from the MIS-compensated table (Karlik et al.
 ///           2019): max(importance - mean, 0); the compensated pdf enters the weights. Needs N >= 1 (the BSDF
 ///           technique must cover what the compensated table leaves out).
+///  The sun (light, mis, mis-compensated, S >= 1): when the map has one (sun_split.h), the light technique is two:
+///           S samples of the sun's texels and M of the rest of the map (a table of the same method without them).
+///           Their densities never overlap, so each is weighted against the BSDF alone (in the weights above, a
+///           light sample's n p is that of its own part, a BSDF sample's light term M p_rest + S p_sun). The
+///           radiance is the map's in every case: the converged image does not depend on S.
 ///  - product, product-mis: BSDF x cos x environment product sampling (product_sampling.h, Clarberg 2008) with
 ///           M samples, alone or under MIS (same heuristic, multi-sample model) with N BSDF samples. Uses the
 ///           hierarchical table; --product-resolution sets the coarse BSDF table. A table serves the following
@@ -46,12 +50,10 @@ namespace envkit::render {
 
 enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis };
 enum class Heuristic { Balance, Power };
-enum class MisModel { Multi, One };
 
 const char* strategy_name(Strategy s);
 Strategy parse_strategy(const std::string& name);  ///< throws Error listing the valid names
 Heuristic parse_heuristic(const std::string& name);
-MisModel parse_mis_model(const std::string& name);
 /// True when this build has product sampling (renderer/src/product_*.cpp).
 bool product_sampling_available();
 
@@ -59,7 +61,6 @@ struct IntegratorOptions {
   Strategy strategy = Strategy::Mis;
   SamplingMethod light_method = SamplingMethod::Hierarchical;
   Heuristic heuristic = Heuristic::Power;
-  MisModel mis_model = MisModel::Multi;
   int bsdf_samples = 1;
   int light_samples = 1;
   int max_depth = 1;            ///< scattering events per path (1 = direct only)
@@ -67,7 +68,7 @@ struct IntegratorOptions {
   /// Product table reuse (radians, 0 = a table per shading point): ProductSampler::Options::reuse_angle.
   double product_reuse_angle = 0.3;
   /// Samples of the sun's texels per shading point when the map has a sun (sun_split.h); light_samples then draw
-  /// from the rest of the map. 0 = no split. Used by light, mis and mis-compensated (multi-sample model).
+  /// from the rest of the map. 0 = no split. Used by light, mis and mis-compensated.
   int sun_samples = 1;
 };
 
@@ -142,8 +143,7 @@ class Integrator {
   // One estimator of D per strategy (see the file comment), chosen once by the constructor.
   Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_light(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;      ///< mis and mis-compensated, multi-sample
-  Vec3 direct_mis_one(const ShadingPoint& x, Sampler& sampler) const;  ///< the one-sample model
+  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;      ///< mis and mis-compensated
   Vec3 direct_product(const ShadingPoint& x, Sampler& sampler) const;  ///< product and product-mis
 
   const Scene& scene_;
