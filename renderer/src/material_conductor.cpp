@@ -14,6 +14,7 @@ class ConductorMaterial final : public Material {
       : eta_(clean(eta)), k_(clean(k)), alpha_(detail::clamp_alpha(roughness)) {}
 
   const char* name() const override { return "conductor"; }
+  double widest_lobe_alpha() const override { return alpha_; }
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
     Vec3 h;

@@ -13,6 +13,7 @@ class DiffuseMaterial final : public Material {
       : albedo_over_pi_(Vec3(std::max(0.0, albedo.x), std::max(0.0, albedo.y), std::max(0.0, albedo.z)) / kPi) {}
 
   const char* name() const override { return "diffuse"; }
+  double widest_lobe_alpha() const override { return 1.0; }
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
     if (!detail::above(wo) || !detail::above(wi)) return Vec3(0.0);

@@ -15,6 +15,7 @@ class MirrorMaterial final : public Material {
   }
 
   const char* name() const override { return "mirror"; }
+  double widest_lobe_alpha() const override { return 0.0; }
   Vec3 eval(const Vec3& /*wo*/, const Vec3& /*wi*/) const override { return Vec3(0.0); }
   double pdf(const Vec3& /*wo*/, const Vec3& /*wi*/) const override { return 0.0; }
 

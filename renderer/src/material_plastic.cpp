@@ -33,6 +33,7 @@ class PlasticMaterial final : public Material {
   }
 
   const char* name() const override { return "plastic"; }
+  double widest_lobe_alpha() const override { return 1.0; }
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
     Vec3 h;

@@ -22,7 +22,9 @@
 ///           S samples of the sun's texels and M of the rest of the map (a table of the same method without them).
 ///           Their densities never overlap, so each is weighted against the BSDF alone (in the weights above, a
 ///           light sample's n p is that of its own part, a BSDF sample's light term M p_rest + S p_sun). The
-///           radiance is the map's in every case: the converged image does not depend on S.
+///           radiance is the map's in every case: the converged image does not depend on S. Materials whose
+///           widest lobe is narrower than GGX alpha 0.25 keep the whole map's table (the split costs them more
+///           than it gains: measured in BENCHMARKS.md).
 ///  - product, product-mis: BSDF x cos x environment product sampling (product_sampling.h, Clarberg 2008) with
 ///           M samples, alone or under MIS (same heuristic, multi-sample model) with N BSDF samples. Uses the
 ///           hierarchical table; --product-resolution sets the coarse BSDF table. A table serves the following
@@ -68,7 +70,8 @@ struct IntegratorOptions {
   /// Product table reuse (radians, 0 = a table per shading point): ProductSampler::Options::reuse_angle.
   double product_reuse_angle = 0.3;
   /// Samples of the sun's texels per shading point when the map has a sun (sun_split.h); light_samples then draw
-  /// from the rest of the map. 0 = no split. Used by light, mis and mis-compensated.
+  /// from the rest of the map. 0 = no split. Used by light, mis and mis-compensated, at shading points whose
+  /// material has a lobe at least as wide as GGX alpha 0.25 (Lambertian and plastic always; see integrator.cpp).
   int sun_samples = 1;
 };
 
@@ -119,6 +122,12 @@ class Integrator {
     const SphericalDistribution* distribution = nullptr;
     int count = 0;
   };
+  /// The light techniques of a shading point: the whole map's table, or the rest of the map and the sun (their
+  /// densities never overlap).
+  struct LightTechniques {
+    std::array<LightTechnique, 2> parts{};
+    int count = 0;
+  };
   /// One light sample: value = f cos L V (not divided by the pdf); black when it contributes nothing.
   struct LightTerm {
     Vec3 value{0, 0, 0};
@@ -130,9 +139,10 @@ class Integrator {
   /// L_env(wi) if the ray from the point towards wi escapes, else 0.
   Vec3 escaped_radiance(const Vec3& origin, const Vec3& wi_world) const;
   double mis_weight(double a, double b) const;
-  /// `light_density`: also find the light techniques' density at the direction (MIS), the first in the radiance's
-  /// texel search.
-  BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, bool light_density = false) const;
+  /// `light`: also find those techniques' density at the direction (MIS), the first in the radiance's texel search.
+  BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, const LightTechniques* light = nullptr) const;
+  /// The split when the map has a sun and the material's lobes are wide enough to gain from it, else the whole map.
+  const LightTechniques& techniques(const Material& material) const;
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;
   LightTerm light_term(const ShadingPoint& x, const SphericalDistribution& distribution, Sampler& sampler) const;
@@ -151,9 +161,8 @@ class Integrator {
   IntegratorOptions options_;
   DirectFn direct_ = nullptr;
   const SphericalDistribution* light_distribution_ = nullptr;  ///< the strategy's table of the whole map
-  /// The light techniques: the whole map's table, or the residual and the sun when the map's sun is split.
-  std::array<LightTechnique, 2> techniques_{};
-  int technique_count_ = 0;
+  LightTechniques whole_;                                      ///< the strategy's table of the whole map
+  LightTechniques split_;                                      ///< the rest of the map and the sun, when it has one
   std::optional<SunSplit> sun_;
   Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
   std::unique_ptr<ProductSamplers> product_;

@@ -60,6 +60,9 @@ class Material {
   virtual bool sample(const Vec3& wo, Vec2 u2, double u_lobe, BsdfSample& out) const = 0;
   virtual bool has_delta() const { return false; }   // perfect mirror
   virtual bool is_pure_delta() const { return false; }
+  /// GGX alpha of the material's widest non-delta lobe, 1 for a Lambertian part (as wide as lobes get), 0 when it
+  /// has none: how much of the sky one of its shading points sees.
+  virtual double widest_lobe_alpha() const = 0;
 };
 
 std::unique_ptr<Material> make_diffuse(const Vec3& albedo);
