@@ -8,6 +8,7 @@
 #include <envkit/sun_split.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -118,13 +119,17 @@ int run(const Args& a) {
   io.max_depth = a.max_depth;
   io.product_resolution = a.product_resolution;
   io.product_reuse_angle = a.product_reuse_deg * (envkit::kPi / 180.0);
+  const auto setup_start = std::chrono::steady_clock::now();
   const Integrator integrator(*scene.scene, *scene.light, io);
+  const double setup_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - setup_start).count();
   if (const envkit::SunSplit* sun = integrator.sun_split(); sun && !a.quiet) {
     const envkit::Vec3 d = envkit::apply(scene.light->rotation(), sun->sun().direction);
     tools::info("sampling the sun apart from the rest of the map: " + std::to_string(sun->sun().texels) +
                 " texels at elevation " + tools::fmt(std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / envkit::kPi, 3) +
                 " deg, " + tools::fmt(100.0 * sun->sun().power_share, 3) + "% of the light, " +
-                std::to_string(a.sun_samples) + " sample(s) per shading point");
+                std::to_string(a.sun_samples) + " sample(s) per shading point (split in " + tools::fmt(setup_ms, 3) +
+                " ms)");
   }
 
   RenderOptions ro;
