@@ -3,9 +3,11 @@
 #include <envkit/solid_angle_table.h>
 #include <envkit/sun.h>
 #include <envkit/texel_directions.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace envkit {
@@ -45,20 +47,35 @@ std::optional<SunEstimate> detect_sun(const EnvMap& map, const SunOptions& optio
     return weights.x * c[0] + weights.y * c[1] + weights.z * c[2];
   };
 
-  // The map's luminance power, median and brightest texel.
-  std::vector<float> lum;
-  lum.reserve(image.texel_count());
+  // The map's luminance power, median and brightest texel: rows in parallel, then combined in row order (the
+  // same sums and the same first brightest texel whatever the thread count).
+  const int h = image.height;
+  const bool blanks = param.has_blank_texels();  // else every texel centre has a direction: no need to compute it
+  const float uncovered = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> lum(image.texel_count());
+  std::vector<double> row_power(std::size_t(h), 0.0), row_peak(std::size_t(h), -1.0);
+  std::vector<std::size_t> row_peak_texel(std::size_t(h), 0);
+  tbb::parallel_for(0, h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const std::size_t t = std::size_t(y) * std::size_t(w) + std::size_t(x);
+      Vec3 d;
+      if (!source.covered(t) || (blanks && !dirs.centre(x, y, d))) {
+        lum[t] = uncovered;
+        continue;
+      }
+      const double l = luminance(rgb(t));
+      lum[t] = float(l);
+      row_power[std::size_t(y)] += l * omega(x, y);
+      if (l > row_peak[std::size_t(y)]) row_peak[std::size_t(y)] = l, row_peak_texel[std::size_t(y)] = t;
+    }
+  });
   double total_power = 0.0, peak = -1.0;
   std::size_t peak_texel = 0;
-  for (std::size_t t = 0; t < image.texel_count(); ++t) {
-    const int x = int(t % std::size_t(w)), y = int(t / std::size_t(w));
-    Vec3 d;
-    if (!source.covered(t) || !dirs.centre(x, y, d)) continue;
-    const double l = luminance(rgb(t));
-    lum.push_back(float(l));
-    total_power += l * omega(x, y);
-    if (l > peak) peak = l, peak_texel = t;
+  for (int y = 0; y < h; ++y) {
+    total_power += row_power[std::size_t(y)];
+    if (row_peak[std::size_t(y)] > peak) peak = row_peak[std::size_t(y)], peak_texel = row_peak_texel[std::size_t(y)];
   }
+  if (blanks) lum.erase(std::remove_if(lum.begin(), lum.end(), [](float v) { return std::isnan(v); }), lum.end());
   if (lum.empty() || !(peak > 0.0) || !(total_power > 0.0)) return std::nullopt;
   const auto middle = lum.begin() + std::ptrdiff_t(lum.size() / 2);
   std::nth_element(lum.begin(), middle, lum.end());

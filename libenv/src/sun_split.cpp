@@ -47,7 +47,8 @@ std::optional<SunSplit> SunSplit::make(const EnvTables& tables, SamplingMethod m
   if (!sun) return std::nullopt;
 
   SunSplit split;
-  std::vector<float> residual(importance.begin(), importance.end());
+  // The residual is the copy detect_sun read, with the sun's texels at 0 (one grid-sized buffer fewer).
+  const std::span<float> residual(map.image.pixels.data(), importance.size());
   std::vector<float> sun_importance(sun->region.size());
   std::vector<std::uint64_t> sun_texels(sun->region.begin(), sun->region.end());
   for (std::size_t k = 0; k < sun->region.size(); ++k) {
@@ -72,9 +73,9 @@ std::optional<SunSplit> SunSplit::make(const EnvTables& tables, SamplingMethod m
     }
     const float mean = float(power / kFourPi);
     bool any = false;
-    std::vector<float> kept(residual.size());
-    for (std::size_t i = 0; i < residual.size(); ++i) any |= (kept[i] = std::max(residual[i] - mean, 0.0f)) > 0.0f;
-    if (any) residual = std::move(kept);  // a constant residual keeps its plain importance, as the bake does
+    for (float v : residual) any |= v > mean;
+    if (any)  // a constant residual keeps its plain importance, as the bake does
+      for (float& v : residual) v = std::max(v - mean, 0.0f);
   }
   split.residual_ = make_table(tables.grid(), W, H, residual, method);
   split.cos_bound_ = std::cos(bounding_angle(*split.sun_distribution_, sun->direction, sun->region));
