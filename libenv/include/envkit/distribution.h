@@ -34,6 +34,8 @@
 ///   product sampling with a BSDF quadtree descends (Clarberg 2008). O(log max(W,H)) per sample, O(1) pdf,
 ///   invertible, ~5.3 bytes/texel. Every node stores its own sum, so probabilities keep float RELATIVE precision
 ///   even for texels a billion times dimmer than the sun next to them.
+/// - SparseDistribution2D (distribution_sparse.h): light on a few texels of a large grid (a sun's texels, see
+///   sun_split.h); one cumulative table over those texels, nothing per texel of the grid. O(log n), invertible.
 /// (Mitsuba 3's distr_2d.h documents the same trade-off between its hierarchical and marginal warps.)
 ///
 /// Random numbers
