@@ -1,6 +1,7 @@
 // Sampling directions from baked tables (env_sampling.h, env_tables.h): chi-square on the sphere for every
 // method and grid on the catalogue of maps, pdf consistency, inversion, extremes, file round trips.
 #include <envkit/color.h>
+#include <envkit/distribution_cdf.h>
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/healpix.h>
@@ -151,7 +152,8 @@ TEST_P(EnvSampling, ChiSquareOnTheSphere) {
         const double x0 = double(cx) / m.sub, y0 = double(cy) / m.sub, s = 1.0 / m.sub;
         Vec3 centre;
         param->to_direction(Vec2(x0 + 0.5 * s, y0 + 0.5 * s), centre);
-        expected[std::size_t(cy) * CW + cx] = double(m.samples) * d.pdf(centre) * param->solid_angle(x0, y0, x0 + s, y0 + s);
+        expected[std::size_t(cy) * CW + cx] =
+            double(m.samples) * d.pdf(centre) * param->solid_angle(x0, y0, x0 + s, y0 + s);
       }
     std::mt19937_64 rng(seed_of(m.name, int(method)));
     for (std::size_t n = 0; n < m.samples; ++n) {
@@ -308,7 +310,8 @@ TEST(EnvTablesBake, TotalImportanceMatchesAnalyticPower) {
   const LatLongMap map(256, 128);
   const probes::ConstantProbe constant(Vec3(0.5, 0.5, 0.5));
   const probes::SunProbe sun(Vec3(0.3, 0.8, 0.2), 0.01, Vec3(1e5, 1e5, 1e5), Vec3(0.2, 0.2, 0.2));
-  for (const probes::Probe* p : {static_cast<const probes::Probe*>(&constant), static_cast<const probes::Probe*>(&sun)}) {
+  for (const probes::Probe* p :
+       {static_cast<const probes::Probe*>(&constant), static_cast<const probes::Probe*>(&sun)}) {
     LoadOptions lo;
     lo.kind = Kind::LatLong;
     lo.convention = "envkit";
@@ -338,8 +341,9 @@ TEST(EnvTablesBake, ImportanceModesFollowTheChannels) {
   lo.kind = Kind::LatLong;
   const EnvMap env = make_envmap(image, "rgb.exr", lo);
   const Vec3 w = luminance_weights("scene_linear");
-  const std::pair<ImportanceMode, double> expected[] = {
-      {ImportanceMode::Luminance, w.x * 1 + w.y * 2 + w.z * 6}, {ImportanceMode::Average, 3.0}, {ImportanceMode::Max, 6.0}};
+  const std::pair<ImportanceMode, double> expected[] = {{ImportanceMode::Luminance, w.x * 1 + w.y * 2 + w.z * 6},
+                                                        {ImportanceMode::Average, 3.0},
+                                                        {ImportanceMode::Max, 6.0}};
   for (const auto& [mode, value] : expected) {
     BakeOptions o;
     o.importance = mode;
@@ -436,8 +440,8 @@ TEST(EnvSamplingDirections, DirectionInTexelClampsItsArguments) {
 // closed form in long double (longitude linear in fx, cos theta linear in fy between the row's bounds), for
 // small, odd and large widths, every method; direction_in_texel() (product sampling) agrees bit for bit.
 TEST(EnvSamplingDirections, MatchTheClosedFormAtEverySize) {
-  for (auto [W, H] : {std::pair{3, 2}, std::pair{32, 16}, std::pair{1000, 500}, std::pair{2048, 1024},
-                      std::pair{3000, 1500}}) {
+  for (auto [W, H] :
+       {std::pair{3, 2}, std::pair{32, 16}, std::pair{1000, 500}, std::pair{2048, 1024}, std::pair{3000, 1500}}) {
     SphereMap m = make("dirs", Kind::LatLong, W, H, 0.0f);
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) m.radiance[std::size_t(y) * W + x] = float(1 + (x * 7 + y * 13) % 17);
@@ -574,4 +578,50 @@ TEST(EnvTablesFile, BadFilesAreClearErrors) {
   for (const std::string& message : {load_error(path), load_error(path + ".missing")})
     EXPECT_EQ(message.rfind(path, 0), 0u) << "the error names the file: " << message;
   std::filesystem::remove(path);
+}
+
+// texel_of on lat-long grids guesses with a polynomial arctangent and settles the texel against exact edges: it
+// must name the texel that the angle formulas name (except within rounding of an edge), and the texel a direction
+// was placed in, on grids whose longitude table has one step per column and on grids with several.
+TEST(EnvSamplingTexelOf, LatLongTexelIsTheAngleFormulasTexel) {
+  std::mt19937_64 rng(77);
+  std::normal_distribution<double> gauss;
+  std::uniform_real_distribution<double> inside(1e-3, 1.0 - 1e-3);
+  for (const auto& [W, H] : std::vector<std::pair<int, int>>{
+           {1, 1}, {2, 1}, {3, 2}, {7, 3}, {64, 32}, {1024, 512}, {2048, 1024}, {4096, 7}, {5, 4096}}) {
+    SCOPED_TRACE(std::to_string(W) + "x" + std::to_string(H));
+    std::vector<float> w(std::size_t(W) * std::size_t(H), 1.0f);
+    const SphericalDistribution dist(Kind::LatLong, std::make_shared<CdfDistribution2D>(w.data(), W, H));
+    int near_edge = 0;
+    for (int i = 0; i < 100000; ++i) {
+      Vec3 d(gauss(rng), gauss(rng), gauss(rng));
+      if (i < 8)
+        d = std::vector<Vec3>{{0, 1, 0},       {0, -1, 0}, {0, 0, -1}, {-1e-300, 0, -1},
+                              {1e-300, 0, -1}, {0, 0, 1},  {1, 0, 0},  {-1, 0, 0}}[std::size_t(i)];
+      d = d.normalized();
+      int x = 0, y = 0;
+      dist.texel_of(d, x, y);
+      // The angle formulas, and how far the direction is from the nearest texel edge (in texels).
+      const double horizontal = std::hypot(d.x, d.z);
+      const double u = LatLongMap::u_from_direction(d, horizontal) * W;
+      const double v = std::atan2(horizontal, d.y) / kPi * H;
+      const int rx = std::clamp(int(u), 0, W - 1), ry = std::clamp(int(v), 0, H - 1);
+      const double margin = std::min(std::abs(u - std::round(u)), std::abs(v - std::round(v)));
+      if (x == rx && y == ry) continue;
+      ++near_edge;
+      EXPECT_LT(margin, 1e-9) << "direction (" << d.x << ", " << d.y << ", " << d.z << "): texel (" << x << ", " << y
+                              << "), the angles say (" << rx << ", " << ry << ")";
+    }
+    EXPECT_LT(near_edge, 5);
+    // Directions placed inside a texel are found in it.
+    std::uniform_int_distribution<int> col(0, W - 1), row(0, H - 1);
+    for (int i = 0; i < 20000; ++i) {
+      const int tx = col(rng), ty = row(rng);
+      const Vec3 d = dist.direction_in_texel(tx, ty, inside(rng), inside(rng));
+      int x = 0, y = 0;
+      dist.texel_of(d, x, y);
+      ASSERT_EQ(x, tx) << "row " << ty;
+      ASSERT_EQ(y, ty) << "column " << tx;
+    }
+  }
 }

@@ -38,6 +38,18 @@ int latlong_row(double horizontal, double y, int height) {
   return std::clamp(int(LatLongMap::v_of_polar_angle(std::atan2(horizontal, y)) * height), 0, height - 1);
 }
 
+/// atan2(y, x) within about 1e-5 rad (a rational-free odd polynomial on [0, 1] and the octant symmetries): a
+/// guess that texel_of() corrects against exact texel edges, so its error costs steps, never a wrong texel.
+double rough_atan2(double y, double x) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  const double big = std::max(ax, ay);
+  const double a = big > 0.0 ? std::min(ax, ay) / big : 0.0, s = a * a;
+  double r = ((-0.0464964749 * s + 0.15931422) * s - 0.327622764) * s * a + a;
+  if (ay > ax) r = 0.5 * kPi - r;
+  if (x < 0.0) r = kPi - r;
+  return y < 0.0 ? -r : r;
+}
+
 bool finite_nonzero(const Vec3& d) {
   const double n2 = d.length2();
   return std::isfinite(n2) && n2 > 0.0;
@@ -121,6 +133,10 @@ SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Di
       const double a = kTwoPi * (double(k) / double(steps));
       longitudes_[k] = {std::sin(a), -std::cos(a)};
     }
+    row_edge_cos_.resize(std::size_t(height()) + 1);
+    for (int y = 0; y <= height(); ++y) row_edge_cos_[std::size_t(y)] = std::cos(kPi * (double(y) / height()));
+    row_edge_cos_.front() = 1.0;
+    row_edge_cos_.back() = -1.0;
   }
   // Lat-long grids with a built-in distribution get a sampler with its texel choice (pick(): the classes are
   // final, so it is what their sample_texel() returns) and the direction inlined, without a virtual call.
@@ -235,9 +251,28 @@ void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) cons
   }
   // locate() without the offsets inside the texel: radiance lookups and pdf() need only the texel.
   const Vec3 d = finite_nonzero(direction) ? direction.normalized() : Vec3(0.0, 1.0, 0.0);
-  const double horizontal = std::hypot(d.x, d.z);
-  x = std::clamp(int(LatLongMap::u_from_direction(d, horizontal) * width()), 0, width() - 1);
-  y = latlong_row(horizontal, d.y, height());
+  const double horizontal = std::sqrt(d.x * d.x + d.z * d.z);
+  const int W = width(), H = height();
+  // Row: theta in [theta_y, theta_y+1) <=> edge_cos[y] >= cos theta > edge_cos[y + 1].
+  y = std::clamp(int(rough_atan2(horizontal, d.y) * (H / kPi)), 0, H - 1);
+  while (y > 0 && d.y > row_edge_cos_[std::size_t(y)]) --y;
+  while (y < H - 1 && d.y <= row_edge_cos_[std::size_t(y) + 1]) ++y;
+  // Column: a = pi - longitude in [a_x, a_x+1), a_k = 2 pi k / W. Near a = 0 (the seam, where the guess may fall on
+  // the other side) and at the poles (no longitude) the exact formula decides.
+  const double a = kPi - rough_atan2(d.x, d.z);
+  constexpr double kSeam = 1e-3;
+  if (horizontal == 0.0 || a < kSeam || a > kTwoPi - kSeam) {
+    x = std::clamp(int(LatLongMap::u_from_direction(d, horizontal) * W), 0, W - 1);
+    return;
+  }
+  // a >= a_k <=> sin(a - a_k) >= 0 (|a - a_k| < pi here), sin(a - a_k) h = d.x cos a_k + d.z sin a_k.
+  const auto at_or_after = [&](int k) {
+    const Longitude& edge = longitudes_[std::size_t(k) * std::size_t(longitude_substeps_)];
+    return d.z * edge.sin_a - d.x * edge.minus_cos_a >= 0.0;
+  };
+  x = std::clamp(int(a * (W / kTwoPi)), 0, W - 1);
+  while (x > 0 && !at_or_after(x)) --x;
+  while (x < W - 1 && at_or_after(x + 1)) ++x;
 }
 
 template <class D, bool kOneStep>

@@ -80,7 +80,9 @@ class SphericalDistribution {
   /// The u that sample() maps to direction (within rounding). Throws Error for alias.
   Vec2 invert(const Vec3& direction) const;
 
-  /// Texel of the bake grid containing direction (lat-long row from theta, column from longitude).
+  /// Texel of the bake grid containing direction (lat-long row from theta, column from longitude). On lat-long
+  /// grids without trigonometry: a polynomial arctangent guesses the row and column, and comparisons with the
+  /// row edges' cos theta and the column edges' sin / cos (the sampler's longitude table) settle them exactly.
   void texel_of(const Vec3& direction, int& x, int& y) const;
   /// Density per steradian of every direction inside texel (x, y) (in the grid): pdf(d) for d in that texel.
   double texel_pdf(int x, int y) const;
@@ -141,6 +143,8 @@ class SphericalDistribution {
   /// What sample() runs, chosen at construction (sample_latlong<D, ...> or sample_general): one indirect call.
   DirectionSample (*sample_)(const SphericalDistribution&, const Vec2&) = &sample_general;
   std::vector<RowBand> rows_;  // lat-long: per row, precomputed (no trigonometry per sample)
+  /// Lat-long: cos theta of the row edges, H + 1 values from 1 down to -1 (texel_of's exact row test).
+  std::vector<double> row_edge_cos_;
   /// Lat-long: N = W x longitude_substeps_ steps of the angle a = 2 pi (x + fx) / W (lon = pi - a), at least
   /// kMinLongitudeSteps so that a step is small enough for short sin/cos polynomials (env_sampling.cpp);
   /// N + 1 entries.
