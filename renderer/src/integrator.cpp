@@ -12,8 +12,8 @@ namespace envkit::render {
 namespace {
 
 /// Narrower lobes than this GGX alpha take no sun samples: a narrow lobe sees the sun only where it reflects it,
-/// elsewhere the sun sample's shadow ray is spent on a contribution its BSDF samples find as well (measured on
-/// bench_cycles.py's spheres under sunrise: the split wins 1.3-1.5x at alpha 0.4, loses 0.7-0.9x at 0.05 and 0.15).
+/// elsewhere the sun sample's shadow ray is spent on a contribution its BSDF samples find as well (the threshold
+/// lies between the alphas where the split was measured to win and to lose: BENCHMARKS.md, "The sun sampled apart").
 constexpr double kSunSplitMinAlpha = 0.25;
 
 bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -62,8 +62,7 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (options_.sun_samples < 0) throw Error("--sun-samples must be >= 0");
   if (s == Strategy::Light || s == Strategy::Mis || s == Strategy::MisCompensated) {
     const bool compensated = s == Strategy::MisCompensated;
-    light_distribution_ = &light_.distribution(options_.light_method, compensated);
-    whole_ = {{LightTechnique{light_distribution_, options_.light_samples}}, 1};
+    whole_ = {{LightTechnique{&light_.distribution(options_.light_method, compensated), options_.light_samples}}, 1};
     if (options_.sun_samples > 0) {
       sun_ = SunSplit::make(light_.tables(), options_.light_method, compensated);
       if (sun_) {

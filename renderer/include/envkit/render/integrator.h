@@ -160,9 +160,8 @@ class Integrator {
   const EnvironmentLight& light_;
   IntegratorOptions options_;
   DirectFn direct_ = nullptr;
-  const SphericalDistribution* light_distribution_ = nullptr;  ///< the strategy's table of the whole map
-  LightTechniques whole_;                                      ///< the strategy's table of the whole map
-  LightTechniques split_;                                      ///< the rest of the map and the sun, when it has one
+  LightTechniques whole_;  ///< the strategy's table of the whole map
+  LightTechniques split_;  ///< the rest of the map and the sun, when it has one
   std::optional<SunSplit> sun_;
   Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
   std::unique_ptr<ProductSamplers> product_;
