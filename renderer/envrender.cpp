@@ -42,7 +42,7 @@ Exit codes: 0 success, 1 bad input or failure (one line on stderr, no output fil
 struct Args {
   std::string scene;
   std::string output = "envrender.exr";
-  std::string strategy = "mis";
+  std::string strategy = envkit::render::strategy_name(envkit::render::IntegratorOptions{}.strategy);
   std::string light_method = "hierarchical";
   std::string heuristic = "power";
   std::string crop;
@@ -53,8 +53,6 @@ struct Args {
   int light_samples = 1;
   int sun_samples = envkit::render::IntegratorOptions{}.sun_samples;
   int max_depth = 1;
-  int product_resolution = 8;  // measured best (docs/bench_product.md)
-  double product_reuse_deg = 17.0;  // measured (docs/bench_product.md): about 0.3 rad
   int threads = 0;
   unsigned seed = 0;
   bool bake = false;
@@ -117,19 +115,26 @@ int run(const Args& a) {
   io.light_samples = a.light_samples;
   io.sun_samples = a.sun_samples;
   io.max_depth = a.max_depth;
-  io.product_resolution = a.product_resolution;
-  io.product_reuse_angle = a.product_reuse_deg * (envkit::kPi / 180.0);
   const auto setup_start = std::chrono::steady_clock::now();
   const Integrator integrator(*scene.scene, *scene.light, io);
   const double setup_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - setup_start).count();
-  if (const envkit::SunSplit* sun = integrator.sun_split(); sun && !a.quiet) {
+  std::vector<std::string> setup_notes;
+  if (const envkit::SunSplit* sun = integrator.sun_split()) {
     const envkit::Vec3 d = envkit::apply(scene.light->rotation(), sun->sun().direction);
-    tools::info("sampling the sun apart from the rest of the map: " + std::to_string(sun->sun().texels) +
-                " texels at elevation " + tools::fmt(std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / envkit::kPi, 3) +
-                " deg, " + tools::fmt(100.0 * sun->sun().power_share, 3) + "% of the light, " +
-                std::to_string(a.sun_samples) + " sample(s) per shading point (split in " + tools::fmt(setup_ms, 3) +
-                " ms)");
+    setup_notes.push_back("sampling the sun apart from the rest of the map: " + std::to_string(sun->sun().texels) +
+                          " texels at elevation " +
+                          tools::fmt(std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / envkit::kPi, 3) + " deg, " +
+                          tools::fmt(100.0 * sun->sun().power_share, 3) + "% of the light, " +
+                          std::to_string(a.sun_samples) + " sample(s) per shading point");
+  }
+  if (const envkit::LobeProductTables* product = integrator.product_tables())
+    setup_notes.push_back("product tables for the scene's " + std::to_string(product->lobes().size()) +
+                          " lobe shape(s) (" + tools::fmt(double(integrator.product_table_bytes()) / (1 << 20), 3) +
+                          " MiB)");
+  if (!setup_notes.empty() && !a.quiet) {
+    setup_notes.back() += " (built in " + tools::fmt(setup_ms, 3) + " ms)";
+    for (const std::string& note : setup_notes) tools::info(note);
   }
 
   RenderOptions ro;
@@ -156,8 +161,6 @@ int run(const Args& a) {
       {"envkit:light_samples", std::to_string(a.light_samples)},
       {"envkit:sun_samples", std::to_string(integrator.sun_split() ? a.sun_samples : 0)},
       {"envkit:max_depth", std::to_string(a.max_depth)},
-      {"envkit:product_resolution", std::to_string(a.product_resolution)},
-      {"envkit:product_reuse_deg", tools::fmt(a.product_reuse_deg, 3)},
       {"envkit:spp", std::to_string(stats.spp)},
       {"envkit:seed", std::to_string(a.seed)},
       {"envkit:seconds", tools::fmt(stats.seconds, 4)},
@@ -206,20 +209,13 @@ int main(int argc, char** argv) {
       ->transform(tools::integer_in(0, 1024))
       ->capture_default_str();
   app.add_option("--sun-samples", a.sun_samples,
-                 "light, mis, mis-compensated: samples of the map's sun per shading point, drawn apart from the rest "
+                 "light, mis, mis-compensated, product, product-mis: samples of the map's sun per shading point, drawn "
+                 "apart from the rest "
                  "of the map (0 = sample the map as one table; ignored when the map has no sun)")
       ->transform(tools::integer_in(0, 1024))
       ->capture_default_str();
   app.add_option("--max-depth", a.max_depth, "scattering events per path (1 = direct light only)")
       ->transform(tools::integer_in(1, 64))
-      ->capture_default_str();
-  app.add_option("--product-resolution", a.product_resolution, "product sampling: coarse BSDF table size")
-      ->transform(tools::integer_in(1, 4096))
-      ->capture_default_str();
-  app.add_option("--product-reuse", a.product_reuse_deg,
-                 "product sampling: within one pixel's samples, reuse a table while normal and view stay within "
-                 "this many degrees (and half the lobe's width); 0 = one table per shading point")
-      ->check(tools::number_in(0.0, 90.0))
       ->capture_default_str();
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");
   app.add_option("--resolution", a.resolution, "override the camera resolution, WxH");

@@ -126,7 +126,7 @@ def main():
 
 def write_markdown(res, path):
     L = [f"envbake importance resolution vs render efficiency, {res['date_utc']} UTC, scene of bench_cycles.py at "
-         f"{res['size'][0]}x{res['size'][1]}, envrender default strategy (mis, hierarchical), {res['spp']} spp, "
+         f"{res['size'][0]}x{res['size'][1]}, envrender default strategy (product-mis over the hierarchical table), {res['spp']} spp, "
          f"medians of {res['repeats']} seeds, reference {res['ref_spp']} spp from the full tables, "
          f"{res['threads']} threads, load {' '.join(res['load_start'])} -> {' '.join(res['load_end'])}.", "",
          "| map | importance resolution | bake s | file MiB | relMSE | render s | efficiency | vs full |",

@@ -3,7 +3,7 @@
 
 One scene (four spheres on a diffuse ground: one Lambertian, three Fresnel-less GGX reflectors of alpha 0.05,
 0.15, 0.4), lit only by a real HDRI of blender-data, rendered direct-light-only by envrender (its default
-strategy: power-heuristic MIS, 1 BSDF + 1 hierarchical-table light sample) and by Cycles (scripts/cycles_scene.py)
+strategy: power-heuristic MIS of 1 BSDF sample and 1 sample of the product tables, lobe_product.h) and by Cycles (scripts/cycles_scene.py)
 in the same run. Each renderer is measured against its OWN converged reference rendered in the same run (another
 seed, --ref-spp samples); the two references are compared with each other for agreement.
 
@@ -228,7 +228,7 @@ def main():
                "repeats": args.repeats, "threads": args.threads, "eps": EPS, "regions": REGIONS,
                "region_pixels": {r: int((mask == i).sum()) for i, r in enumerate(REGIONS)},
                "background_pixels": int((mask == -1).sum()), "scene": SCENE,
-               "envrender_strategy": "default: mis, power heuristic, 1 BSDF + 1 light sample, hierarchical table",
+               "envrender_strategy": "default: product-mis, power heuristic, 1 BSDF + 1 product-table sample (+ 1 sun sample under a sun)",
                "hdris": {}}
     for hdri_name in hdris:
         hdri = os.path.join(HDRI_DIR, hdri_name + ".exr")

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Product vs power-MIS efficiency on glossy spheres (target: product >= 2x power MIS, alpha 0.05 .. 0.3).
+# Product tables vs power-MIS efficiency on glossy spheres (target: product >= 1.5x power MIS, alpha 0.02 .. 0.3).
 # Renders renderer/scenes/glossy.json (sunny default probe) and glossy_overcast.json, a high-spp power-MIS
 # reference, then each config below for several seeds; relMSE per sphere, time, efficiency, ratio vs power MIS.
 # Output: docs/bench_product.md. Env: BUILD (build dir), SEEDS, REF_SPP, SPP, SCENES, OUT, THREADS.
@@ -7,7 +7,7 @@
 #   SEEDS=1 REF_SPP=512 scripts/bench_product_efficiency.sh    (quick look)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-BUILD=${BUILD:-build-product}
+BUILD=${BUILD:-build}
 SEEDS=${SEEDS:-3}
 REF_SPP=${REF_SPP:-2048}
 SPP=${SPP:-16}
@@ -28,14 +28,9 @@ else
     "mis power 1+1|$SPP|--strategy mis --heuristic power"
     "mis power 1+4|$((SPP / 2))|--strategy mis --heuristic power --light-samples 4"
     "mis-compensated 1+1|$SPP|--strategy mis-compensated"
-    "product r8 M1|$SPP|--strategy product --product-resolution 8"
-    "product r32 M1|$SPP|--strategy product --product-resolution 32"
-    "product r8 M4|$((SPP / 4))|--strategy product --product-resolution 8 --light-samples 4"
-    "product-mis r8 1+1|$SPP|--strategy product-mis --product-resolution 8"
-    "product-mis r8 1+1 no reuse|$SPP|--strategy product-mis --product-resolution 8 --product-reuse 0"
-    "product-mis r16 1+1|$SPP|--strategy product-mis --product-resolution 16"
-    "product-mis r32 1+1|$SPP|--strategy product-mis --product-resolution 32"
-    "product-mis r8 1+4|$((SPP / 4))|--strategy product-mis --product-resolution 8 --light-samples 4"
+    "product M1|$SPP|--strategy product"
+    "product-mis 1+1|$SPP|--strategy product-mis"
+    "product-mis 1+2|$((SPP / 2))|--strategy product-mis --light-samples 2"
   )
 fi
 config_args=()

@@ -58,10 +58,8 @@ std::vector<Case> all_strategies() {
   add("mis-power-2x3", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, 2, 3);
   add("mis-balance-alias", Strategy::Mis, SamplingMethod::Alias, Heuristic::Balance);
   add("mis-compensated", Strategy::MisCompensated, SamplingMethod::Hierarchical);
-  if (product_sampling_available()) {
-    add("product", Strategy::Product);
-    add("product-mis", Strategy::ProductMis);
-  }
+  add("product", Strategy::Product);
+  add("product-mis", Strategy::ProductMis);
   return cases;
 }
 

@@ -89,10 +89,8 @@ std::vector<IntegratorOptions> strategies() {
   list.back().sun_samples = 3;
   add(Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   add(Strategy::MisCompensated, SamplingMethod::Alias, Heuristic::Balance, 1, 1);
-  if (product_sampling_available()) {
-    add(Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
-    add(Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
-  }
+  add(Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
+  add(Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   return list;
 }
 

@@ -70,10 +70,8 @@ std::vector<Named> strategies(bool include_bsdf) {
   add("mis-power-whole", Strategy::Mis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   list.back().options.sun_samples = 0;  // the map as one table, also where it has a sun
   add("mis-compensated", Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
-  if (product_sampling_available()) {
-    add("product", Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
-    add("product-mis", Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
-  }
+  add("product", Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
+  add("product-mis", Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   return list;
 }
 
@@ -196,18 +194,15 @@ TEST(RenderStrategies, MirrorSphereUnderTheSunInEveryStrategy) {
   EXPECT_GT(identical, 0);
 }
 
-// Pixels depend on the seed only: not on the crop, the tile size or the thread count. Product sampling reuses its
-// tables within one pixel's samples only, so it keeps this property (tables shared across pixels would depend on
-// which pixel a thread rendered before).
+// Pixels depend on the seed only: not on the crop, the tile size or the thread count (also with product tables:
+// a shading point's table depends on its lobe and axis alone).
 TEST(RenderStrategies, CropAndThreadCountDoNotChangePixels) {
-  // A glossy ground: neighbouring pixels have the same normal and nearly the same view, so a product table would
-  // be shared between them if reuse crossed pixels (a diffuse ground's table would not even change).
+  // A glossy ground: neighbouring pixels draw from neighbouring axis bins of the product tables.
   const LoadedScene scene = default_scene_replacing(
       R"("probe": "overcast", "size": [64, 32])", R"("ground":   {"type": "diffuse", "albedo": [0.45, 0.45, 0.42]})",
       R"("ground":   {"type": "conductor", "roughness": 0.3})", 24, 12, "glossy-ground.json");
   IntegratorOptions product;
   product.strategy = Strategy::ProductMis;
-  ASSERT_GT(product.product_reuse_angle, 0.0);
   for (const IntegratorOptions& options : {IntegratorOptions{}, product}) {
     SCOPED_TRACE(strategy_name(options.strategy));
     const Integrator integrator(*scene.scene, *scene.light, options);

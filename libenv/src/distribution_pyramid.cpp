@@ -308,10 +308,12 @@ double PyramidDistribution2D::pdf(Vec2 uv) const {
   return leaf(sampling::texel_index(uv.x, width_), sampling::texel_index(uv.y, height_)) * pdf_scale_;
 }
 
-double PyramidDistribution2D::texel_probability(int x, int y) const {
+double PyramidDistribution2D::texel_probability(int x, int y) const { return texel_probability_below(levels(), x, y); }
+
+double PyramidDistribution2D::texel_probability_below(int level, int x, int y) const {
   if (x < 0 || x >= width_ || y < 0 || y >= height_) return 0.0;
   double p = 1.0;
-  for (int k = 0; k < levels(); ++k) {
+  for (int k = 0; k < std::min(level, levels()); ++k) {
     const float* c = children(k, x >> 1, y >> 1);
     const int dx = x & 1, dy = y & 1;
     const double pl = left_share(c), pt = top_share(c, dx);

@@ -1,6 +1,7 @@
 #include <envkit/distribution_alias.h>
 #include <envkit/distribution_cdf.h>
 #include <envkit/distribution_pyramid.h>
+#include <envkit/distribution_refined.h>
 #include <envkit/env_sampling.h>
 #include <envkit/healpix.h>
 #include <envkit/latlong.h>
@@ -106,38 +107,65 @@ SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Di
   if (grid_ == Kind::Octahedral && width() != height())
     throw Error("spherical distribution: an octahedral grid must be square, got " + std::to_string(width()) + "x" +
                 std::to_string(height()));
-  const double W = width(), H = height();
-  equal_area_pdf_factor_ = 1.0 / (W * H * (kFourPi / (W * H)));
-  if (grid_ == Kind::HEALPix) {
-    healpix_ = make_healpix_grid(width(), height());
-    healpix_margin_ = std::min(0.25, healpix_->to_image_tolerance());
-    equal_area_pdf_factor_ = 1.0 / (W * H * healpix_->pixel_solid_angle());
+  geometry_ = make_geometry(grid_, width(), height());
+  g_ = geometry_.get();
+  choose_sampler();
+}
+
+SphericalDistribution::SphericalDistribution(const SphericalDistribution& same_grid,
+                                             std::shared_ptr<const Distribution2D> distribution)
+    : grid_(same_grid.grid_),
+      distribution_(std::move(distribution)),
+      geometry_(same_grid.geometry_),
+      g_(geometry_.get()) {
+  if (!distribution_) throw Error("spherical distribution: null distribution");
+  if (width() != same_grid.width() || height() != same_grid.height())
+    throw Error("spherical distribution: a " + std::to_string(width()) + "x" + std::to_string(height()) +
+                " distribution on a " + std::to_string(same_grid.width()) + "x" + std::to_string(same_grid.height()) +
+                " grid");
+  choose_sampler();
+}
+
+std::shared_ptr<const SphericalDistribution::Geometry> SphericalDistribution::make_geometry(Kind grid, int width,
+                                                                                            int height) {
+  auto geometry = std::make_shared<Geometry>();
+  Geometry& G = *geometry;
+  const double W = width, H = height;
+  G.equal_area_pdf_factor = 1.0 / (W * H * (kFourPi / (W * H)));
+  if (grid == Kind::HEALPix) {
+    G.healpix = make_healpix_grid(width, height);
+    G.healpix_margin = std::min(0.25, G.healpix->to_image_tolerance());
+    G.equal_area_pdf_factor = 1.0 / (W * H * G.healpix->pixel_solid_angle());
   }
-  if (grid_ == Kind::LatLong) {
-    rows_.resize(std::size_t(height()));
-    for (int y = 0; y < height(); ++y) {
-      RowBand& band = rows_[std::size_t(y)];
-      band = row_band(y, height());
+  if (grid == Kind::LatLong) {
+    G.rows.resize(std::size_t(height));
+    for (int y = 0; y < height; ++y) {
+      RowBand& band = G.rows[std::size_t(y)];
+      band = row_band(y, height);
       band.pdf_factor = 1.0 / (W * H * ((kTwoPi / W) * band.span));
     }
-    longitude_substeps_ = (kMinLongitudeSteps + width() - 1) / width();
-    const std::size_t steps = std::size_t(width()) * std::size_t(longitude_substeps_);
+    G.longitude_substeps = (kMinLongitudeSteps + width - 1) / width;
+    const std::size_t steps = std::size_t(width) * std::size_t(G.longitude_substeps);
     const double step = kTwoPi / double(steps), step2 = step * step;
-    sin_poly_[0] = step;
-    sin_poly_[1] = -step * step2 / 6.0;
-    sin_poly_[2] = step * step2 * step2 / 120.0;
-    cos_poly_[0] = -step2 / 2.0;
-    cos_poly_[1] = step2 * step2 / 24.0;
-    longitudes_.resize(steps + 1);
+    G.sin_poly[0] = step;
+    G.sin_poly[1] = -step * step2 / 6.0;
+    G.sin_poly[2] = step * step2 * step2 / 120.0;
+    G.cos_poly[0] = -step2 / 2.0;
+    G.cos_poly[1] = step2 * step2 / 24.0;
+    G.longitudes.resize(steps + 1);
     for (std::size_t k = 0; k <= steps; ++k) {
       const double a = kTwoPi * (double(k) / double(steps));
-      longitudes_[k] = {std::sin(a), -std::cos(a)};
+      G.longitudes[k] = {std::sin(a), -std::cos(a)};
     }
-    row_edge_cos_.resize(std::size_t(height()) + 1);
-    for (int y = 0; y <= height(); ++y) row_edge_cos_[std::size_t(y)] = std::cos(kPi * (double(y) / height()));
-    row_edge_cos_.front() = 1.0;
-    row_edge_cos_.back() = -1.0;
+    G.row_edge_cos.resize(std::size_t(height) + 1);
+    for (int y = 0; y <= height; ++y) G.row_edge_cos[std::size_t(y)] = std::cos(kPi * (double(y) / height));
+    G.row_edge_cos.front() = 1.0;
+    G.row_edge_cos.back() = -1.0;
   }
+  return geometry;
+}
+
+void SphericalDistribution::choose_sampler() {
   // Lat-long grids with a built-in distribution get a sampler with its texel choice (pick(): the classes are
   // final, so it is what their sample_texel() returns) and the direction inlined, without a virtual call.
   const Distribution2D* d = distribution_.get();
@@ -146,8 +174,9 @@ SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Di
       if (dynamic_cast<const CdfDistribution2D*>(d)) sample_ = &sample_latlong<CdfDistribution2D, kOneStep>;
       if (dynamic_cast<const AliasDistribution2D*>(d)) sample_ = &sample_latlong<AliasDistribution2D, kOneStep>;
       if (dynamic_cast<const PyramidDistribution2D*>(d)) sample_ = &sample_latlong<PyramidDistribution2D, kOneStep>;
+      if (dynamic_cast<const RefinedDistribution2D*>(d)) sample_ = &sample_latlong<RefinedDistribution2D, kOneStep>;
     };
-    if (longitude_substeps_ == 1)
+    if (g_->longitude_substeps == 1)
       choose.template operator()<true>();
     else
       choose.template operator()<false>();
@@ -157,9 +186,9 @@ SphericalDistribution::SphericalDistribution(Kind grid, std::shared_ptr<const Di
 double SphericalDistribution::texel_solid_angle(int x, int y) const {
   (void)x;
   const double W = width(), H = height();
-  if (grid_ == Kind::HEALPix) return healpix_->pixel_solid_angle();
+  if (grid_ == Kind::HEALPix) return g_->healpix->pixel_solid_angle();
   if (grid_ == Kind::Octahedral) return kFourPi / (W * H);
-  return (kTwoPi / W) * rows_[std::size_t(std::clamp(y, 0, height() - 1))].span;
+  return (kTwoPi / W) * g_->rows[std::size_t(std::clamp(y, 0, height() - 1))].span;
 }
 
 template <bool kOneStep>
@@ -182,18 +211,18 @@ template <bool kOneStep>
   // one step (see kMinLongitudeSteps), sin a and cos a by angle addition. No trigonometric call per sample.
   std::size_t k = std::size_t(x);
   double f = fx;
-  if (!kOneStep && longitude_substeps_ != 1) {
-    const double t = fx * longitude_substeps_;  // < longitude_substeps_: fx <= 1 - 2^-24
+  if (!kOneStep && g_->longitude_substeps != 1) {
+    const double t = fx * g_->longitude_substeps;  // < g_->longitude_substeps: fx <= 1 - 2^-24
     const int q = static_cast<int>(t);
-    k = k * std::size_t(longitude_substeps_) + std::size_t(q);
+    k = k * std::size_t(g_->longitude_substeps) + std::size_t(q);
     f = t - q;
   }
   // d = f x step: sin d = d - d^3/6 + d^5/120, cos d = 1 - d^2/2 + d^4/24 as polynomials in f.
   const double f2 = f * f;
-  const double sin_d = f * (sin_poly_[0] + f2 * (sin_poly_[1] + f2 * sin_poly_[2]));
-  const double cos_d = 1.0 + f2 * (cos_poly_[0] + f2 * cos_poly_[1]);
+  const double sin_d = f * (g_->sin_poly[0] + f2 * (g_->sin_poly[1] + f2 * g_->sin_poly[2]));
+  const double cos_d = 1.0 + f2 * (g_->cos_poly[0] + f2 * g_->cos_poly[1]);
   // lon = pi - a: sin lon = sin a, cos lon = -cos a (the table holds -cos a_k).
-  const Longitude& l = longitudes_[k];
+  const Longitude& l = g_->longitudes[k];
   const double sin_lon = l.sin_a * cos_d - l.minus_cos_a * sin_d;
   const double cos_lon = l.minus_cos_a * cos_d + l.sin_a * sin_d;
   return Vec3(sin_lon * sin_theta, cos_theta, cos_lon * sin_theta);
@@ -211,18 +240,19 @@ Vec3 SphericalDistribution::direction_in_texel(int x, int y, double fx, double f
     // A direction within the margin of an edge could be located in the neighbour (another pdf and radiance than
     // the sample reports); radiance and pdf are constant inside the texel, so moving those few offsets onto the
     // margin (about 2e-9 rad) changes them for no sample.
-    const double lo = healpix_margin_, hi = 1.0 - healpix_margin_;
-    return healpix_direction(*healpix_, x + std::clamp(fx, lo, hi), y + std::clamp(fy, lo, hi));
+    const double lo = g_->healpix_margin, hi = 1.0 - g_->healpix_margin;
+    return healpix_direction(*g_->healpix, x + std::clamp(fx, lo, hi), y + std::clamp(fy, lo, hi));
   }
   if (grid_ == Kind::Octahedral) return OctahedralMap::direction_from_unit(Vec2((x + fx) / W, (y + fy) / W));
-  return latlong_direction<false>(rows_[std::size_t(y)], x, fx, fy);
+  return latlong_direction<false>(g_->rows[std::size_t(y)], x, fx, fy);
 }
 
 void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double& fx, double& fy) const {
   const int W = width(), H = height();
   Vec3 d = finite_nonzero(direction) ? direction.normalized() : Vec3(0.0, 1.0, 0.0);
   if (grid_ != Kind::LatLong) {
-    const Vec2 p = grid_ == Kind::HEALPix ? healpix_->to_image(d) : OctahedralMap::unit_from_direction(d) * Vec2(W, H);
+    const Vec2 p =
+        grid_ == Kind::HEALPix ? g_->healpix->to_image(d) : OctahedralMap::unit_from_direction(d) * Vec2(W, H);
     x = std::clamp(int(std::floor(p.x)), 0, W - 1);
     y = std::clamp(int(std::floor(p.y)), 0, H - 1);
     fx = std::clamp(p.x - x, 0.0, 1.0);
@@ -234,7 +264,7 @@ void SphericalDistribution::locate(const Vec3& direction, int& x, int& y, double
   x = std::clamp(int(u * W), 0, W - 1);
   fx = std::clamp(u * W - x, 0.0, 1.0);
   y = latlong_row(horizontal, d.y, H);
-  const RowBand& band = rows_[std::size_t(y)];
+  const RowBand& band = g_->rows[std::size_t(y)];
   const bool north = band.north();
   // Distance from the nearer pole, 1 -+ cos theta, without cancellation: h^2 / (1 +- cos theta).
   const double from_pole = north ? (d.y > 0.0 ? horizontal * horizontal / (1.0 + d.y) : 1.0 - d.y)
@@ -255,8 +285,8 @@ void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) cons
   const int W = width(), H = height();
   // Row: theta in [theta_y, theta_y+1) <=> edge_cos[y] >= cos theta > edge_cos[y + 1].
   y = std::clamp(int(rough_atan2(horizontal, d.y) * (H / kPi)), 0, H - 1);
-  while (y > 0 && d.y > row_edge_cos_[std::size_t(y)]) --y;
-  while (y < H - 1 && d.y <= row_edge_cos_[std::size_t(y) + 1]) ++y;
+  while (y > 0 && d.y > g_->row_edge_cos[std::size_t(y)]) --y;
+  while (y < H - 1 && d.y <= g_->row_edge_cos[std::size_t(y) + 1]) ++y;
   // Column: a = pi - longitude in [a_x, a_x+1), a_k = 2 pi k / W. Near a = 0 (the seam, where the guess may fall on
   // the other side) and at the poles (no longitude) the exact formula decides.
   const double a = kPi - rough_atan2(d.x, d.z);
@@ -267,7 +297,7 @@ void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) cons
   }
   // a >= a_k <=> sin(a - a_k) >= 0 (|a - a_k| < pi here), sin(a - a_k) h = d.x cos a_k + d.z sin a_k.
   const auto at_or_after = [&](int k) {
-    const Longitude& edge = longitudes_[std::size_t(k) * std::size_t(longitude_substeps_)];
+    const Longitude& edge = g_->longitudes[std::size_t(k) * std::size_t(g_->longitude_substeps)];
     return d.z * edge.sin_a - d.x * edge.minus_cos_a >= 0.0;
   };
   x = std::clamp(int(a * (W / kTwoPi)), 0, W - 1);
@@ -278,7 +308,7 @@ void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) cons
 template <class D, bool kOneStep>
 DirectionSample SphericalDistribution::sample_latlong(const SphericalDistribution& s, const Vec2& u) {
   const TexelSample t = static_cast<const D&>(*s.distribution_).pick(u);
-  const RowBand& band = s.rows_[std::size_t(t.y)];
+  const RowBand& band = s.g_->rows[std::size_t(t.y)];
   // pdf: the same product as pdf(direction).
   return DirectionSample{s.latlong_direction<kOneStep>(band, t.x, t.fx, t.fy), t.pdf * band.pdf_factor, t.x, t.y};
 }
@@ -286,10 +316,10 @@ DirectionSample SphericalDistribution::sample_latlong(const SphericalDistributio
 DirectionSample SphericalDistribution::sample_general(const SphericalDistribution& s, const Vec2& u) {
   const TexelSample t = s.distribution_->sample_texel(u);
   if (s.grid_ == Kind::LatLong) {
-    const RowBand& band = s.rows_[std::size_t(t.y)];
+    const RowBand& band = s.g_->rows[std::size_t(t.y)];
     return DirectionSample{s.latlong_direction<false>(band, t.x, t.fx, t.fy), t.pdf * band.pdf_factor, t.x, t.y};
   }
-  return DirectionSample{s.direction_in_texel(t.x, t.y, t.fx, t.fy), t.pdf * s.equal_area_pdf_factor_, t.x, t.y};
+  return DirectionSample{s.direction_in_texel(t.x, t.y, t.fx, t.fy), t.pdf * s.g_->equal_area_pdf_factor, t.x, t.y};
 }
 
 template <bool kOneStep>
@@ -297,11 +327,11 @@ void SphericalDistribution::latlong_directions(const TexelSample* t, DirectionSa
   // Row bands (a cache line per row) and longitude entries are read at random on a big grid: prefetch the whole
   // group's first, then form the directions (the arithmetic of sample_latlong, so the same bits).
   for (std::size_t k = 0; k < n; ++k) {
-    __builtin_prefetch(rows_.data() + t[k].y);
-    __builtin_prefetch(longitudes_.data() + std::size_t(t[k].x) * std::size_t(longitude_substeps_));
+    __builtin_prefetch(g_->rows.data() + t[k].y);
+    __builtin_prefetch(g_->longitudes.data() + std::size_t(t[k].x) * std::size_t(g_->longitude_substeps));
   }
   for (std::size_t k = 0; k < n; ++k) {
-    const RowBand& band = rows_[std::size_t(t[k].y)];
+    const RowBand& band = g_->rows[std::size_t(t[k].y)];
     out[k] = DirectionSample{latlong_direction<kOneStep>(band, t[k].x, t[k].fx, t[k].fy), t[k].pdf * band.pdf_factor,
                              t[k].x, t[k].y};
   }
@@ -318,9 +348,9 @@ void SphericalDistribution::sample(std::span<const Vec2> u, std::span<DirectionS
     if (grid_ != Kind::LatLong) {
       // Equal-area grids: no table is read after the texel choice (as sample_general).
       for (std::size_t k = 0; k < n; ++k)
-        o[k] = DirectionSample{direction_in_texel(t[k].x, t[k].y, t[k].fx, t[k].fy), t[k].pdf * equal_area_pdf_factor_,
-                               t[k].x, t[k].y};
-    } else if (longitude_substeps_ == 1) {
+        o[k] = DirectionSample{direction_in_texel(t[k].x, t[k].y, t[k].fx, t[k].fy),
+                               t[k].pdf * g_->equal_area_pdf_factor, t[k].x, t[k].y};
+    } else if (g_->longitude_substeps == 1) {
       latlong_directions<true>(t, o, n);
     } else {
       latlong_directions<false>(t, o, n);
@@ -337,7 +367,7 @@ double SphericalDistribution::pdf(const Vec3& direction) const {
 
 double SphericalDistribution::texel_pdf(int x, int y) const {
   const Vec2 centre((x + 0.5) / width(), (y + 0.5) / height());
-  const double factor = grid_ == Kind::LatLong ? rows_[std::size_t(y)].pdf_factor : equal_area_pdf_factor_;
+  const double factor = grid_ == Kind::LatLong ? g_->rows[std::size_t(y)].pdf_factor : g_->equal_area_pdf_factor;
   return distribution_->pdf(centre) * factor;
 }
 

@@ -84,15 +84,13 @@ def render(
     scene=None,
     *,
     spp=16,
-    strategy="mis",
+    strategy=None,
     light_method="hierarchical",
     heuristic="power",
     bsdf_samples=1,
     light_samples=1,
     sun_samples=1,
     max_depth=1,
-    product_resolution=8,
-    product_reuse_deg=17.0,
     seed=0,
     width=0,
     height=0,
@@ -104,7 +102,7 @@ def render(
 
     scene: None (the built-in default scene), a path to a JSON scene file (docs/SCENE_FORMAT.md), or a dict in
     that format (relative paths inside it are relative to base_dir, default the current directory). The other
-    arguments are envrender's options; crop = (x0, y0, x1, y1).
+    arguments are envrender's options (strategy None: envrender's default); crop = (x0, y0, x1, y1).
     """
     if not has_renderer:
         raise Error("this envkit was built without the renderer (ENVKIT_BUILD_RENDERER=OFF)")
@@ -117,6 +115,6 @@ def render(
         path = _os.fspath(scene)
     return _envkit._render(
         path, text, base, spp, strategy, light_method, heuristic, bsdf_samples, light_samples, sun_samples,
-        max_depth, product_resolution, product_reuse_deg, seed, width, height, bake,
+        max_depth, seed, width, height, bake,
         tuple(crop) if crop is not None else None,
     )

@@ -17,21 +17,19 @@ void bind_render(py::module_& m) {
   m.def(
       "_render",
       [](const std::optional<std::string>& path, const std::optional<std::string>& text, const std::string& base,
-         int spp, const std::string& strategy, const std::string& light_method, const std::string& heuristic,
-         int bsdf_samples, int light_samples, int sun_samples, int max_depth, int product_resolution,
-         double product_reuse_deg, std::uint32_t seed, int width, int height, bool bake,
+         int spp, const std::optional<std::string>& strategy, const std::string& light_method,
+         const std::string& heuristic, int bsdf_samples, int light_samples, int sun_samples, int max_depth,
+         std::uint32_t seed, int width, int height, bool bake,
          const std::optional<std::tuple<int, int, int, int>>& crop) {
         using namespace envkit::render;
         IntegratorOptions io;
-        io.strategy = parse_strategy(strategy);
+        if (strategy) io.strategy = parse_strategy(*strategy);  // else the integrator's default
         io.light_method = parse_method(light_method);
         io.heuristic = parse_heuristic(heuristic);
         io.bsdf_samples = bsdf_samples;
         io.light_samples = light_samples;
         io.sun_samples = sun_samples;
         io.max_depth = max_depth;
-        io.product_resolution = product_resolution;
-        io.product_reuse_angle = product_reuse_deg * (kPi / 180.0);
         if (spp < 1) throw Error("render: spp must be >= 1");
         if (width < 0 || height < 0 || width > 16384 || height > 16384)
           throw Error("render: width and height must be in [1, 16384]");
@@ -55,8 +53,7 @@ void bind_render(py::module_& m) {
       },
       py::arg("path"), py::arg("text"), py::arg("base"), py::arg("spp"), py::arg("strategy"), py::arg("light_method"),
       py::arg("heuristic"), py::arg("bsdf_samples"), py::arg("light_samples"), py::arg("sun_samples"),
-      py::arg("max_depth"), py::arg("product_resolution"), py::arg("product_reuse_deg"), py::arg("seed"),
-      py::arg("width"), py::arg("height"), py::arg("bake"), py::arg("crop"));
+      py::arg("max_depth"), py::arg("seed"), py::arg("width"), py::arg("height"), py::arg("bake"), py::arg("crop"));
 }
 
 }  // namespace envkit::python

@@ -3,9 +3,8 @@
 #include <envkit/render/integrator.h>
 #include <envkit/sun_split.h>
 
+#include <algorithm>
 #include <cmath>
-
-#include "integrator_product.h"
 
 namespace envkit::render {
 
@@ -48,7 +47,7 @@ Heuristic parse_heuristic(const std::string& name) {
 }
 
 Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
-    : scene_(scene), light_(light), options_(options) {
+    : scene_(scene), light_(light), options_(options), inverse_rotation_(transposed(light.rotation())) {
   if (options_.bsdf_samples < 0 || options_.light_samples < 0) throw Error("sample counts must be >= 0");
   if (options_.max_depth < 1) throw Error("--max-depth must be >= 1");
   const Strategy s = options_.strategy;
@@ -60,11 +59,17 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
     throw Error("strategy mis-compensated needs --bsdf-samples >= 1 (BSDF sampling covers what the compensated "
                 "table leaves out)");
   if (options_.sun_samples < 0) throw Error("--sun-samples must be >= 0");
-  if (s == Strategy::Light || s == Strategy::Mis || s == Strategy::MisCompensated) {
+  const bool product = s == Strategy::Product || s == Strategy::ProductMis;
+  if (s == Strategy::Product && options_.light_samples < 1) throw Error("strategy product needs --light-samples >= 1");
+  if (s == Strategy::ProductMis && options_.bsdf_samples + options_.light_samples < 1)
+    throw Error("strategy product-mis needs at least one sample");
+  // Product tables refine the hierarchical table: the product strategies draw from it whatever --light-method says.
+  const SamplingMethod method = product ? SamplingMethod::Hierarchical : options_.light_method;
+  if (s != Strategy::Bsdf) {
     const bool compensated = s == Strategy::MisCompensated;
-    whole_ = {{LightTechnique{&light_.distribution(options_.light_method, compensated), options_.light_samples}}, 1};
+    whole_ = {{LightTechnique{&light_.distribution(method, compensated), options_.light_samples}}, 1};
     if (options_.sun_samples > 0) {
-      sun_ = SunSplit::make(light_.tables(), options_.light_method, compensated);
+      sun_ = SunSplit::make(light_.tables(), method, compensated);
       if (sun_) {
         split_ = {{LightTechnique{&sun_->residual(), options_.light_samples},
                    LightTechnique{&sun_->sun_distribution(), options_.sun_samples}},
@@ -73,23 +78,36 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
       }
     }
   }
-  direct_ = s == Strategy::Bsdf                                   ? &Integrator::direct_bsdf
-            : s == Strategy::Light                                ? &Integrator::direct_light
-            : s == Strategy::Product || s == Strategy::ProductMis ? &Integrator::direct_product
-                                                                  : &Integrator::direct_mis;
-  if (s == Strategy::Product || s == Strategy::ProductMis) {
-    if (options_.product_resolution < 1) throw Error("--product-resolution must be >= 1");
-    if (s == Strategy::Product && options_.light_samples < 1) throw Error("strategy product needs --light-samples >= 1");
-    if (!(options_.product_reuse_angle >= 0.0) || !(options_.product_reuse_angle <= 0.5 * kPi))
-      throw Error("--product-reuse must be in [0, 90] degrees");
-    product_ = std::make_unique<ProductSamplers>(light_, options_.product_resolution, options_.product_reuse_angle);
-  }
+  direct_ = s == Strategy::Bsdf                              ? &Integrator::direct_bsdf
+            : s == Strategy::Light || s == Strategy::Product ? &Integrator::direct_light
+                                                             : &Integrator::direct_mis;
+  if (product) build_product_tables();
 }
 
+void Integrator::build_product_tables() {
+  // One lobe per material that has a non-delta lobe: the clamped cosine for materials with a Lambertian part,
+  // the GGX reflection lobe of the material's alpha for rough conductors.
+  std::vector<Lobe> lobes;
+  for (int m = 0; m < scene_.material_count(); ++m) {
+    const Material& material = scene_.material(m);
+    const double alpha = material.widest_lobe_alpha();
+    int index = -1;
+    if (!material.is_pure_delta() && alpha > 0.0) {
+      const Lobe lobe = alpha >= 1.0 ? Lobe{Lobe::Shape::Cosine, 1.0} : Lobe{Lobe::Shape::Ggx, std::max(alpha, 1e-3)};
+      const auto it = std::find(lobes.begin(), lobes.end(), lobe);
+      index = int(it - lobes.begin());
+      if (it == lobes.end()) lobes.push_back(lobe);
+    }
+    material_lobes_.emplace_back(&material, index);
+  }
+  if (lobes.empty()) return;
+  product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].distribution, lobes);
+  if (sun_) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].distribution, lobes);
+}
 Integrator::~Integrator() = default;
 
-void Integrator::begin_pixel() const {
-  if (product_) product_->begin_pixel();
+std::size_t Integrator::product_table_bytes() const {
+  return (product_whole_ ? product_whole_->bytes() : 0) + (product_split_ ? product_split_->bytes() : 0);
 }
 
 double Integrator::mis_weight(double a, double b) const {
@@ -106,8 +124,18 @@ Vec3 Integrator::escaped_radiance(const Vec3& origin, const Vec3& wi_world) cons
   return light_.radiance(wi_world);
 }
 
-const Integrator::LightTechniques& Integrator::techniques(const Material& material) const {
-  return sun_ && material.widest_lobe_alpha() >= kSunSplitMinAlpha ? split_ : whole_;
+Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x) const {
+  const bool split = sun_ && x.material.widest_lobe_alpha() >= kSunSplitMinAlpha;
+  LightTechniques t = split ? split_ : whole_;
+  if (!product_whole_) return t;
+  const auto it = std::find_if(material_lobes_.begin(), material_lobes_.end(),
+                               [&](const auto& m) { return m.first == &x.material; });
+  if (it == material_lobes_.end() || it->second < 0) return t;
+  const LobeProductTables& tables = split ? *product_split_ : *product_whole_;
+  const bool cosine = tables.lobes()[std::size_t(it->second)].shape == Lobe::Shape::Cosine;
+  const Vec3 axis = cosine ? x.frame.n : x.frame.to_world(Vec3(-x.wo.x, -x.wo.y, x.wo.z));
+  t.parts[0].distribution = &tables.distribution(it->second, apply(inverse_rotation_, axis));
+  return t;
 }
 
 double Integrator::sun_pdf(const Vec3& wi_world) const {
@@ -166,7 +194,7 @@ Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
-  const LightTechniques& light = techniques(x.material);
+  const LightTechniques light = techniques(x);
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
@@ -180,7 +208,7 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
 
 Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
   const int N = options_.bsdf_samples;
-  const LightTechniques& light = techniques(x.material);
+  const LightTechniques light = techniques(x);
   Vec3 sum(0, 0, 0);
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
   for (int k = 0; k < light.count; ++k) {
@@ -200,39 +228,6 @@ Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
       continue;
     }
     sum += b.value * (mis_weight(N * b.pdf, b.light_density) / N);
-  }
-  return sum;
-}
-
-Vec3 Integrator::direct_product(const ShadingPoint& x, Sampler& sampler) const {
-  const int np = options_.light_samples;
-  const int nb = options_.strategy == Strategy::ProductMis ? options_.bsdf_samples : 0;
-  ProductSampler& product = product_->get();
-  if (!product.reusable(x.material, x.frame, x.wo)) product.prepare(x.material, x.frame, x.wo);
-  Vec3 sum(0, 0, 0);
-  for (int j = 0; j < np; ++j) {
-    const Vec2 u = sampler.next_2d();
-    Vec3 wi_world;
-    double p = 0.0;
-    if (!product.valid() || !product.sample(u, wi_world, p) || !(p > 0.0) || (wi_world ^ x.ng) <= 0.0) continue;
-    // The BSDF of THIS point: a reused table was prepared at another one.
-    const Vec3 wi_local = x.frame.to_local(wi_world);
-    const Vec3 f_cos = x.material.eval(x.wo, wi_local);
-    if (is_black(f_cos)) continue;
-    const Vec3 L = escaped_radiance(x.origin, wi_world);
-    if (is_black(L)) continue;
-    const double w = nb > 0 ? mis_weight(np * p, nb * x.material.pdf(x.wo, wi_local)) : 1.0;
-    sum += mul(f_cos, L) * (w / (np * p));
-  }
-  if (nb == 0) return sum + delta_lobe_term(x, sampler);
-  for (int i = 0; i < nb; ++i) {
-    const BsdfTerm b = bsdf_term(x, sampler);
-    if (!(b.pdf > 0.0) || is_black(b.value)) continue;
-    if (b.is_delta) {
-      sum += b.value / double(nb);
-      continue;
-    }
-    sum += b.value * (mis_weight(nb * b.pdf, np * product.pdf(b.wi_world)) / nb);
   }
   return sum;
 }

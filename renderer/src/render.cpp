@@ -41,7 +41,6 @@ void render_pass(const Camera& camera, const Integrator& integrator, Film& film,
           for (int x = x0; x < x1; ++x) {
             const int px = crop.x0 + x, py = crop.y0 + y;
             Sampler sampler(seed, px, py);
-            integrator.begin_pixel();
             for (int i = 0; i < count; ++i) {
               sampler.start_sample(first_index + std::uint32_t(i));
               const Vec2 jitter = sampler.next_2d();

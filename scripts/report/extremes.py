@@ -17,10 +17,10 @@ CONFIGS = [("bsdf", ["--strategy", "bsdf"]),
            ("light hierarchical", ["--strategy", "light", "--light-method", "hierarchical"]),
            ("mis-power 1+1", ["--strategy", "mis", "--heuristic", "power"]),
            ("mis-compensated", ["--strategy", "mis-compensated"]),
-           ("product r32", ["--strategy", "product", "--product-resolution", "32"]),
-           ("product-mis r32", ["--strategy", "product-mis", "--product-resolution", "32"])]
+           ("product", ["--strategy", "product"]),
+           ("product-mis", ["--strategy", "product-mis"])]
 if ctx.mode == "smoke":
-    CONFIGS = [c for c in CONFIGS if c[0] in ("bsdf", "mis-power 1+1", "product-mis r32")]
+    CONFIGS = [c for c in CONFIGS if c[0] in ("bsdf", "mis-power 1+1", "product-mis")]
 machine = machine_line()
 
 res = {}

@@ -129,7 +129,7 @@ if s and s.get("ratios"):
     headline.append(f"Strategies (efficiency = 1/(relMSE x time), geometric mean over {len(scenes)} scenes, relative "
                     f"to {basecfg}): best `{fb}` {fscores[fb]:.2f}x; " +
                     ", ".join(f"{k} {fscores[k]:.2f}x" for k in ("bsdf", "light hierarchical", "mis-compensated",
-                                                                 "product r32", "product-mis r32") if k in fscores) + ".")
+                                                                 "product", "product-mis") if k in fscores) + ".")
     rec.append(f"**Previews (1 spp, time-normalised).** `{pb}`: {pscores[pb]:.2f}x the efficiency of {basecfg} at "
                f"1 spp (geometric mean over the scenes).")
     rec.append(f"**Final frames.** `{fb}`: {fscores[fb]:.2f}x the efficiency of {basecfg} over the spp ladder "

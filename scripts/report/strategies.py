@@ -23,14 +23,11 @@ ALL_CONFIGS = [
     ("mis-power 2+2", ["--strategy", "mis", "--heuristic", "power", "--bsdf-samples", "2", "--light-samples", "2"]),
     ("mis-power whole map", ["--strategy", "mis", "--heuristic", "power", "--sun-samples", "0"]),
     ("mis-compensated", ["--strategy", "mis-compensated", "--heuristic", "power"]),
-    ("product r8", ["--strategy", "product", "--product-resolution", "8"]),
-    ("product r32", ["--strategy", "product", "--product-resolution", "32"]),
-    ("product r128", ["--strategy", "product", "--product-resolution", "128"]),
-    ("product-mis r8", ["--strategy", "product-mis", "--product-resolution", "8"]),
-    ("product-mis r32", ["--strategy", "product-mis", "--product-resolution", "32"]),
+    ("product", ["--strategy", "product"]),
+    ("product-mis", ["--strategy", "product-mis"]),
 ]
-QUICK_SKIP = {"mis-power 3+1", "mis-power 2+2", "product r128", "product-mis r8"}
-SMOKE_KEEP = {"bsdf", "light hierarchical", BASE, "product-mis r32"}
+QUICK_SKIP = {"mis-power 3+1", "mis-power 2+2"}
+SMOKE_KEEP = {"bsdf", "light hierarchical", BASE, "product-mis"}
 CONFIGS = [c for c in ALL_CONFIGS if MODE == "full" or (MODE == "quick" and c[0] not in QUICK_SKIP)
            or (MODE == "smoke" and c[0] in SMOKE_KEEP)]
 

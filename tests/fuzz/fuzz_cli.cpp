@@ -203,9 +203,8 @@ std::vector<std::string> option_values(const std::vector<std::string>& args, con
 /// (WxH for --resolution) within the limit, or negative (refused by envrender): "1_000" or "+1000" could mean more
 /// to CLI11 than to this check. Values without a digit ("abc", "nan") reach envrender's own checks.
 bool envrender_too_costly(std::vector<std::string>& args) {
-  static const std::map<std::string, long> limits = {{"--spp", 4},           {"--max-depth", 4},
-                                                     {"--bsdf-samples", 8},  {"--light-samples", 8},
-                                                     {"--product-resolution", 16}, {"--threads", 4}};
+  static const std::map<std::string, long> limits = {
+      {"--spp", 4}, {"--max-depth", 4}, {"--bsdf-samples", 8}, {"--light-samples", 8}, {"--threads", 4}};
   auto has_digit = [](const std::string& v) { return v.find_first_of("0123456789") != std::string::npos; };
   auto plain = [](const std::string& v, long limit) {
     const std::size_t start = v.size() > 1 && v[0] == '-' ? 1 : 0;

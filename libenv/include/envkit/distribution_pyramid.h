@@ -132,6 +132,14 @@ class PyramidDistribution2D final : public Distribution2D {
   /// sample_texel() as an inline, non-virtual call, for callers that know the class (SphericalDistribution).
   TexelSample pick(Vec2 u) const;
 
+  /// pick() started at node (i, j) of level k (0 <= k <= levels()) instead of the root: the descent for warps that
+  /// chose a node themselves (a product table over the nodes of one level, distribution_refined.h). u is the
+  /// position inside that node (clamped like every u); the node's sum must be positive. The returned pdf is the
+  /// density w.r.t. uv area GIVEN the node: leaf / node(k, i, j) x W x H.
+  TexelSample pick_below(int k, int i, int j, Vec2 u) const;
+  /// The probability the stored tables give texel (x, y) among the texels of its node at level k (the product of
+  /// the descent's choices below k, recomputed in double); texel_probability(x, y) is this for k = levels().
+  double texel_probability_below(int k, int x, int y) const;
   /// pick() of n <= sampling::kSampleGroup samples descending the pyramid together, level by level: each sample's
   /// step at level k prefetches the block it reads at level k - 1, one pass over the group later, so the group's
   /// misses in the large levels overlap.
@@ -206,6 +214,24 @@ class PyramidDistribution2D final : public Distribution2D {
   t.pdf = leaf * pdf_scale_;
   t.x = int(i);
   t.y = int(j);
+  return t;
+}
+
+inline TexelSample PyramidDistribution2D::pick_below(int k, int i, int j, Vec2 u) const {
+  double ux = sampling::clamp_decision(u.x), uy = sampling::clamp_decision(u.y);
+  std::size_t ii = std::size_t(i), jj = std::size_t(j);
+  const double top = node(k, i, j);
+  double leaf = top;
+  for (int m = k - 1; m >= 0; --m) {
+    const Level& level = levels_[std::size_t(m)];
+    leaf = detail::pyramid_step(nodes_.data() + level.offset + (jj * level.blocks_per_row + ii) * 4, ux, uy, ii, jj);
+  }
+  TexelSample t;
+  t.fx = std::min(kTexelOffsetMax, ux);
+  t.fy = std::min(kTexelOffsetMax, uy);
+  t.pdf = top > 0.0 ? leaf / top * (double(width_) * double(height_)) : 0.0;
+  t.x = int(ii);
+  t.y = int(jj);
   return t;
 }
 

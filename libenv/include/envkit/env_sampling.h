@@ -66,6 +66,10 @@ class SphericalDistribution {
   /// size is the grid's. Its weights must be importance x texel solid angle (see the file comment). Throws Error for
   /// another kind, a non-square octahedral grid or a HEALPix grid that is not 4 N_side x 3 N_side.
   SphericalDistribution(Kind grid, std::shared_ptr<const Distribution2D> distribution);
+  /// A distribution over the same grid as `same_grid` (the same size; throws Error otherwise), sharing its
+  /// precomputed geometry (row bands, longitude table: tens of kilobytes per grid and more), so that many
+  /// distributions over one grid cost only their own tables (product tables, lobe_product.h).
+  SphericalDistribution(const SphericalDistribution& same_grid, std::shared_ptr<const Distribution2D> distribution);
 
   /// Warp u in [0,1)^2 to a direction.
   DirectionSample sample(Vec2 u) const { return sample_(*this, u); }
@@ -142,23 +146,31 @@ class SphericalDistribution {
   std::shared_ptr<const Distribution2D> distribution_;
   /// What sample() runs, chosen at construction (sample_latlong<D, ...> or sample_general): one indirect call.
   DirectionSample (*sample_)(const SphericalDistribution&, const Vec2&) = &sample_general;
-  std::vector<RowBand> rows_;  // lat-long: per row, precomputed (no trigonometry per sample)
-  /// Lat-long: cos theta of the row edges, H + 1 values from 1 down to -1 (texel_of's exact row test).
-  std::vector<double> row_edge_cos_;
-  /// Lat-long: N = W x longitude_substeps_ steps of the angle a = 2 pi (x + fx) / W (lon = pi - a), at least
-  /// kMinLongitudeSteps so that a step is small enough for short sin/cos polynomials (env_sampling.cpp);
-  /// N + 1 entries.
-  std::vector<Longitude> longitudes_;
-  int longitude_substeps_ = 1;
-  double sin_poly_[3] = {};             // sin d and cos d - 1 for d = f 2 pi / N, polynomials in f in [0, 1)
-  double cos_poly_[2] = {};
-  /// Equal-area grids (octahedral, HEALPix): pdf per steradian over pdf_uv, 1 / (W H texel solid angle) = 1 / (4 pi).
-  double equal_area_pdf_factor_ = 0.0;
-  /// HEALPix grids: the map whose texel <-> direction functions place samples (its geometry lives in one place).
-  std::shared_ptr<const HealpixMap> healpix_;
-  /// HEALPix grids: offsets inside a texel are kept in [margin, 1 - margin] (HealpixMap::to_image_tolerance), so
-  /// that texel_of() locates every sample in the texel it was drawn from (pdf and radiance agree with the sample).
-  double healpix_margin_ = 0.0;
+  /// The grid's geometry, shared by every distribution over the same grid (see the constructor that takes one).
+  struct Geometry {
+    std::vector<RowBand> rows;  // lat-long: per row, precomputed (no trigonometry per sample)
+    /// Lat-long: cos theta of the row edges, H + 1 values from 1 down to -1 (texel_of's exact row test).
+    std::vector<double> row_edge_cos;
+    /// Lat-long: N = W x longitude_substeps steps of the angle a = 2 pi (x + fx) / W (lon = pi - a), at least
+    /// kMinLongitudeSteps so that a step is small enough for short sin/cos polynomials (env_sampling.cpp);
+    /// N + 1 entries.
+    std::vector<Longitude> longitudes;
+    int longitude_substeps = 1;
+    double sin_poly[3] = {};  // sin d and cos d - 1 for d = f 2 pi / N, polynomials in f in [0, 1)
+    double cos_poly[2] = {};
+    /// Equal-area grids (octahedral, HEALPix): pdf per steradian over pdf_uv, 1 / (W H texel solid angle) = 1 / (4 pi).
+    double equal_area_pdf_factor = 0.0;
+    /// HEALPix grids: the map whose texel <-> direction functions place samples (its geometry lives in one place).
+    std::shared_ptr<const HealpixMap> healpix;
+    /// HEALPix grids: offsets inside a texel are kept in [margin, 1 - margin] (HealpixMap::to_image_tolerance), so
+    /// that texel_of() locates every sample in the texel it was drawn from (pdf and radiance agree with the sample).
+    double healpix_margin = 0.0;
+  };
+  static std::shared_ptr<const Geometry> make_geometry(Kind grid, int width, int height);
+  /// Sets sample_ for the grid and the distribution's class.
+  void choose_sampler();
+  std::shared_ptr<const Geometry> geometry_;
+  const Geometry* g_ = nullptr;  // geometry_.get()
 };
 
 }  // namespace envkit

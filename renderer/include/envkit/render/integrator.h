@@ -18,23 +18,24 @@
 ///  - mis-compensated: as mis with the light technique drawing from the MIS-compensated table (Karlik et al.
 ///           2019): max(importance - mean, 0); the compensated pdf enters the weights. Needs N >= 1 (the BSDF
 ///           technique must cover what the compensated table leaves out).
-///  The sun (light, mis, mis-compensated, S >= 1): when the map has one (sun_split.h), the light technique is two:
+///  The sun (every strategy but bsdf, S >= 1): when the map has one (sun_split.h), the light technique is two:
 ///           S samples of the sun's texels and M of the rest of the map (a table of the same method without them).
 ///           Their densities never overlap, so each is weighted against the BSDF alone (in the weights above, a
 ///           light sample's n p is that of its own part, a BSDF sample's light term M p_rest + S p_sun). The
 ///           radiance is the map's in every case: the converged image does not depend on S. Materials whose
 ///           widest lobe is narrower than GGX alpha 0.25 keep the whole map's table (the split costs them more
 ///           than it gains: measured in BENCHMARKS.md).
-///  - product, product-mis: BSDF x cos x environment product sampling (product_sampling.h, Clarberg 2008) with
-///           M samples, alone or under MIS (same heuristic, multi-sample model) with N BSDF samples. Uses the
-///           hierarchical table; --product-resolution sets the coarse BSDF table. A table serves the following
-///           shading points of the same material while their normal and view direction stay within
-///           --product-reuse of the prepared ones (and half the lobe's width), within one pixel (begin_pixel());
-///           the BSDF is always evaluated at the point itself, so only the sampling density is shared.
+///  - product, product-mis: as light and mis, with the light technique (the whole map's, or the rest of the map
+///           beside the sun) replaced by the product table of the point's lobe (lobe_product.h): built once when
+///           the integrator starts, for every lobe the scene's materials have (the clamped cosine around the normal
+///           for Lambertian and plastic, the GGX reflection lobe of the material's alpha around the mirror
+///           direction for rough conductors) and a grid of axes; a shading point draws from the table of its
+///           lobe's axis. The table's pdf enters the weights as any light table's. Uses the hierarchical table.
 /// Delta lobes (perfect mirror): no light sample can hit them, so every strategy follows them by BSDF sampling
 /// with weight 1 (pure-delta materials take exactly one BSDF sample, whatever N and M say).
 /// No NaN or Inf leaves radiance(): a non-finite estimate (never expected) is replaced by 0 and counted.
 #include <envkit/env_sampling.h>
+#include <envkit/lobe_product.h>
 #include <envkit/render/camera.h>
 #include <envkit/render/env_light.h>
 #include <envkit/render/frame.h>
@@ -47,6 +48,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace envkit::render {
 
@@ -56,26 +59,20 @@ enum class Heuristic { Balance, Power };
 const char* strategy_name(Strategy s);
 Strategy parse_strategy(const std::string& name);  ///< throws Error listing the valid names
 Heuristic parse_heuristic(const std::string& name);
-/// True when this build has product sampling (renderer/src/product_*.cpp).
-bool product_sampling_available();
 
 struct IntegratorOptions {
-  Strategy strategy = Strategy::Mis;
+  /// The most efficient strategy on every real HDRI measured (BENCHMARKS.md, "Product tables").
+  Strategy strategy = Strategy::ProductMis;
   SamplingMethod light_method = SamplingMethod::Hierarchical;
   Heuristic heuristic = Heuristic::Power;
   int bsdf_samples = 1;
   int light_samples = 1;
-  int max_depth = 1;            ///< scattering events per path (1 = direct only)
-  int product_resolution = 8;   ///< passed to the product sampler (coarse BSDF table size)
-  /// Product table reuse (radians, 0 = a table per shading point): ProductSampler::Options::reuse_angle.
-  double product_reuse_angle = 0.3;
+  int max_depth = 1;  ///< scattering events per path (1 = direct only)
   /// Samples of the sun's texels per shading point when the map has a sun (sun_split.h); light_samples then draw
-  /// from the rest of the map. 0 = no split. Used by light, mis and mis-compensated, at shading points whose
+  /// from the rest of the map. 0 = no split. Used by every strategy but bsdf, at shading points whose
   /// material has a lobe at least as wide as GGX alpha 0.25 (Lambertian and plastic always; see integrator.cpp).
   int sun_samples = 1;
 };
-
-class ProductSamplers;  // per-thread ProductSampler instances (product_sampling.h)
 
 class Integrator {
  public:
@@ -85,10 +82,6 @@ class Integrator {
 
   /// Radiance along a camera ray.
   Vec3 radiance(const Ray& ray, Sampler& sampler) const;
-  /// Call before the samples of each pixel (render.cpp does): per-thread state such as a reusable product table
-  /// never crosses pixels, so a pixel's value depends only on its own samples, not on the thread schedule, the
-  /// tiles or the crop.
-  void begin_pixel() const;
   /// Direct environment light D(x, wo) leaving a shading point (exposed for tests). frame.n is the shading
   /// normal on the side of wo; geometric_normal is on the same side.
   Vec3 direct(const Vec3& position, const Frame& frame, const Vec3& geometric_normal, const Vec3& wo_local,
@@ -97,6 +90,10 @@ class Integrator {
   const IntegratorOptions& options() const { return options_; }
   /// The sun the light techniques split off (sun_split.h; directions in the tables' frame), or nullptr.
   const SunSplit* sun_split() const { return sun_ ? &*sun_ : nullptr; }
+  /// The product strategies' tables over the whole map, or nullptr (other strategies, or no material with a lobe).
+  const LobeProductTables* product_tables() const { return product_whole_.get(); }
+  /// Memory held by the product tables (both sets), bytes.
+  std::size_t product_table_bytes() const;
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
 
  private:
@@ -142,7 +139,9 @@ class Integrator {
   /// `light`: also find those techniques' density at the direction (MIS), the first in the radiance's texel search.
   BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, const LightTechniques* light = nullptr) const;
   /// The split when the map has a sun and the material's lobes are wide enough to gain from it, else the whole map.
-  const LightTechniques& techniques(const Material& material) const;
+  /// With product tables, the first part is the table of the material's lobe at this point's axis.
+  LightTechniques techniques(const ShadingPoint& x) const;
+  void build_product_tables();
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;
   LightTerm light_term(const ShadingPoint& x, const SphericalDistribution& distribution, Sampler& sampler) const;
@@ -153,8 +152,7 @@ class Integrator {
   // One estimator of D per strategy (see the file comment), chosen once by the constructor.
   Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_light(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;      ///< mis and mis-compensated
-  Vec3 direct_product(const ShadingPoint& x, Sampler& sampler) const;  ///< product and product-mis
+  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;  ///< mis and mis-compensated
 
   const Scene& scene_;
   const EnvironmentLight& light_;
@@ -164,7 +162,10 @@ class Integrator {
   LightTechniques split_;  ///< the rest of the map and the sun, when it has one
   std::optional<SunSplit> sun_;
   Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
-  std::unique_ptr<ProductSamplers> product_;
+  Mat3 inverse_rotation_;   ///< world -> the tables' frame
+  /// Product strategies: tables of the scene's lobes over the whole map and over the rest of the map beside the sun.
+  std::unique_ptr<LobeProductTables> product_whole_, product_split_;
+  std::vector<std::pair<const Material*, int>> material_lobes_;  ///< each material's lobe in the tables, or -1
   mutable std::atomic<std::size_t> nonfinite_{0};
 };
 

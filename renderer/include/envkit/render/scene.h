@@ -46,6 +46,7 @@ class Scene {
   int find_material(const std::string& name) const;
   std::vector<std::string> material_names() const;
   const Material& material(int index) const { return *materials_[static_cast<std::size_t>(index)]; }
+  int material_count() const { return static_cast<int>(materials_.size()); }
 
   /// Adds a sphere; radius must be > 0 and finite (Error naming `label` otherwise).
   void add_sphere(const Vec3& centre, double radius, int material, const std::string& label = "sphere");

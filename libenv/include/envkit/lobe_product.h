@@ -1,0 +1,79 @@
+#pragma once
+/// @file lobe_product.h
+/// Product tables: the environment's importance times a lobe, precomputed once per environment for every lobe
+/// shape a scene needs and a grid of lobe axes, so that a shading point draws from (approximately) its BSDF x
+/// environment product at the cost of one table choice and one hierarchical descent.
+///
+/// A lobe is a function of the cosine between a direction and its axis: the clamped cosine (a Lambertian surface,
+/// axis = the normal) or the reflected lobe of an isotropic GGX of roughness alpha (axis = the mirror direction),
+/// D(h) / 4 with h halfway between the axis and the direction: the density of directions that GGX visible-normal
+/// sampling reflects at normal incidence (it integrates to 1), without masking or Fresnel. It is a proxy: a shading
+/// point's actual BSDF differs by its view angle, its horizon and its axis's distance from the table's; any positive
+/// weight keeps an estimator unbiased, the proxy only decides how well the samples follow the product.
+///
+/// Tables. The axes are binned on an octahedral grid of B x B cells (OctahedralMap's square; B chosen per lobe: a
+/// narrow lobe needs its axis closer to the table's). For every (lobe, axis bin) a RefinedDistribution2D over the
+/// environment's hierarchical table: the cells are the pyramid's nodes at the level with about `cells` columns,
+/// each weighted by
+///     w(cell) = sum over its sub-nodes s (2^sub_levels finer) of node(s) x lobe(axis . centre(s))
+///             + floor_fraction x node(cell) x sum(w) / sum(node)
+/// and the texels inside a cell are drawn in proportion to the environment (the pyramid's own sums). The floor puts
+/// a share of every cell with light into the table, so pdf > 0 wherever the environment has light: unbiased with
+/// or without MIS, whatever lobe or axis a shading point is given.
+/// Density: every table is a SphericalDistribution over the environment's grid (the same sample() / pdf() /
+/// texel_pdf() as the baked tables), sharing the grid's geometry.
+/// Thread-safe and immutable after construction; built with oneTBB (results do not depend on the thread count).
+#include <envkit/env_sampling.h>
+
+#include <memory>
+#include <vector>
+
+namespace envkit {
+
+class PyramidDistribution2D;
+
+/// A lobe shape (see the file comment).
+struct Lobe {
+  enum class Shape { Cosine, Ggx };
+  Shape shape = Shape::Cosine;
+  double alpha = 1.0;  ///< GGX roughness (Ggx only), in [1e-3, 1]
+  /// The lobe's value at cosine c between a direction and its axis (>= 0, finite).
+  double value(double c) const;
+  bool operator==(const Lobe&) const = default;
+};
+
+class LobeProductTables {
+ public:
+  struct Options {
+    int cells = 32;             ///< cell columns: the pyramid level whose width is nearest in log2
+    int sub_levels = 1;         ///< the lobe is summed over 4^sub_levels sub-nodes per cell
+    int axis_bins_cosine = 16;  ///< B for the cosine lobe
+    int axis_bins_ggx = 32;     ///< B for GGX lobes
+    double floor_fraction = 0.1;
+  };
+
+  /// env: a hierarchical (pyramid) table (Error otherwise); lobes: at least one.
+  LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes, const Options& options);
+  LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes)
+      : LobeProductTables(env, std::move(lobes), Options()) {}
+
+  /// The table for lobe `lobe` (index into lobes()) whose axis bin holds `axis` (table frame, any length > 0;
+  /// a zero or NaN axis gets bin 0).
+  const SphericalDistribution& distribution(int lobe, const Vec3& axis) const;
+  const std::vector<Lobe>& lobes() const { return lobes_; }
+  /// Index of lobe in lobes(), or -1.
+  int find(const Lobe& lobe) const;
+  int axis_bins(int lobe) const { return bins_[std::size_t(lobe)]; }
+  /// The pyramid level of the cells and its size.
+  int cell_level() const { return level_; }
+  std::size_t bytes() const;
+
+ private:
+  std::vector<Lobe> lobes_;
+  std::vector<int> bins_;                      // B per lobe
+  std::vector<std::size_t> first_;             // index of each lobe's first table
+  std::vector<SphericalDistribution> tables_;  // per lobe, B x B axis bins, row-major
+  int level_ = 0;
+};
+
+}  // namespace envkit
