@@ -104,6 +104,7 @@ void Integrator::build_product_tables() {
   product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].distribution, lobes);
   if (sun_) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].distribution, lobes);
 }
+
 Integrator::~Integrator() = default;
 
 std::size_t Integrator::product_table_bytes() const {
@@ -117,11 +118,6 @@ double Integrator::mis_weight(double a, double b) const {
   }
   const double sum = a + b;
   return sum > 0.0 && std::isfinite(sum) ? a / sum : (std::isinf(a) ? 1.0 : 0.0);
-}
-
-Vec3 Integrator::escaped_radiance(const Vec3& origin, const Vec3& wi_world) const {
-  if (scene_.occluded(Ray{origin, wi_world})) return Vec3(0, 0, 0);
-  return light_.radiance(wi_world);
 }
 
 Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x) const {

@@ -133,8 +133,6 @@ class Integrator {
   };
   using DirectFn = Vec3 (Integrator::*)(const ShadingPoint&, Sampler&) const;
 
-  /// L_env(wi) if the ray from the point towards wi escapes, else 0.
-  Vec3 escaped_radiance(const Vec3& origin, const Vec3& wi_world) const;
   double mis_weight(double a, double b) const;
   /// `light`: also find those techniques' density at the direction (MIS), the first in the radiance's texel search.
   BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, const LightTechniques* light = nullptr) const;
