@@ -168,6 +168,13 @@ namespace envkit::testmaps {
 /// A uniform double in [0,1) with 53 random bits.
 inline double uniform53(std::mt19937_64& rng) { return double(rng() >> 11) * 0x1p-53; }
 
+/// A stable seed per test map (FNV-1a of its name), varied per test file by `salt`.
+inline std::uint64_t seed_of(const std::string& name, std::uint64_t salt) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (char c : name) h = (h ^ std::uint8_t(c)) * 1099511628211ull;
+  return h ^ salt;
+}
+
 /// The ideal texel probabilities of a weight grid: w / sum(w) with the tables' sanitising (negative/NaN -> 0,
 /// inf -> FLT_MAX), uniform when every weight is zero (the documented fallback). Accumulated in double.
 inline std::vector<double> reference_probabilities(std::span<const float> weights) {
@@ -365,6 +372,17 @@ inline std::vector<TestMap> standard_maps() {
     m.weights[12] = -0.0f;
     m.weights[20] = -std::numeric_limits<float>::infinity();
     maps.push_back(m);
+  }
+  return maps;
+}
+
+/// The standard maps that carry light (for distributions without a uniform fallback).
+inline std::vector<TestMap> lit_standard_maps() {
+  std::vector<TestMap> maps;
+  for (TestMap& m : standard_maps()) {
+    double total = 0.0;
+    for (float w : m.weights) total += sampling::sanitize_weight(w);
+    if (total > 0.0) maps.push_back(std::move(m));
   }
   return maps;
 }

@@ -15,31 +15,17 @@ using testmaps::uniform53;
 
 namespace {
 
-/// Every standard map that carries light, as a sparse table over all its texels (zero weights are dropped).
-std::vector<TestMap> lit_maps() {
-  std::vector<TestMap> maps;
-  for (TestMap& m : testmaps::standard_maps()) {
-    double total = 0.0;
-    for (float w : m.weights) total += sampling::sanitize_weight(w);
-    if (total > 0.0) maps.push_back(std::move(m));
-  }
-  return maps;
-}
-
-const int kChi2Tests = int(lit_maps().size());
+const int kChi2Tests = int(testmaps::lit_standard_maps().size());
 const double kAlpha = chi2::sidak_alpha(0.01, kChi2Tests);
 
+/// A standard map as a sparse table over all its texels (zero weights are dropped).
 std::unique_ptr<SparseDistribution2D> build(const TestMap& m) {
   std::vector<std::uint64_t> texels(m.weights.size());
   std::iota(texels.begin(), texels.end(), std::uint64_t(0));
   return std::make_unique<SparseDistribution2D>(m.width, m.height, texels, m.weights);
 }
 
-std::uint64_t seed_of(const std::string& name) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (char c : name) h = (h ^ std::uint8_t(c)) * 1099511628211ull;
-  return h ^ 0x5ea75eull;
-}
+std::uint64_t seed_of(const std::string& name) { return testmaps::seed_of(name, 0x5ea75eull); }
 
 }  // namespace
 
@@ -67,7 +53,7 @@ TEST_P(SparseMaps, InvertIsTheInverseOfSample) {
 
 TEST_P(SparseMaps, PdfIsZeroOutside) { EXPECT_EQ(testmaps::check_pdf_outside(*build(GetParam())), ""); }
 
-INSTANTIATE_TEST_SUITE_P(Maps, SparseMaps, ::testing::ValuesIn(lit_maps()), testmaps::MapName());
+INSTANTIATE_TEST_SUITE_P(Maps, SparseMaps, ::testing::ValuesIn(testmaps::lit_standard_maps()), testmaps::MapName());
 
 TEST(SparseDistribution2D, TexelsOffTheListAreNeverDrawnAndHaveNoDensity) {
   const int W = 4096, H = 2048;

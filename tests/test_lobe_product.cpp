@@ -16,6 +16,7 @@
 #include <random>
 
 #include "chi2.h"
+#include "tables_support.h"
 
 using namespace envkit;
 using testmaps::TestMap;
@@ -60,25 +61,10 @@ TestMap refined_reference(const TestMap& m, const PyramidDistribution2D& fine, i
   return r;
 }
 
-/// Standard maps with light (the refined warp has no uniform fallback: its cells need light).
-std::vector<TestMap> lit_maps() {
-  std::vector<TestMap> maps;
-  for (TestMap& m : testmaps::standard_maps()) {
-    double total = 0.0;
-    for (float w : m.weights) total += sampling::sanitize_weight(w);
-    if (total > 0.0) maps.push_back(std::move(m));
-  }
-  return maps;
-}
-
-const int kChi2Tests = 2 * int(lit_maps().size());
+const int kChi2Tests = 2 * int(testmaps::lit_standard_maps().size());
 const double kAlpha = chi2::sidak_alpha(0.01, kChi2Tests);
 
-std::uint64_t seed_of(const std::string& name) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (char c : name) h = (h ^ std::uint8_t(c)) * 1099511628211ull;
-  return h ^ 0x7ef1dull;
-}
+std::uint64_t seed_of(const std::string& name) { return testmaps::seed_of(name, 0x7ef1dull); }
 
 /// The level a test refines at: the middle of the pyramid (so that there are cells and a descent below them).
 int middle_level(const PyramidDistribution2D& fine) { return fine.levels() / 2; }
@@ -120,7 +106,8 @@ TEST_P(RefinedMaps, CellWeightsScaleTheirTexels) {
   EXPECT_EQ(testmaps::check_normalised(d), "");
 }
 
-INSTANTIATE_TEST_SUITE_P(Maps, RefinedMaps, ::testing::ValuesIn(lit_maps()), testmaps::MapName());
+// Maps with light only: the refined warp has no uniform fallback (its cells need light).
+INSTANTIATE_TEST_SUITE_P(Maps, RefinedMaps, ::testing::ValuesIn(testmaps::lit_standard_maps()), testmaps::MapName());
 
 TEST(RefinedDistribution2D, RefusesBadInput) {
   const TestMap m = testmaps::find_map("Constant8x4");
@@ -138,14 +125,7 @@ TEST(RefinedDistribution2D, RefusesBadInput) {
 
 namespace {
 
-EnvTables bake(const probes::Probe& probe, std::unique_ptr<Parameterization> param, Kind grid) {
-  EnvMap map;
-  map.image = probes::rasterize(probe, *param);
-  map.param = std::move(param);
-  BakeOptions options;
-  options.grid = grid;
-  return EnvTables::bake(map, options);
-}
+using test::bake;
 
 const std::vector<Lobe> kLobes = {{Lobe::Shape::Cosine, 1.0}, {Lobe::Shape::Ggx, 0.05}, {Lobe::Shape::Ggx, 0.3}};
 

@@ -10,19 +10,13 @@
 
 #include <random>
 
+#include "tables_support.h"
+
 using namespace envkit;
 
 namespace {
 
-EnvTables bake(const probes::Probe& probe, std::unique_ptr<Parameterization> param, Kind grid) {
-  EnvMap map;
-  map.image = probes::rasterize(probe, *param);
-  map.param = std::move(param);
-  BakeOptions options;
-  options.grid = grid;
-  options.compensated = true;
-  return EnvTables::bake(map, options);
-}
+using test::bake;
 
 /// Every texel of the grid belongs to exactly one part: the sun's texels have residual density 0 and the sun's
 /// density in proportion to their importance; every other lit texel has residual density in proportion to its

@@ -1,0 +1,24 @@
+#pragma once
+/// @file tables_support.h
+/// Test support: sampling tables baked from an analytic probe (header-only).
+#include <envkit/env_tables.h>
+#include <envkit/envmap.h>
+#include <envkit/probes.h>
+
+#include <memory>
+
+namespace envkit::test {
+
+/// Every table (cdf, alias, hierarchical and their compensated twins) of `probe` rasterised into `param`, on the
+/// bake grid `grid` (Kind::LatLong, Octahedral or HEALPix).
+inline EnvTables bake(const probes::Probe& probe, std::unique_ptr<Parameterization> param, Kind grid) {
+  EnvMap map;
+  map.image = probes::rasterize(probe, *param);
+  map.param = std::move(param);
+  BakeOptions options;
+  options.grid = grid;
+  options.compensated = true;
+  return EnvTables::bake(map, options);
+}
+
+}  // namespace envkit::test
