@@ -136,6 +136,12 @@ int run(const Args& a) {
     setup_notes.back() += " (built in " + tools::fmt(setup_ms, 3) + " ms)";
     for (const std::string& note : setup_notes) tools::info(note);
   }
+  // A clipped sun renders: its direction is right, its power is what the camera kept (too little).
+  if (const envkit::SunSplit* sun = integrator.sun_split(); sun && sun->sun().clipped)
+    tools::warn(scene.environment_description + ": the sun is clipped flat (" +
+                std::to_string(sun->sun().clipped_texels) + " of its " + std::to_string(sun->sun().texels) +
+                " texels share its maximum value): the map holds too little of its power, sunlit surfaces render "
+                "too dark");
 
   RenderOptions ro;
   ro.spp = a.spp;

@@ -178,6 +178,24 @@ TEST_F(RenderCli, SunSamplesAreReportedAndRecorded) {
   EXPECT_EQ(recorded(none), "0");
 }
 
+// A map whose sun the camera clipped: envrender renders it and warns that sunlit surfaces come out too dark; the
+// same sun unclipped gets no warning.
+TEST_F(RenderCli, ClippedSunIsWarnedAbout) {
+  const probes::SunProbe probe(Vec3(0.3, 0.5, 0.8), 1.5 * kPi / 180.0, Vec3(1e5), Vec3(0.05));
+  for (const bool clip : {true, false}) {
+    Image image = probes::rasterize(probe, LatLongMap(256, 128));
+    if (clip)
+      for (float& v : image.pixels) v = std::min(v, 200.0f);  // a camera that saturated at 200
+    const std::string name = clip ? "clipped.exr" : "full.exr";
+    write_image((dir_ / name).string(), image);
+    const auto file = write(
+        "sun.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])", "\"image\": \"" + name + "\""));
+    const auto r = envrender({"--scene", file.string(), "-o", (dir_ / "out.exr").string(), "--spp", "1", "--bake"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find(name + ": the sun is clipped flat") != std::string::npos, clip) << r.err;
+  }
+}
+
 // The product strategies say what they built and render the image mis renders, within its noise.
 TEST_F(RenderCli, ProductStrategiesNameTheirTablesAndAgreeWithMis) {
   const auto file = write("ok.json", scene());
