@@ -202,7 +202,9 @@ int main(int argc, char** argv) {
   app.add_option("--strategy", a.strategy, "bsdf|light|mis|mis-compensated|product|product-mis")
       ->check(CLI::IsMember({"bsdf", "light", "mis", "mis-compensated", "product", "product-mis"}))
       ->capture_default_str();
-  app.add_option("--light-method", a.light_method, "environment sampling table: cdf|alias|hierarchical")
+  app.add_option("--light-method", a.light_method,
+                 "environment sampling table of light, mis and mis-compensated: cdf|alias|hierarchical (the product "
+                 "strategies refine the hierarchical table)")
       ->check(tools::method_validator())
       ->capture_default_str();
   app.add_option("--heuristic", a.heuristic, "MIS heuristic: balance|power")

@@ -147,6 +147,11 @@ TEST_F(RenderCli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(envrender({"--strategy", "magic"}).code, 2);
   EXPECT_EQ(envrender({"--spp", "0"}).code, 2);
   EXPECT_EQ(envrender({"--light-method", "best"}).code, 2);
+  // A valid method the product strategies cannot use is an error, not ignored.
+  const auto r = envrender({"--light-method", "alias", "--spp", "1", "--resolution", "8x4"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("--light-method alias: the product strategies refine the hierarchical table"), std::string::npos)
+      << r.err;
   EXPECT_EQ(envrender({"--sun-samples", "-1"}).code, 2);
   EXPECT_EQ(envrender({"--sun-samples", "1.5"}).code, 2);
 }

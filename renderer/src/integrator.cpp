@@ -63,8 +63,11 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (s == Strategy::Product && options_.light_samples < 1) throw Error("strategy product needs --light-samples >= 1");
   if (s == Strategy::ProductMis && options_.bsdf_samples + options_.light_samples < 1)
     throw Error("strategy product-mis needs at least one sample");
-  // Product tables refine the hierarchical table: the product strategies draw from it whatever --light-method says.
-  const SamplingMethod method = product ? SamplingMethod::Hierarchical : options_.light_method;
+  if (product && options_.light_method != SamplingMethod::Hierarchical)
+    throw Error(std::string("--light-method ") + method_name(options_.light_method) +
+                ": the product strategies refine " +
+                "the hierarchical table (another method needs --strategy light, mis or mis-compensated)");
+  const SamplingMethod method = options_.light_method;
   if (s != Strategy::Bsdf) {
     const bool compensated = s == Strategy::MisCompensated;
     whole_ = {{LightTechnique{&light_.distribution(method, compensated), options_.light_samples}}, 1};
