@@ -128,8 +128,8 @@ int run(const Args& a) {
                           tools::fmt(100.0 * sun->sun().power_share, 3) + "% of the light, " +
                           std::to_string(a.sun_samples) + " sample(s) per shading point");
   }
-  if (const envkit::LobeProductTables* product = integrator.product_tables())
-    setup_notes.push_back("product tables for the scene's " + std::to_string(product->lobes().size()) +
+  if (integrator.has_product_tables())
+    setup_notes.push_back("product tables for the scene's " + std::to_string(integrator.product_lobe_count()) +
                           " lobe shape(s) (" + tools::fmt(double(integrator.product_table_bytes()) / (1 << 20), 3) +
                           " MiB)");
   if (!setup_notes.empty() && !a.quiet) {

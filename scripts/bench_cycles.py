@@ -33,8 +33,9 @@ import numpy as np
 EPS = 1e-2
 HDRI_DIR = "/usr/share/blender/datafiles/studiolights/world"
 
+CAMERA = {"position": [0.0, 1.6, -7.5], "look_at": [0.0, 0.55, 0.0], "up": [0, 1, 0], "fov": 26}
 SCENE = {
-    "camera": {"position": [0.0, 1.6, -7.5], "look_at": [0.0, 0.55, 0.0], "up": [0, 1, 0], "fov": 26},
+    "camera": CAMERA,
     "intensity": 1.0,
     "materials": {
         "ground": {"type": "diffuse", "albedo": 0.45},
@@ -50,8 +51,97 @@ SCENE = {
         {"center": [-0.65, 0.55, 0.0], "radius": 0.55, "material": "ggx015"},
         {"center": [-1.95, 0.55, 0.0], "radius": 0.55, "material": "ggx040"},
     ],
+    "regions": ["diffuse", "ggx005", "ggx015", "ggx040", "ground"],
 }
-REGIONS = ["diffuse", "ggx005", "ggx015", "ggx040", "ground"]
+# The OBJ mesh scene: a diffuse torus and a glossy (GGX alpha 0.15) torus knot, flat-shaded triangle meshes written
+# by this script (write_meshes) and read by both renderers from the same OBJ files.
+MESH_SCENE = {
+    "camera": CAMERA,
+    "intensity": 1.0,
+    "materials": {
+        "ground": {"type": "diffuse", "albedo": 0.45},
+        "torus": {"type": "diffuse", "albedo": 0.6},
+        "knot": {"type": "ggx", "roughness": 0.15},
+    },
+    "ground": {"half_size": 500.0, "material": "ground"},
+    "spheres": [],
+    "meshes": [
+        {"name": "torus", "material": "torus"},
+        {"name": "knot", "material": "knot"},
+    ],
+    "regions": ["torus", "knot", "ground"],
+}
+SCENES = {"spheres": SCENE, "mesh": MESH_SCENE}
+
+
+def torus_mesh(center, major, minor, n_major=48, n_minor=16):
+    """An upright torus (ring in the x-y plane) as vertices and triangles."""
+    verts, tris = [], []
+    for i in range(n_major):
+        a = 2 * math.pi * i / n_major
+        for j in range(n_minor):
+            b = 2 * math.pi * j / n_minor
+            r = major + minor * math.cos(b)
+            verts.append([center[0] + r * math.cos(a), center[1] + r * math.sin(a), center[2] + minor * math.sin(b)])
+    for i in range(n_major):
+        for j in range(n_minor):
+            a, b = i * n_minor + j, ((i + 1) % n_major) * n_minor + j
+            c, d = ((i + 1) % n_major) * n_minor + (j + 1) % n_minor, i * n_minor + (j + 1) % n_minor
+            tris += [[a, b, c], [a, c, d]]
+    return verts, tris
+
+
+def knot_mesh(center, scale, tube, p=2, q=3, n_path=192, n_tube=12):
+    """A (p, q) torus knot tube, standing in the x-y plane, as vertices and triangles."""
+    def path(t):
+        r = 2 + math.cos(q * t)
+        return np.array([r * math.cos(p * t), r * math.sin(p * t), -math.sin(q * t)]) * scale / 3
+    verts, tris = [], []
+    for i in range(n_path):
+        t = 2 * math.pi * i / n_path
+        c, nxt = path(t), path(t + 1e-3)
+        tangent = (nxt - c) / np.linalg.norm(nxt - c)
+        normal = np.cross(tangent, [0.0, 0.0, 1.0])
+        normal /= np.linalg.norm(normal)
+        binormal = np.cross(tangent, normal)
+        for j in range(n_tube):
+            b = 2 * math.pi * j / n_tube
+            v = c + tube * (math.cos(b) * normal + math.sin(b) * binormal)
+            verts.append([center[0] + v[0], center[1] + v[1], center[2] + v[2]])
+    for i in range(n_path):
+        for j in range(n_tube):
+            a, b = i * n_tube + j, ((i + 1) % n_path) * n_tube + j
+            c, d = ((i + 1) % n_path) * n_tube + (j + 1) % n_tube, i * n_tube + (j + 1) % n_tube
+            tris += [[a, b, c], [a, c, d]]
+    return verts, tris
+
+
+MESH_BUILDERS = {"torus": lambda: torus_mesh([1.05, 0.68, 0.0], 0.48, 0.19),
+                 "knot": lambda: knot_mesh([-1.05, 0.72, 0.0], 0.7, 0.11)}
+
+
+def write_meshes(spec, folder):
+    """Writes each mesh of the spec as an OBJ file in folder; returns the spec with each mesh's "file" set and
+    its triangles (for the region masks) under "triangles"."""
+    spec = dict(spec)
+    meshes = []
+    for m in spec.get("meshes", []):
+        verts, tris = MESH_BUILDERS[m["name"]]()
+        path = os.path.join(folder, m["name"] + ".obj")
+        with open(path, "w") as fh:
+            fh.write(f"# bench_cycles.py: {m['name']}, {len(tris)} triangles, envkit frame (+Y up)\n")
+            fh.writelines(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in verts)
+            fh.writelines(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in tris)
+        meshes.append(dict(m, file=path, triangles=np.array(verts)[np.array(tris)]))
+    spec["meshes"] = meshes
+    return spec
+
+
+def spec_for_json(spec):
+    """The spec without the mask-only triangle arrays (for results.json and Cycles' job file)."""
+    out = dict(spec)
+    out["meshes"] = [{k: v for k, v in m.items() if k != "triangles"} for m in spec.get("meshes", [])]
+    return out
 
 
 def envrender_scene(spec, hdri, size):
@@ -74,12 +164,13 @@ def envrender_scene(spec, hdri, size):
                     "vertices": [[-s, 0, -s], [s, 0, -s], [s, 0, s], [-s, 0, s]],
                     "triangles": [[0, 2, 1], [0, 3, 2]]}]
         + [{"type": "sphere", "center": sp["center"], "radius": sp["radius"], "material": sp["material"]}
-           for sp in spec["spheres"]],
+           for sp in spec["spheres"]]
+        + [{"type": "mesh", "file": m["file"], "material": m["material"]} for m in spec.get("meshes", [])],
     }
 
 
 def masks(spec, size, sub=4):
-    """Label per pixel (index into REGIONS, -1 background, -2 mixed) from envrender's camera model
+    """Label per pixel (index into spec["regions"], -1 background, -2 mixed) from envrender's camera model
     (camera.cpp): every one of sub x sub sub-pixel rays must see the same object."""
     w, h = size
     cam = spec["camera"]
@@ -100,6 +191,7 @@ def masks(spec, size, sub=4):
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     best = np.full(d.shape[:-1], np.inf)
     label = np.full(d.shape[:-1], -1)
+    regions = spec["regions"]
     for sp in spec["spheres"]:
         oc = pos - np.array(sp["center"], float)
         b = (d * oc).sum(-1)
@@ -108,13 +200,40 @@ def masks(spec, size, sub=4):
         tt = -b - np.sqrt(np.maximum(disc, 0))
         hit = (disc > 0) & (tt > 0) & (tt < best)
         best[hit] = tt[hit]
-        label[hit] = REGIONS.index(sp["material"])
+        label[hit] = regions.index(sp["material"])
+    for m in spec.get("meshes", []):
+        tri = m["triangles"]  # (n, 3, 3)
+        # Rays that can hit the mesh: those through its bounding sphere (Moeller-Trumbore on those only).
+        centre = tri.reshape(-1, 3).mean(0)
+        radius = np.linalg.norm(tri.reshape(-1, 3) - centre, axis=1).max()
+        oc = pos - centre
+        b = (d * oc).sum(-1)
+        near = b * b - ((oc * oc).sum() - radius ** 2) > 0
+        dn = d[near]
+        tbest = best[near]
+        lab = label[near]
+        for v0, v1, v2 in tri:
+            e1, e2 = v1 - v0, v2 - v0
+            pv = np.cross(dn, e2)
+            det = pv @ e1
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv = 1.0 / det
+                tv = pos - v0
+                u = (pv @ tv) * inv
+                qv = np.cross(tv, e1)
+                v = (dn @ qv) * inv
+                tt = (qv @ e2) * inv
+            hit = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (tt > 1e-9) & (tt < tbest)
+            tbest[hit] = tt[hit]
+            lab[hit] = regions.index(m["material"])
+        best[near] = tbest
+        label[near] = lab
     with np.errstate(divide="ignore", invalid="ignore"):
         tg = -pos[1] / d[..., 1]
     hp = pos + d * tg[..., None]
     s = spec["ground"]["half_size"]
     hit = (tg > 0) & (tg < best) & (np.abs(hp[..., 0]) < s) & (np.abs(hp[..., 2]) < s)
-    label[hit] = REGIONS.index("ground")
+    label[hit] = regions.index("ground")
     flat = label.reshape(h, w, sub * sub)
     out = flat[..., 0].copy()
     out[(flat != flat[..., :1]).any(-1)] = -2
@@ -164,8 +283,8 @@ def run_cycles(args, hdri, size, renders, timings_path, job_path):
             t = json.load(fh)
         if all(os.path.exists(r["output"]) for r in t["renders"]):
             return t
-    spec = dict(SCENE)
-    spec["camera"] = dict(SCENE["camera"], resolution=list(size))
+    spec = spec_for_json(args.spec)
+    spec["camera"] = dict(spec["camera"], resolution=list(size))
     job = {"scene": spec, "hdri": hdri, "threads": args.threads, "renders": renders, "timings": timings_path}
     with open(job_path, "w") as fh:
         json.dump(job, fh, indent=1)
@@ -189,6 +308,9 @@ def tonemap(img):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", choices=sorted(SCENES), default="spheres",
+                    help="spheres: four spheres on a ground; mesh: two OBJ meshes (a diffuse torus, a GGX 0.15 "
+                         "torus knot) on a ground")
     ap.add_argument("--hdris", default="sunrise,forest,interior")
     ap.add_argument("--spp", default="16,64,256")
     ap.add_argument("--size", default="160x90")
@@ -196,7 +318,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--quick", action="store_true", help="debug run: sunrise only, 64x36, 4/16 spp, ref 256")
-    ap.add_argument("--out", default="out/bench_cycles")
+    ap.add_argument("--out", default=None, help="default out/bench_cycles (spheres) or out/bench_cycles_mesh")
     ap.add_argument("--build", default="build")
     ap.add_argument("--blender", default="blender")
     ap.add_argument("--reuse", action="store_true",
@@ -211,6 +333,8 @@ def main():
     for tool in (args.envrender, shutil.which(args.blender) or "", shutil.which("oiiotool") or ""):
         if not tool or not os.path.exists(tool):
             sys.exit("bench_cycles: missing " + (tool or "blender/oiiotool") + " (build envrender; install blender, openimageio-tools)")
+    if args.out is None:
+        args.out = "out/bench_cycles" + ("" if args.scene == "spheres" else "_" + args.scene)
     hdris = args.hdris.split(",")
     spps = [int(s) for s in args.spp.split(",")]
     size = tuple(int(v) for v in args.size.lower().split("x"))
@@ -222,12 +346,14 @@ def main():
         with open(os.path.join(out, "results.json")) as fh:
             previous = json.load(fh)
     load_before = open("/proc/loadavg").read().split()[:3]
-    mask = masks(SCENE, size)
+    args.spec = write_meshes(SCENES[args.scene], out)
+    regions = args.spec["regions"]
+    mask = masks(args.spec, size)
     np.save(os.path.join(out, "regions.npy"), mask)
     results = {"date_utc": start.strftime("%Y-%m-%d %H:%M"), "size": list(size), "spp": spps, "ref_spp": args.ref_spp,
-               "repeats": args.repeats, "threads": args.threads, "eps": EPS, "regions": REGIONS,
-               "region_pixels": {r: int((mask == i).sum()) for i, r in enumerate(REGIONS)},
-               "background_pixels": int((mask == -1).sum()), "scene": SCENE,
+               "repeats": args.repeats, "threads": args.threads, "eps": EPS, "regions": regions,
+               "region_pixels": {r: int((mask == i).sum()) for i, r in enumerate(regions)},
+               "background_pixels": int((mask == -1).sum()), "scene": spec_for_json(args.spec),
                "envrender_strategy": "default: product-mis, power heuristic, 1 BSDF + 1 product-table sample (+ 1 sun sample under a sun)",
                "hdris": {}}
     for hdri_name in hdris:
@@ -236,7 +362,7 @@ def main():
         os.makedirs(d, exist_ok=True)
         scene_path = os.path.join(d, "scene.json")
         with open(scene_path, "w") as fh:
-            json.dump(envrender_scene(SCENE, hdri, size), fh, indent=1)
+            json.dump(envrender_scene(args.spec, hdri, size), fh, indent=1)
         R = {"envrender": {"runs": []}, "cycles": {"runs": []}}
         # Converged references, each renderer its own, seeds disjoint from the measured runs.
         t0 = time.time()
@@ -270,13 +396,13 @@ def main():
         for who in ("envrender", "cycles"):
             for run in R[who]["runs"]:
                 img = read_exr(run["path"])
-                run["relmse"] = {r: rel_mse(img, ref[who], mask == i) for i, r in enumerate(REGIONS)}
+                run["relmse"] = {r: rel_mse(img, ref[who], mask == i) for i, r in enumerate(regions)}
             summary = {}
             for spp in spps:
                 runs = [r for r in R[who]["runs"] if r["spp"] == spp]
                 sec = float(np.median([r["seconds"] for r in runs]))
                 summary[str(spp)] = {"seconds": sec, "regions": {}}
-                for reg in REGIONS:
+                for reg in regions:
                     m = float(np.median([r["relmse"][reg] for r in runs]))
                     summary[str(spp)]["regions"][reg] = {"relmse": m, "efficiency": 1.0 / (m * sec) if m > 0 else None}
             R[who]["summary"] = summary
@@ -296,7 +422,7 @@ def main():
                 a, b = read_exr(runs[0]["path"]).mean(-1), read_exr(runs[1]["path"]).mean(-1)
                 floor[who] = np.abs(a - b) / np.maximum(ref[who].mean(-1), 1e-8) * math.sqrt(top / args.ref_spp)
         agree = {}
-        for i, reg in enumerate(REGIONS + ["background"]):
+        for i, reg in enumerate(regions + ["background"]):
             m = (mask == i) if reg != "background" else (mask == -1)
             agree[reg] = {"median_abs_rel_diff": float(np.median(np.abs(rel[m]))),
                           "median_signed_rel_diff": float(np.median(rel[m])),

@@ -15,7 +15,8 @@ HDRI loaded with Blender's default world mapping and the same file read by envre
 Cycles settings: CPU, fixed thread count, direct light only (max_bounces 0: the BSDF-sampled ray is still traced
 to the world for MIS, the next surface is not shaded), no clamping, no glossy filter, no denoising, no adaptive
 sampling, box pixel filter 1 px wide, world importance map 1024, environment texture looked up with Closest
-(envrender looks the map up at the nearest texel). Spheres are point-cloud points (Cycles renders them as exact
+(envrender looks the map up at the nearest texel). Meshes are read from the job's OBJ files (flat-shaded
+triangles). Spheres are point-cloud points (Cycles renders them as exact
 spheres) made by a geometry-nodes Points node. Glossy spheres: Glossy BSDF, GGX, roughness = sqrt(alpha) (Cycles
 squares it), white: a Fresnel-less GGX reflector.
 
@@ -172,6 +173,23 @@ def build(scene_spec, hdri, threads):
         scene.collection.objects.link(obj)
         mod = obj.modifiers.new("points", "NODES")
         mod.node_group = ng
+
+    # OBJ meshes (written by bench_cycles.py: "v x y z" and "f a b c" lines, envkit frame), flat-shaded as
+    # envrender shades a mesh without vertex normals.
+    for m in scene_spec.get("meshes", []):
+        verts, faces = [], []
+        with open(m["file"]) as fh:
+            for line in fh:
+                parts = line.split()
+                if parts and parts[0] == "v":
+                    verts.append(to_blender([float(v) for v in parts[1:4]]))
+                elif parts and parts[0] == "f":
+                    faces.append([int(v.split("/")[0]) - 1 for v in parts[1:]])
+        mesh = bpy.data.meshes.new(m["name"])
+        mesh.from_pydata(verts, [], faces)
+        mesh.materials.append(mats[m["material"]])
+        obj = bpy.data.objects.new(m["name"], mesh)
+        scene.collection.objects.link(obj)
     return scene
 
 

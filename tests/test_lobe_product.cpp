@@ -11,6 +11,7 @@
 #include <envkit/octahedral.h>
 #include <envkit/probes.h>
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <functional>
 #include <random>
@@ -104,6 +105,12 @@ TEST_P(RefinedMaps, CellWeightsScaleTheirTexels) {
   EXPECT_EQ(testmaps::check_matches_weights(d, reference, 1e-5), "");
   EXPECT_EQ(testmaps::check_samples(d, reference, 5000, seed_of(m.name) + 8), "");
   EXPECT_EQ(testmaps::check_normalised(d), "");
+  // A sample's pdf is pdf() at its uv bit for bit (one formula on both sides).
+  std::mt19937_64 rng(seed_of(m.name) + 9);
+  for (int s = 0; s < 2000; ++s) {
+    const DistributionSample ds = d.sample(Vec2(uniform53(rng), uniform53(rng)));
+    ASSERT_EQ(d.pdf(ds.uv), ds.pdf) << ds.x << "," << ds.y;
+  }
 }
 
 // Maps with light only: the refined warp has no uniform fallback (its cells need light).
@@ -184,6 +191,39 @@ TEST(LobeProductTables, EveryTableIsANormalisedDensityPositiveWhereTheMapHasLigh
         }
       }
   }
+}
+
+// The tables do not depend on the thread count that built them: the same bits under one thread and under many.
+TEST(LobeProductTables, TablesDoNotDependOnTheThreadCount) {
+  const probes::SunProbe probe(Vec3(0.2, 0.6, 0.7).normalized(), 2.0 * kPi / 180.0, Vec3(5e3), Vec3(0.4));
+  const EnvTables tables = bake(probe, std::make_unique<LatLongMap>(128, 64), Kind::LatLong);
+  const SphericalDistribution& env = *tables.distribution(SamplingMethod::Hierarchical);
+  const LobeProductTables many(env, kLobes);
+  std::unique_ptr<LobeProductTables> one;
+  {
+    tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
+    one = std::make_unique<LobeProductTables>(env, kLobes);
+  }
+  for (int l = 0; l < int(kLobes.size()); ++l)
+    for (const Vec3& axis : test_axes())
+      for (int y = 0; y < env.height(); ++y)
+        for (int x = 0; x < env.width(); ++x)
+          ASSERT_EQ(one->distribution(l, axis).texel_pdf(x, y), many.distribution(l, axis).texel_pdf(x, y));
+}
+
+// Texels with a 1e-50 share of the map's light each: every table still draws them with a positive density.
+TEST(LobeProductTables, TheFloorReachesTheDimmestLight) {
+  LatLongMap grid(64, 32);
+  const probes::TexelProbe probe(grid, 40, 5, Vec3(1e30), Vec3(1e-20));
+  const EnvTables tables = bake(probe, std::make_unique<LatLongMap>(64, 32), Kind::LatLong);
+  const SphericalDistribution& env = *tables.distribution(SamplingMethod::Hierarchical);
+  const LobeProductTables product(env, kLobes);
+  for (int l = 0; l < int(kLobes.size()); ++l)
+    for (const Vec3& axis : test_axes()) {
+      const SphericalDistribution& d = product.distribution(l, axis);
+      for (int y = 0; y < env.height(); ++y)
+        for (int x = 0; x < env.width(); ++x) ASSERT_GT(d.texel_pdf(x, y), 0.0) << l << " " << x << "," << y;
+    }
 }
 
 // On a constant map a table draws directions by its lobe (and the floor): the cosine table puts most samples above

@@ -9,6 +9,15 @@ namespace envkit {
 
 namespace {
 
+const PyramidDistribution2D& checked(const std::shared_ptr<const PyramidDistribution2D>& fine) {
+  if (!fine) throw Error("refined distribution: null pyramid");
+  return *fine;
+}
+
+/// The base class validates the size and a non-null weight pointer; a refined distribution has no per-texel
+/// weights, so it is given this one.
+constexpr float kNoWeights = 0.0f;
+
 /// The cell weights with every cell whose fine node is 0 set to 0 (nothing below it could be drawn).
 std::vector<float> supported_weights(const PyramidDistribution2D& fine, int level, std::span<const float> weights) {
   if (level < 0 || level > fine.levels())
@@ -34,11 +43,10 @@ std::vector<float> supported_weights(const PyramidDistribution2D& fine, int leve
 
 RefinedDistribution2D::RefinedDistribution2D(std::shared_ptr<const PyramidDistribution2D> fine, int level,
                                              std::span<const float> cell_weights)
-    : Distribution2D(cell_weights.data(), fine ? fine->width() : 1, fine ? fine->height() : 1),
+    : Distribution2D(&kNoWeights, checked(fine).width(), checked(fine).height()),
       fine_(std::move(fine)),
       level_(level),
       cells_([&] {
-        if (!fine_) throw Error("refined distribution: null pyramid");
         const std::vector<float> w = supported_weights(*fine_, level, cell_weights);
         return PyramidDistribution2D(w.data(), fine_->level_width(level), fine_->level_height(level));
       }()) {
@@ -58,8 +66,9 @@ double RefinedDistribution2D::texel_pdf(int x, int y) const {
   const int cx = x >> level_, cy = y >> level_;
   const double node = fine_->node(level_, cx, cy);
   if (!(node > 0.0)) return 0.0;
-  const double cell = cells_.pdf(Vec2((cx + 0.5) / cells_.width(), (cy + 0.5) / cells_.height())) * cell_area_;
-  const double p = cell * (fine_->node(0, x, y) / node) * (double(width_) * double(height_));
+  // As pick(): pick_below's density given the cell, then density().
+  const double given_cell = fine_->node(0, x, y) / node * (double(width_) * double(height_));
+  const double p = density(given_cell, cells_.pdf(Vec2((cx + 0.5) / cells_.width(), (cy + 0.5) / cells_.height())));
   return std::isfinite(p) ? p : 0.0;
 }
 

@@ -5,11 +5,17 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 namespace envkit {
 
 namespace {
+
+constexpr int kCellColumns = 32;  // the cell level: its width nearest to this in log2
+constexpr int kAxisBinsCosine = 16;
+constexpr int kAxisBinsGgx = 32;
+constexpr double kFloorFraction = 0.1;
 
 /// The direction at continuous texel coordinates (X, Y) of the grid.
 Vec3 grid_direction(const SphericalDistribution& env, double X, double Y) {
@@ -65,7 +71,7 @@ double Lobe::value(double c) const {
   return std::isfinite(v) ? v : 0.0;
 }
 
-LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes, const Options& options)
+LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes)
     : lobes_(std::move(lobes)) {
   const auto fine = std::dynamic_pointer_cast<const PyramidDistribution2D>(env.distribution_ptr());
   if (!fine)
@@ -75,22 +81,23 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
   for (const Lobe& l : lobes_)
     if (l.shape == Lobe::Shape::Ggx && !(l.alpha >= 1e-3 && l.alpha <= 1.0))
       throw Error("product tables: GGX alpha " + std::to_string(l.alpha) + " outside [0.001, 1]");
-  // The cell level: its width nearest to options.cells in log2; the sub-node level below it.
-  const double target = std::log2(double(std::max(1, options.cells)));
+  // The cell level: its width nearest to kCellColumns in log2; the sub-node level below it.
+  const double target = std::log2(double(kCellColumns));
   double best = 1e300;
+  int level = 0;
   for (int k = 0; k <= fine->levels(); ++k) {
     const double d = std::abs(std::log2(double(fine->level_width(k))) - target);
     if (d < best - 1e-12) {
       best = d;
-      level_ = k;
+      level = k;
     }
   }
-  int sub = std::max(0, level_ - std::max(0, options.sub_levels));
+  int sub = std::max(0, level - 1);
   // HEALPix: a sub-node must lie inside one base pixel (N_side = width / 4 texels square) for its cone to hold it;
   // cells may group sub-nodes of base pixels that are not neighbours (only their sum is used).
   if (env.grid() == Kind::HEALPix)
-    while (sub > 0 && (1 << sub) > env.width() / 4) --sub;
-  const int cw = fine->level_width(level_), ch = fine->level_height(level_);
+    while (sub > 0 && (env.width() / 4) % (1 << sub) != 0) --sub;
+  const int cw = fine->level_width(level), ch = fine->level_height(level);
   const int sw = fine->level_width(sub), sh = fine->level_height(sub);
   // Sub-nodes: centre and environment sum, grouped by cell.
   struct SubNode {
@@ -103,7 +110,7 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
     for (int i = 0; i < sw; ++i) {
       const double e = fine->node(sub, i, j);
       if (!(e > 0.0)) continue;
-      const int shift = level_ - sub;
+      const int shift = level - sub;
       const Cone cone = node_cone(env, sub, i, j);
       by_cell[std::size_t(j >> shift) * std::size_t(cw) + std::size_t(i >> shift)].push_back(
           {cone.centre, std::cos(cone.radius), std::sin(cone.radius), e});
@@ -112,11 +119,11 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
   double env_total = 0.0;
   for (int j = 0; j < ch; ++j)
     for (int i = 0; i < cw; ++i)
-      env_total += cell_env[std::size_t(j) * std::size_t(cw) + std::size_t(i)] = fine->node(level_, i, j);
+      env_total += cell_env[std::size_t(j) * std::size_t(cw) + std::size_t(i)] = fine->node(level, i, j);
 
   std::size_t count = 0;
   for (const Lobe& l : lobes_) {
-    const int B = std::max(1, l.shape == Lobe::Shape::Cosine ? options.axis_bins_cosine : options.axis_bins_ggx);
+    const int B = l.shape == Lobe::Shape::Cosine ? kAxisBinsCosine : kAxisBinsGgx;
     bins_.push_back(B);
     first_.push_back(count);
     count += std::size_t(B) * std::size_t(B);
@@ -150,17 +157,22 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
       lobe_total += s;
     }
     // Normalised before rounding to float: env sums times a narrow lobe's peak may exceed the float range.
-    const double floor = options.floor_fraction * (lobe_total > 0.0 ? lobe_total / env_total : 1.0);
-    const double scale = 1.0 / (lobe_total + floor * env_total);
+    const double floor_per_env = kFloorFraction * (lobe_total > 0.0 ? lobe_total / env_total : 1.0);
+    const double scale = 1.0 / (lobe_total + floor_per_env * env_total);
     std::vector<float> weights(w.size());
-    for (std::size_t c = 0; c < w.size(); ++c) weights[c] = float((w[c] + floor * cell_env[c]) * scale);
-    built[t] = std::make_shared<RefinedDistribution2D>(fine, level_, weights);
+    // At least the smallest normal float on every cell with light: a cell with a 1e-40 share of the map's light
+    // still gets pdf > 0 (a float rounding it to 0 would bias every estimator without BSDF samples).
+    for (std::size_t c = 0; c < w.size(); ++c)
+      weights[c] = cell_env[c] > 0.0 ? std::max(float((w[c] + floor_per_env * cell_env[c]) * scale), FLT_MIN) : 0.0f;
+    built[t] = std::make_shared<RefinedDistribution2D>(fine, level, weights);
   });
   tables_.reserve(count);
   for (auto& d : built) tables_.emplace_back(env, std::move(d));
 }
 
 const SphericalDistribution& LobeProductTables::distribution(int lobe, const Vec3& axis) const {
+  if (lobe < 0 || lobe >= int(lobes_.size()))
+    throw Error("product tables: lobe " + std::to_string(lobe) + " of " + std::to_string(lobes_.size()));
   const int B = bins_[std::size_t(lobe)];
   const Vec2 p = OctahedralMap::unit_from_direction(axis);
   const auto bin = [B](double t) { return t > 0.0 ? std::min(int(t * B), B - 1) : 0; };  // NaN -> 0

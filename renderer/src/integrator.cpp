@@ -47,7 +47,7 @@ Heuristic parse_heuristic(const std::string& name) {
 }
 
 Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
-    : scene_(scene), light_(light), options_(options), inverse_rotation_(transposed(light.rotation())) {
+    : scene_(scene), light_(light), options_(options) {
   if (options_.bsdf_samples < 0 || options_.light_samples < 0) throw Error("sample counts must be >= 0");
   if (options_.max_depth < 1) throw Error("--max-depth must be >= 1");
   const Strategy s = options_.strategy;
@@ -87,28 +87,33 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (product) build_product_tables();
 }
 
+std::optional<Lobe> Integrator::product_lobe(const Material& material) {
+  const double alpha = material.widest_lobe_alpha();
+  if (material.is_pure_delta() || !(alpha > 0.0)) return std::nullopt;
+  return alpha >= 1.0 ? Lobe{Lobe::Shape::Cosine, 1.0} : Lobe{Lobe::Shape::Ggx, std::max(alpha, 1e-3)};
+}
+
 void Integrator::build_product_tables() {
-  // One lobe per material that has a non-delta lobe: the clamped cosine for materials with a Lambertian part,
-  // the GGX reflection lobe of the material's alpha for rough conductors.
-  std::vector<Lobe> lobes;
+  // The scene's lobes; with a sun, those of materials that take sun samples get tables over the rest of the map,
+  // the others over the whole map (techniques()).
+  std::vector<Lobe> whole, split;
   for (int m = 0; m < scene_.material_count(); ++m) {
     const Material& material = scene_.material(m);
-    const double alpha = material.widest_lobe_alpha();
-    int index = -1;
-    if (!material.is_pure_delta() && alpha > 0.0) {
-      const Lobe lobe = alpha >= 1.0 ? Lobe{Lobe::Shape::Cosine, 1.0} : Lobe{Lobe::Shape::Ggx, std::max(alpha, 1e-3)};
-      const auto it = std::find(lobes.begin(), lobes.end(), lobe);
-      index = int(it - lobes.begin());
-      if (it == lobes.end()) lobes.push_back(lobe);
-    }
-    material_lobes_.emplace_back(&material, index);
+    const std::optional<Lobe> lobe = product_lobe(material);
+    if (!lobe) continue;
+    std::vector<Lobe>& set = sun_ && material.widest_lobe_alpha() >= kSunSplitMinAlpha ? split : whole;
+    if (std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
   }
-  if (lobes.empty()) return;
-  product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].distribution, lobes);
-  if (sun_) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].distribution, lobes);
+  if (!whole.empty()) product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].distribution, whole);
+  if (!split.empty()) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].distribution, split);
 }
 
 Integrator::~Integrator() = default;
+
+int Integrator::product_lobe_count() const {
+  return (product_whole_ ? int(product_whole_->lobes().size()) : 0) +
+         (product_split_ ? int(product_split_->lobes().size()) : 0);
+}
 
 std::size_t Integrator::product_table_bytes() const {
   return (product_whole_ ? product_whole_->bytes() : 0) + (product_split_ ? product_split_->bytes() : 0);
@@ -126,14 +131,15 @@ double Integrator::mis_weight(double a, double b) const {
 Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x) const {
   const bool split = sun_ && x.material.widest_lobe_alpha() >= kSunSplitMinAlpha;
   LightTechniques t = split ? split_ : whole_;
-  if (!product_whole_) return t;
-  const auto it = std::find_if(material_lobes_.begin(), material_lobes_.end(),
-                               [&](const auto& m) { return m.first == &x.material; });
-  if (it == material_lobes_.end() || it->second < 0) return t;
-  const LobeProductTables& tables = split ? *product_split_ : *product_whole_;
-  const bool cosine = tables.lobes()[std::size_t(it->second)].shape == Lobe::Shape::Cosine;
-  const Vec3 axis = cosine ? x.frame.n : x.frame.to_world(Vec3(-x.wo.x, -x.wo.y, x.wo.z));
-  t.parts[0].distribution = &tables.distribution(it->second, apply(inverse_rotation_, axis));
+  const LobeProductTables* tables = split ? product_split_.get() : product_whole_.get();
+  if (!tables) return t;
+  // By lobe, not by material: a material outside the scene (direct() is public) with a lobe of the scene's gets
+  // its table too; one without keeps the plain table.
+  const std::optional<Lobe> lobe = product_lobe(x.material);
+  const int index = lobe ? tables->find(*lobe) : -1;
+  if (index < 0) return t;
+  const Vec3 axis = lobe->shape == Lobe::Shape::Cosine ? x.frame.n : x.frame.to_world(Vec3(-x.wo.x, -x.wo.y, x.wo.z));
+  t.parts[0].distribution = &tables->distribution(index, light_.to_table(axis));
   return t;
 }
 

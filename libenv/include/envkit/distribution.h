@@ -107,7 +107,7 @@ class Distribution2D {
   Distribution2D(Distribution2D&&) = default;
   Distribution2D& operator=(Distribution2D&&) = default;
 
-  /// "cdf", "alias" or "pyramid".
+  /// "cdf", "alias", "pyramid", "sparse" or "refined".
   virtual const char* method() const = 0;
 
   /// Warp u in [0,1)^2 to a sample. Deterministic: identical tables and u give bit-identical results.

@@ -7,7 +7,9 @@
 /// Warp: a pyramid over the cell weights chooses a cell with u (hierarchically, so stratification survives), the
 /// position left inside the cell descends the fine pyramid from that cell's node (PyramidDistribution2D::
 /// pick_below). Probability of texel (x, y) in cell c: P(c) x leaf(x, y) / node(c), P(c) = w(c) / sum(w).
-/// pdf() is that ideal ratio (as the pyramid's own pdf: the drawn product matches it to ~1e-6 relative).
+/// pdf() is that ideal ratio, computed exactly as sample() computes a sample's pdf (so the two are equal bit for
+/// bit); like the pyramid's own pdf, the product of the descent's float choices matches it to float precision.
+/// integral() is 1: the density is normalised by construction (there are no per-texel weights to sum).
 /// Cells whose fine node is 0 get weight 0 (they hold no texel that could be drawn); cells with a positive node
 /// and weight 0 are never drawn (pdf 0 on their texels): give every cell with light a positive weight where the
 /// estimator needs pdf > 0.
@@ -39,19 +41,20 @@ class RefinedDistribution2D final : public Distribution2D {
   TexelSample pick(Vec2 u) const {
     const TexelSample cell = cells_.pick(u);
     TexelSample t = fine_->pick_below(level_, cell.x, cell.y, Vec2(cell.fx, cell.fy));
-    t.pdf *= cell.pdf * cell_area_;
+    t.pdf = density(t.pdf, cell.pdf);
     return t;
   }
   /// Density w.r.t. uv area of texel (x, y) (0 outside the grid).
   double texel_pdf(int x, int y) const;
-  int level() const { return level_; }
-  const PyramidDistribution2D& cells() const { return cells_; }
 
  private:
   std::shared_ptr<const PyramidDistribution2D> fine_;
   int level_ = 0;
   PyramidDistribution2D cells_;
   double cell_area_ = 1.0;  // 1 / (cells' width x height): cell probability = cells_ pdf x cell_area_
+  /// The density of a texel from its density given its cell (pick_below's pdf) and its cell's density under
+  /// cells_: the one formula of pick() and texel_pdf().
+  double density(double given_cell, double cell_pdf) const { return given_cell * (cell_pdf * cell_area_); }
 };
 
 }  // namespace envkit

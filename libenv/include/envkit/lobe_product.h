@@ -11,12 +11,16 @@
 /// point's actual BSDF differs by its view angle, its horizon and its axis's distance from the table's; any positive
 /// weight keeps an estimator unbiased, the proxy only decides how well the samples follow the product.
 ///
-/// Tables. The axes are binned on an octahedral grid of B x B cells (OctahedralMap's square; B chosen per lobe: a
-/// narrow lobe needs its axis closer to the table's). For every (lobe, axis bin) a RefinedDistribution2D over the
-/// environment's hierarchical table: the cells are the pyramid's nodes at the level with about `cells` columns,
-/// each weighted by
-///     w(cell) = sum over its sub-nodes s (2^sub_levels finer) of node(s) x lobe(axis . centre(s))
-///             + floor_fraction x node(cell) x sum(w) / sum(node)
+/// Tables. The axes are binned on an octahedral grid of B x B cells (OctahedralMap's square; B = 16 for the cosine,
+/// 32 for GGX lobes: a narrow lobe needs its axis closer to the table's). For every (lobe, axis bin) a
+/// RefinedDistribution2D over the environment's hierarchical table: the cells are the pyramid's nodes at the level
+/// whose width is nearest to 32 columns (in log2), each weighted by
+///     w(cell) = sum over its 4 sub-nodes s (the level below) of node(s) x lobe(cos(max(0, angle - delta)))
+///             + 0.1 x node(cell) x sum(w) / sum(node)
+/// with angle the angle between the bin's centre axis and the sub-node's centre, and delta the bin's radius plus
+/// the sub-node's (the largest lobe value any axis of the bin gives any direction of the sub-node, so that no
+/// point's lobe is cut where its table's is 0, e.g. a bright window just above a point's horizon but below its
+/// bin centre's). The second term, the floor, is at least the smallest normal float on every cell with light.
 /// and the texels inside a cell are drawn in proportion to the environment (the pyramid's own sums). The floor puts
 /// a share of every cell with light into the table, so pdf > 0 wherever the environment has light: unbiased with
 /// or without MIS, whatever lobe or axis a shading point is given.
@@ -39,33 +43,23 @@ struct Lobe {
   double alpha = 1.0;  ///< GGX roughness (Ggx only), in [1e-3, 1]
   /// The lobe's value at cosine c between a direction and its axis (>= 0, finite).
   double value(double c) const;
-  bool operator==(const Lobe&) const = default;
+  /// Same shape, and for GGX the same alpha.
+  bool operator==(const Lobe& other) const {
+    return shape == other.shape && (shape == Shape::Cosine || alpha == other.alpha);
+  }
 };
 
 class LobeProductTables {
  public:
-  struct Options {
-    int cells = 32;             ///< cell columns: the pyramid level whose width is nearest in log2
-    int sub_levels = 1;         ///< the lobe is summed over 4^sub_levels sub-nodes per cell
-    int axis_bins_cosine = 16;  ///< B for the cosine lobe
-    int axis_bins_ggx = 32;     ///< B for GGX lobes
-    double floor_fraction = 0.1;
-  };
+  /// env: a hierarchical (pyramid) table (Error otherwise); lobes: at least one, GGX alphas in [1e-3, 1].
+  LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes);
 
-  /// env: a hierarchical (pyramid) table (Error otherwise); lobes: at least one.
-  LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes, const Options& options);
-  LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes)
-      : LobeProductTables(env, std::move(lobes), Options()) {}
-
-  /// The table for lobe `lobe` (index into lobes()) whose axis bin holds `axis` (table frame, any length > 0;
-  /// a zero or NaN axis gets bin 0).
+  /// The table for lobe `lobe` (index into lobes(); Error outside) whose axis bin holds `axis` (table frame, any
+  /// length > 0; a zero or NaN axis gets bin 0).
   const SphericalDistribution& distribution(int lobe, const Vec3& axis) const;
   const std::vector<Lobe>& lobes() const { return lobes_; }
-  /// Index of lobe in lobes(), or -1.
+  /// Index of lobe in lobes(), or -1 (the cosine lobe's alpha is not compared).
   int find(const Lobe& lobe) const;
-  int axis_bins(int lobe) const { return bins_[std::size_t(lobe)]; }
-  /// The pyramid level of the cells and its size.
-  int cell_level() const { return level_; }
   std::size_t bytes() const;
 
  private:
@@ -73,7 +67,6 @@ class LobeProductTables {
   std::vector<int> bins_;                      // B per lobe
   std::vector<std::size_t> first_;             // index of each lobe's first table
   std::vector<SphericalDistribution> tables_;  // per lobe, B x B axis bins, row-major
-  int level_ = 0;
 };
 
 }  // namespace envkit

@@ -53,6 +53,8 @@ class EnvironmentLight {
 
   const EnvTables& tables() const { return *tables_; }
   const Mat3& rotation() const { return rotation_; }
+  /// A world direction in the tables' frame (the inverse of rotation()).
+  Vec3 to_table(const Vec3& d) const { return apply(inverse_rotation_, d); }
   double intensity() const { return intensity_; }
   /// Mean radiance over the sphere per channel (intensity applied), for reports and tests.
   Vec3 mean_radiance() const;

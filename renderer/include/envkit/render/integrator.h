@@ -61,7 +61,7 @@ Strategy parse_strategy(const std::string& name);  ///< throws Error listing the
 Heuristic parse_heuristic(const std::string& name);
 
 struct IntegratorOptions {
-  /// The most efficient strategy on every real HDRI measured (BENCHMARKS.md, "Product tables").
+  /// Why this default: BENCHMARKS.md, "Product tables".
   Strategy strategy = Strategy::ProductMis;
   SamplingMethod light_method = SamplingMethod::Hierarchical;
   Heuristic heuristic = Heuristic::Power;
@@ -90,9 +90,10 @@ class Integrator {
   const IntegratorOptions& options() const { return options_; }
   /// The sun the light techniques split off (sun_split.h; directions in the tables' frame), or nullptr.
   const SunSplit* sun_split() const { return sun_ ? &*sun_ : nullptr; }
-  /// The product strategies' tables over the whole map, or nullptr (other strategies, or no material with a lobe).
-  const LobeProductTables* product_tables() const { return product_whole_.get(); }
-  /// Memory held by the product tables (both sets), bytes.
+  /// Whether the product strategies built tables (no: other strategies, or no material with a non-delta lobe).
+  bool has_product_tables() const { return product_whole_ || product_split_; }
+  /// The number of lobes the product tables were built for (both sets), and the memory they hold (bytes).
+  int product_lobe_count() const;
   std::size_t product_table_bytes() const;
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
 
@@ -139,6 +140,9 @@ class Integrator {
   /// The split when the map has a sun and the material's lobes are wide enough to gain from it, else the whole map.
   /// With product tables, the first part is the table of the material's lobe at this point's axis.
   LightTechniques techniques(const ShadingPoint& x) const;
+  /// The lobe the product tables use for a material: the clamped cosine for materials with a Lambertian part, the
+  /// GGX reflection lobe of the material's alpha for rough conductors; none for pure delta materials.
+  static std::optional<Lobe> product_lobe(const Material& material);
   void build_product_tables();
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;
@@ -160,10 +164,9 @@ class Integrator {
   LightTechniques split_;  ///< the rest of the map and the sun, when it has one
   std::optional<SunSplit> sun_;
   Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
-  Mat3 inverse_rotation_;   ///< world -> the tables' frame
-  /// Product strategies: tables of the scene's lobes over the whole map and over the rest of the map beside the sun.
+  /// Product strategies: tables of the scene's lobes over the whole map and over the rest of the map beside the sun
+  /// (each for the lobes of the materials that use that table; nullptr when none does).
   std::unique_ptr<LobeProductTables> product_whole_, product_split_;
-  std::vector<std::pair<const Material*, int>> material_lobes_;  ///< each material's lobe in the tables, or -1
   mutable std::atomic<std::size_t> nonfinite_{0};
 };
 
