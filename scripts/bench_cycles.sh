@@ -5,6 +5,7 @@
 #
 #   scripts/bench_cycles.sh                      full run: sunrise, forest, interior; 16/64/256 spp; 160x90
 #   scripts/bench_cycles.sh --quick              debug run (sunrise, 64x36, 4/16 spp, references 256 spp)
+#   scripts/bench_cycles.sh --scene mesh         the OBJ mesh scene (a diffuse torus, a GGX torus knot) instead
 #   scripts/bench_cycles.sh --hdris sunset,courtyard,interior --spp 16,64,256 --size 200x112 --ref-spp 4096 --repeats 3
 #
 # Output (default out/bench_cycles/): per HDRI the envrender scene, every EXR, refs_<hdri>.png (the two
