@@ -34,43 +34,28 @@ EPS = 1e-2
 HDRI_DIR = "/usr/share/blender/datafiles/studiolights/world"
 
 CAMERA = {"position": [0.0, 1.6, -7.5], "look_at": [0.0, 0.55, 0.0], "up": [0, 1, 0], "fov": 26}
-SCENE = {
-    "camera": CAMERA,
-    "intensity": 1.0,
-    "materials": {
-        "ground": {"type": "diffuse", "albedo": 0.45},
-        "diffuse": {"type": "diffuse", "albedo": 0.6},
-        "ggx005": {"type": "ggx", "roughness": 0.05},
-        "ggx015": {"type": "ggx", "roughness": 0.15},
-        "ggx040": {"type": "ggx", "roughness": 0.4},
-    },
-    "ground": {"half_size": 500.0, "material": "ground"},
-    "spheres": [
-        {"center": [1.95, 0.55, 0.0], "radius": 0.55, "material": "diffuse"},
-        {"center": [0.65, 0.55, 0.0], "radius": 0.55, "material": "ggx005"},
-        {"center": [-0.65, 0.55, 0.0], "radius": 0.55, "material": "ggx015"},
-        {"center": [-1.95, 0.55, 0.0], "radius": 0.55, "material": "ggx040"},
-    ],
-    "regions": ["diffuse", "ggx005", "ggx015", "ggx040", "ground"],
-}
+# What every scene has: the camera, the HDRI's intensity, the diffuse ground.
+BASE = {"camera": CAMERA, "intensity": 1.0, "ground": {"half_size": 500.0, "material": "ground"},
+        "spheres": [], "meshes": []}
+GROUND = {"ground": {"type": "diffuse", "albedo": 0.45}}
+SCENE = dict(BASE, materials=dict(GROUND, **{
+    "diffuse": {"type": "diffuse", "albedo": 0.6},
+    "ggx005": {"type": "ggx", "roughness": 0.05},
+    "ggx015": {"type": "ggx", "roughness": 0.15},
+    "ggx040": {"type": "ggx", "roughness": 0.4},
+}), spheres=[
+    {"center": [1.95, 0.55, 0.0], "radius": 0.55, "material": "diffuse"},
+    {"center": [0.65, 0.55, 0.0], "radius": 0.55, "material": "ggx005"},
+    {"center": [-0.65, 0.55, 0.0], "radius": 0.55, "material": "ggx015"},
+    {"center": [-1.95, 0.55, 0.0], "radius": 0.55, "material": "ggx040"},
+], regions=["diffuse", "ggx005", "ggx015", "ggx040", "ground"])
 # The OBJ mesh scene: a diffuse torus and a glossy (GGX alpha 0.15) torus knot, flat-shaded triangle meshes written
 # by this script (write_meshes) and read by both renderers from the same OBJ files.
-MESH_SCENE = {
-    "camera": CAMERA,
-    "intensity": 1.0,
-    "materials": {
-        "ground": {"type": "diffuse", "albedo": 0.45},
-        "torus": {"type": "diffuse", "albedo": 0.6},
-        "knot": {"type": "ggx", "roughness": 0.15},
-    },
-    "ground": {"half_size": 500.0, "material": "ground"},
-    "spheres": [],
-    "meshes": [
-        {"name": "torus", "material": "torus"},
-        {"name": "knot", "material": "knot"},
-    ],
-    "regions": ["torus", "knot", "ground"],
-}
+MESH_SCENE = dict(BASE, materials=dict(GROUND, **{
+    "torus": {"type": "diffuse", "albedo": 0.6},
+    "knot": {"type": "ggx", "roughness": 0.15},
+}), meshes=[{"name": "torus", "material": "torus"}, {"name": "knot", "material": "knot"}],
+    regions=["torus", "knot", "ground"])
 SCENES = {"spheres": SCENE, "mesh": MESH_SCENE}
 
 

@@ -67,12 +67,11 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
     throw Error(std::string("--light-method ") + method_name(options_.light_method) +
                 ": the product strategies refine " +
                 "the hierarchical table (another method needs --strategy light, mis or mis-compensated)");
-  const SamplingMethod method = options_.light_method;
   if (s != Strategy::Bsdf) {
     const bool compensated = s == Strategy::MisCompensated;
-    whole_ = {{LightTechnique{&light_.distribution(method, compensated), options_.light_samples}}, 1};
+    whole_ = {{LightTechnique{&light_.distribution(options_.light_method, compensated), options_.light_samples}}, 1};
     if (options_.sun_samples > 0) {
-      sun_ = SunSplit::make(light_.tables(), method, compensated);
+      sun_ = SunSplit::make(light_.tables(), options_.light_method, compensated);
       if (sun_) {
         split_ = {{LightTechnique{&sun_->residual(), options_.light_samples},
                    LightTechnique{&sun_->sun_distribution(), options_.sun_samples}},
