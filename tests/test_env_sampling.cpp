@@ -295,7 +295,7 @@ TEST(EnvTablesBake, SelectTablesByName) {
     select_tables({"cdf", "guide"}, b);
     ADD_FAILURE() << "an unknown table name was accepted";
   } catch (const Error& e) {
-    EXPECT_STREQ(e.what(), "unknown table 'guide' (cdf, alias, hierarchical, compensated)");
+    EXPECT_STREQ(e.what(), "unknown table 'guide' (cdf, alias, hierarchical, compensated, sun)");
   }
   try {
     select_tables({"compensated"}, b);

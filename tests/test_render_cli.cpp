@@ -201,6 +201,33 @@ TEST_F(RenderCli, ClippedSunIsWarnedAbout) {
   }
 }
 
+// envbake --tables hierarchical,sun stores the sun split; envinfo reports the stored sun; envrender reads the split
+// instead of building it and renders the same pixels, bit for bit.
+TEST_F(RenderCli, AStoredSunSplitRendersTheImageOfOneBuiltAtLoad) {
+  const probes::SunProbe probe(Vec3(0.3, 0.5, 0.8), 1.5 * kPi / 180.0, Vec3(1e5), Vec3(0.05));
+  write_image((dir_ / "sky.exr").string(), probes::rasterize(probe, LatLongMap(256, 128)));
+  const auto file = write("sun.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                            R"("image": "sky.exr", "tables": "sky.envtbl")"));
+  fs::path out[2];
+  for (const bool stored : {false, true}) {
+    std::vector<std::string> bake = {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q", "-f"};
+    if (stored) bake.insert(bake.end(), {"--tables", "hierarchical,sun"});
+    const auto baked = test::run_tool("envbake", bake, dir_);
+    ASSERT_EQ(baked.code, 0) << baked.err;
+    const auto info = test::run_tool("envinfo", {(dir_ / "sky.envtbl").string()}, dir_);
+    ASSERT_EQ(info.code, 0) << info.err;
+    EXPECT_EQ(info.out.find("sun (of the importance)") != std::string::npos, stored) << info.out;
+    out[stored] = dir_ / (stored ? "stored.exr" : "built.exr");
+    const auto r = envrender({"--scene", file.string(), "-o", out[stored].string(), "--spp", "4"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("sampling the sun apart"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("the split read from") != std::string::npos, stored) << r.err;
+  }
+  const Image built = read_image(out[0].string()), stored = read_image(out[1].string());
+  ASSERT_EQ(built.pixels.size(), stored.pixels.size());
+  EXPECT_TRUE(std::equal(built.pixels.begin(), built.pixels.end(), stored.pixels.begin()));
+}
+
 // The product strategies say what they built and render the image mis renders, within its noise.
 TEST_F(RenderCli, ProductStrategiesNameTheirTablesAndAgreeWithMis) {
   const auto file = write("ok.json", scene());

@@ -8,6 +8,9 @@
 #include <envkit/sun_split.h>
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <random>
 
 #include "tables_support.h"
@@ -107,4 +110,128 @@ TEST(SunSplit, MapsWithoutASunAreNotSplit) {
   const probes::GradientProbe sky(Vec3(0.2), Vec3(1.0), probes::GradientProbe::Form::Quadratic);
   const EnvTables tables = bake(sky, std::make_unique<LatLongMap>(256, 128), Kind::LatLong);
   EXPECT_FALSE(SunSplit::make(tables, SamplingMethod::Hierarchical, false).has_value());
+}
+
+namespace {
+
+/// Both splits give every texel the same density, bit for bit, and draw the same samples.
+void expect_same_split(const SunSplit& a, const SunSplit& b) {
+  ASSERT_EQ(a.sun().region, b.sun().region);
+  EXPECT_EQ(a.cos_bound(), b.cos_bound());
+  EXPECT_EQ(a.sun().direction.x, b.sun().direction.x);
+  EXPECT_EQ(a.sun().power_share, b.sun().power_share);
+  EXPECT_EQ(a.sun().clipped, b.sun().clipped);
+  const SphericalDistribution& grid = a.residual();
+  for (int y = 0; y < grid.height(); ++y)
+    for (int x = 0; x < grid.width(); ++x) {
+      ASSERT_EQ(a.residual().texel_pdf(x, y), b.residual().texel_pdf(x, y)) << x << "," << y;
+      ASSERT_EQ(a.sun_distribution().texel_pdf(x, y), b.sun_distribution().texel_pdf(x, y)) << x << "," << y;
+    }
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec2 u(u01(rng), u01(rng));
+    ASSERT_EQ(a.residual().sample(u).direction.x, b.residual().sample(u).direction.x);
+    ASSERT_EQ(a.sun_distribution().sample(u).pdf, b.sun_distribution().sample(u).pdf);
+  }
+}
+
+std::string temp_table(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("envkit_sun_" + name + ".envtbl")).string();
+}
+
+std::string load_error(const std::string& path) {
+  try {
+    EnvTables::load(path);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(SunSplitStored, EveryTableKeepsTheSplitMakeBuildsThroughAFile) {
+  const probes::OutdoorProbe probe;
+  const EnvTables baked = bake(probe, std::make_unique<LatLongMap>(256, 128), Kind::LatLong, /*sun=*/true);
+  const std::string path = temp_table("stored");
+  baked.save(path);
+  const EnvTables loaded = EnvTables::load(path);
+  std::filesystem::remove(path);
+  for (bool compensated : {false, true})
+    for (SamplingMethod method : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical}) {
+      SCOPED_TRACE(std::string(method_name(method)) + (compensated ? " compensated" : ""));
+      const std::optional<SunSplit> made = SunSplit::make(baked, method, compensated);
+      ASSERT_TRUE(made.has_value());
+      for (const EnvTables* tables : {&baked, &loaded}) {
+        const auto stored = tables->stored_sun_split(method, compensated);
+        ASSERT_TRUE(stored.has_value());
+        ASSERT_NE(*stored, nullptr);
+        expect_same_split(*made, **stored);
+      }
+    }
+}
+
+TEST(SunSplitStored, ABakeRecordsThatItFoundNoSunAndOneThatDidNotLook) {
+  const probes::GradientProbe sky(Vec3(0.2), Vec3(1.0), probes::GradientProbe::Form::Quadratic);
+  const EnvTables looked = bake(sky, std::make_unique<LatLongMap>(64, 32), Kind::LatLong, /*sun=*/true);
+  const EnvTables not_looked = bake(sky, std::make_unique<LatLongMap>(64, 32), Kind::LatLong);
+  const std::string path = temp_table("none");
+  looked.save(path);
+  const EnvTables loaded = EnvTables::load(path);
+  std::filesystem::remove(path);
+  for (const EnvTables* tables : {&looked, &loaded}) {
+    const auto stored = tables->stored_sun_split(SamplingMethod::Hierarchical, false);
+    ASSERT_TRUE(stored.has_value());
+    EXPECT_EQ(*stored, nullptr);
+  }
+  EXPECT_FALSE(not_looked.stored_sun_split(SamplingMethod::Hierarchical, false).has_value());
+}
+
+// A checksum says only that the bytes are as written: the sun's values are checked too.
+TEST(SunSplitStored, InvalidSunValuesBehindValidChecksumsAreRefused) {
+  const probes::OutdoorProbe probe;
+  BakeOptions options;
+  options.cdf = options.alias = false;
+  options.sun = true;
+  EnvMap map;
+  map.param = std::make_unique<LatLongMap>(128, 64);
+  map.image = probes::rasterize(probe, *map.param);
+  const std::string path = temp_table("corrupt");
+  EnvTables::bake(map, options).save(path);
+  std::vector<std::byte> good;
+  {
+    std::ifstream f(path, std::ios::binary);
+    const std::vector<char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    good.resize(bytes.size());
+    std::memcpy(good.data(), bytes.data(), bytes.size());
+  }
+  std::size_t sun_offset = 0;
+  for (const TableFileSection& s : table_file_sections(good))
+    if (s.name == "sun") sun_offset = s.offset;
+  ASSERT_GT(sun_offset, 0u);
+  // Word 0 is the flag, words 1-3 the direction, 15 the bound (sun_split.cpp's save_sun order).
+  const auto patched = [&](std::size_t word, double value) {
+    std::vector<std::byte> bytes = good;
+    std::memcpy(bytes.data() + sun_offset + 8 * word, &value, 8);
+    reseal_table_file(bytes);
+    std::ofstream(path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    return load_error(path);
+  };
+  EXPECT_EQ(patched(1,
+                    [&] {
+                      double v;
+                      std::memcpy(&v, good.data() + sun_offset + 8, 8);
+                      return v;
+                    }()),
+            "");
+  EXPECT_NE(patched(1, std::nan("")).find("section sun: invalid sun (direction"), std::string::npos);
+  EXPECT_NE(patched(2, 5.0).find("invalid sun (direction"), std::string::npos);
+  EXPECT_NE(patched(15, 2.0).find("invalid sun (bound"), std::string::npos);
+  std::uint64_t two = 2;
+  double as_double;
+  std::memcpy(&as_double, &two, 8);
+  EXPECT_NE(patched(0, as_double).find("section sun: invalid flag"), std::string::npos);
+  std::filesystem::remove(path);
 }

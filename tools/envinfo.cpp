@@ -12,6 +12,7 @@
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
 #include <envkit/sun.h>
+#include <envkit/sun_split.h>
 
 #include <algorithm>
 #include <cstring>
@@ -278,11 +279,26 @@ std::string table_grid_description(const envkit::EnvTables& t) {
   return text;
 }
 
+/// The sun a bake stored with the tables (envbake --tables ...,sun): looked_for is false when it stored none.
+struct StoredSun {
+  bool looked_for = false;
+  std::optional<envkit::SunEstimate> sun;
+};
+StoredSun stored_sun(const envkit::EnvTables& t) {
+  for (bool compensated : {false, true})
+    for (auto m : {envkit::SamplingMethod::Hierarchical, envkit::SamplingMethod::Cdf, envkit::SamplingMethod::Alias})
+      if (const auto split = t.stored_sun_split(m, compensated))
+        return {true, *split ? std::optional((*split)->sun()) : std::nullopt};
+  return {};
+}
+
 int describe_tables(const Options& o) {
   const envkit::EnvTables t = envkit::EnvTables::load(o.in.path);
+  const StoredSun sun = stored_sun(t);
   if (o.json) {
     json j = json::parse(t.descriptor());
     j["file"] = o.in.path;
+    if (sun.looked_for) j["sun"] = sun_json(sun.sun);
     for (const auto& [name, bytes] : t.table_bytes()) j["bytes"][name] = bytes;
     std::cout << tools::json_text(j) << "\n";
   } else {
@@ -298,6 +314,7 @@ int describe_tables(const Options& o) {
     row("source", t.source_path() + " (content hash " + t.source_hash() + ")");
     if (d.contains("bake") && d["bake"].contains("resampled_from"))
       row("resampled from", d["bake"]["resampled_from"].get<std::string>());
+    if (sun.looked_for) row("sun (of the importance)", sun_text(sun.sun));
     const double texels = double(t.width()) * t.height();
     for (const auto& [name, bytes] : t.table_bytes())
       row("  " + name,

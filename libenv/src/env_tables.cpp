@@ -11,6 +11,7 @@
 #include <envkit/latlong.h>
 #include <envkit/octahedral.h>
 #include <envkit/resample.h>
+#include <envkit/sun_split.h>
 #include <tbb/parallel_for.h>
 
 #include <filesystem>
@@ -198,17 +199,17 @@ FloatBuffer dilate_3x3(const FloatBuffer& values, const Parameterization& grid, 
 }  // namespace
 
 void select_tables(const std::vector<std::string>& names, BakeOptions& options) {
-  options.cdf = options.alias = options.hierarchical = options.compensated = false;
+  options.cdf = options.alias = options.hierarchical = options.compensated = options.sun = false;
   for (const std::string& name : names) {
-    if (name == "compensated") {
-      options.compensated = true;
+    if (name == "compensated" || name == "sun") {
+      (name == "sun" ? options.sun : options.compensated) = true;
       continue;
     }
     SamplingMethod method;
     try {
       method = parse_method(name);
     } catch (const Error&) {
-      throw Error("unknown table '" + name + "' (cdf, alias, hierarchical, compensated)");
+      throw Error("unknown table '" + name + "' (cdf, alias, hierarchical, compensated, sun)");
     }
     (method == SamplingMethod::Cdf     ? options.cdf
      : method == SamplingMethod::Alias ? options.alias
@@ -302,6 +303,10 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
   t.importance_.adopt(std::move(importance));
 
   t.build_distributions(options);
+  if (options.sun) {
+    progress(0.9, "sun split");
+    t.store_sun_splits();
+  }
   t.descriptor_ = t.make_descriptor(&options);
   if (!resampled_from.empty()) {
     auto d = nlohmann::json::parse(t.descriptor_);
@@ -390,6 +395,35 @@ const SphericalDistribution* EnvTables::distribution(SamplingMethod method, bool
   return distributions_[compensated ? 1 : 0][static_cast<int>(method)].get();
 }
 
+void EnvTables::store_sun_splits() {
+  sun_looked_for_ = true;
+  std::shared_ptr<const SunSplit> first;
+  for (int set = 0; set < 2; ++set)
+    for (int m = 0; m < 3; ++m) {
+      if (!distributions_[set][m]) continue;
+      if (!first) {
+        std::optional<SunSplit> split = SunSplit::make(*this, SamplingMethod(m), set == 1);
+        if (!split) return;  // no sun: every split stays null
+        first = std::make_shared<const SunSplit>(std::move(*split));
+        sun_splits_[set][m] = first;
+      } else {
+        sun_splits_[set][m] = std::make_shared<const SunSplit>(first->with_method(*this, SamplingMethod(m), set == 1));
+      }
+    }
+}
+
+std::optional<std::shared_ptr<const SunSplit>> EnvTables::stored_sun_split(SamplingMethod method,
+                                                                           bool compensated) const {
+  if (!sun_looked_for_) return std::nullopt;
+  const bool sun_found = std::any_of(sun_splits_.begin(), sun_splits_.end(), [](const auto& set) {
+    return std::any_of(set.begin(), set.end(), [](const auto& split) { return split != nullptr; });
+  });
+  if (!sun_found) return std::shared_ptr<const SunSplit>();
+  const auto& split = sun_splits_[compensated ? 1 : 0][static_cast<int>(method)];
+  if (!split) return std::nullopt;
+  return split;
+}
+
 std::vector<std::pair<std::string, std::size_t>> EnvTables::table_bytes() const {
   std::vector<std::pair<std::string, std::size_t>> out;
   out.emplace_back("importance", importance_.size() * sizeof(float));
@@ -398,6 +432,12 @@ std::vector<std::pair<std::string, std::size_t>> EnvTables::table_bytes() const 
       if (distributions_[set][m])
         out.emplace_back(std::string(method_name(SamplingMethod(m))) + (set ? "-compensated" : ""),
                          distributions_[set][m]->distribution().bytes());
+  for (int set = 0; set < 2; ++set)
+    for (int m = 0; m < 3; ++m)
+      if (sun_splits_[set][m])
+        out.emplace_back(std::string("sun-") + method_name(SamplingMethod(m)) + (set ? "-compensated" : ""),
+                         sun_splits_[set][m]->residual().distribution().bytes() +
+                             sun_splits_[set][m]->sun_distribution().distribution().bytes());
   return out;
 }
 
@@ -428,11 +468,25 @@ std::string EnvTables::make_descriptor(const BakeOptions* options) const {
   d["methods"] = methods;
   d["compensated_methods"] = compensated;
   d["warnings"] = warnings_;
+  if (sun_looked_for_) {  // for people reading the descriptor; loading reads the sun's own section
+    d["sun"] = nullptr;
+    for (const auto& set : sun_splits_)
+      for (const auto& split : set)
+        if (split && d["sun"].is_null()) {
+          const SunEstimate& sun = split->sun();
+          d["sun"] = {{"direction", {sun.direction.x, sun.direction.y, sun.direction.z}},
+                      {"angular_radius_deg", sun.angular_radius * 180.0 / kPi},
+                      {"power_share", sun.power_share},
+                      {"texels", sun.texels},
+                      {"clipped", sun.clipped}};
+        }
+  }
   if (options) {
     d["bake"] = {{"importance_resolution", {width_, height_}},
                  {"requested_grid", {options->width, options->height}},
                  {"conservative", options->conservative},
-                 {"compensated", options->compensated}};
+                 {"compensated", options->compensated},
+                 {"sun", options->sun}};
   }
   // File names are bytes, not necessarily UTF-8: the descriptor shows U+FFFD for invalid bytes rather than failing.
   return d.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);

@@ -4,18 +4,19 @@
 //   offset 64  section_count x SectionEntry (64 bytes each): name, offset, size, XXH3-64 checksum
 //   then       sections, each starting at a multiple of 64 bytes
 // Sections: "descriptor" (JSON text), "importance" (blob: float array W x H), then one blob per distribution:
-// "cdf", "alias", "hierarchical" and their "-compensated" twins.
+// "cdf", "alias", "hierarchical" and their "-compensated" twins; with a stored sun split, "sun" (a flag, then the sun)
+// and the residual table of each distribution as "sun-<its section name>".
 #include <envkit/atomic_file.h>
 #include <envkit/distribution_alias.h>
 #include <envkit/distribution_cdf.h>
 #include <envkit/distribution_pyramid.h>
 #include <envkit/env_tables.h>
 #include <envkit/input_checks.h>
+#include <envkit/sun_split.h>
+#include <tbb/parallel_for.h>
 
 #include <filesystem>
-
 #include <nlohmann/json.hpp>
-#include <tbb/parallel_for.h>
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
@@ -168,6 +169,20 @@ void EnvTables::save(const std::string& path) const {
         sections.push_back({section_name(m, set), {}});
         distributions_[set][m]->distribution().save(sections.back().blob);
       }
+  if (sun_looked_for_) {
+    sections.push_back({"sun", {}});
+    const SunSplit* sun = nullptr;
+    for (int set = 0; set < 2; ++set)
+      for (int m = 0; m < 3; ++m)
+        if (sun_splits_[set][m]) {
+          sun = sun_splits_[set][m].get();
+          sections.push_back({"sun-" + section_name(m, set), {}});
+          sun->residual().distribution().save(sections.back().blob);
+        }
+    Section& found = *std::find_if(sections.begin(), sections.end(), [](const Section& s) { return s.name == "sun"; });
+    found.blob.scalar<std::uint64_t>(sun ? 1 : 0);
+    if (sun) sun->save_sun(found.blob);
+  }
 
   FileHeader header{};
   std::memcpy(header.magic, kMagic, sizeof(kMagic));
@@ -317,6 +332,33 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
         throw fail_with("section " + name + " does not match the descriptor's size");
       t.distributions_[set][m] = std::make_unique<SphericalDistribution>(t.grid_, std::move(d));
     }
+  if (const auto sun = sections.find("sun"); sun != sections.end()) {
+    // The flag, then (when set) the sun, read again for each residual table that shares it.
+    const auto sun_blob = [&, sun] {
+      return BlobReader(sun->second.first, sun->second.second, path + ": section sun");
+    };
+    BlobReader flag = sun_blob();
+    const auto found = flag.scalar<std::uint64_t>();
+    if (found > 1) throw fail_with("section sun: invalid flag");
+    if (found == 0) flag.finish();  // nothing may follow "no sun"
+    t.sun_looked_for_ = true;
+    bool any = false;
+    for (int set = 0; set < 2 && found; ++set)
+      for (int m = 0; m < 3; ++m) {
+        const std::string name = "sun-" + section_name(m, set);
+        const auto it = sections.find(name);
+        if (it == sections.end()) continue;
+        if (!t.distributions_[set][m]) throw fail_with("section " + name + " splits a table the file does not hold");
+        BlobReader residual_in(it->second.first, it->second.second, path + ": section " + name, file);
+        auto residual = std::make_shared<SphericalDistribution>(t.grid_, restore_distribution(m, residual_in));
+        BlobReader sun_in = sun_blob();
+        sun_in.scalar<std::uint64_t>();
+        t.sun_splits_[set][m] =
+            std::make_shared<const SunSplit>(SunSplit::restore(sun_in, t.grid_, t.width_, t.height_, residual));
+        any = true;
+      }
+    if (found && !any) throw fail_with("section sun: a sun without any residual table");
+  }
   return t;
 }
 

@@ -307,7 +307,7 @@ and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 u
     p.add_argument("--importance", default="luminance", help="luminance, average or max")
     p.add_argument("--bake-grid", default="latlong", help="latlong, octahedral or healpix")
     p.add_argument("--bake-size", type=int, default=0, metavar="N", help="bake grid size N (default natural)")
-    p.add_argument("--tables", default="hierarchical", help="any of cdf,alias,hierarchical,compensated (default: as envbake)")
+    p.add_argument("--tables", default="hierarchical", help="any of cdf,alias,hierarchical,compensated,sun (default: as envbake)")
     p.add_argument("--prefilter", action="store_true", help="also prefilter (when this envkit has the step)")
     p.add_argument("--force", action="store_true", help="redo every file, up to date or not")
     p.add_argument("--json", metavar="FILE", help="write the per-file results as JSON")

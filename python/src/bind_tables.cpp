@@ -194,8 +194,9 @@ t.save(path) writes one.)")
           py::arg("source_path") = "", py::arg("source_hash") = "",
           R"(envbake: importance luminance|average|max, grid latlong|octahedral|healpix, size N (0: natural;
 healpix: N_side, 4N x 3N),
-resolution (W, H) of the importance, tables from cdf, alias, hierarchical, compensated. The source hash is
-that of the file the map was read from (as envbake records), or of the pixels for a map made from an array.)")
+resolution (W, H) of the importance, tables from cdf, alias, hierarchical, compensated, sun (the sun split of
+each table, which rendering then reads instead of building it). The source hash is that of the file the map was
+read from (as envbake records), or of the pixels for a map made from an array.)")
       .def_static(
           "load",
           [](const std::string& path, const std::string& expected_source_hash) {

@@ -2,6 +2,8 @@
 #include <envkit/param_factory.h>
 #include <envkit/render/env_light.h>
 #include <envkit/resample.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <cfloat>
 #include <chrono>
@@ -56,14 +58,16 @@ EnvironmentLight::EnvironmentLight(const EnvMap& map, std::shared_ptr<const EnvT
   }
   const int colours = source->color_channels();
   texels_.resize(std::size_t(width_) * height_);
-  for (int y = 0; y < height_; ++y)
-    for (int x = 0; x < width_; ++x) {
-      const float* p = source->at(x, y);
-      Vec3 rgb = colours >= 3 ? Vec3(sanitize(p[0]), sanitize(p[1]), sanitize(p[2]))
-                              : Vec3(sanitize(p[0]), sanitize(p[0]), sanitize(p[0]));
-      rgb = rgb * intensity_;
-      texels_[std::size_t(y) * width_ + x] = Texel{finite_float(rgb.x), finite_float(rgb.y), finite_float(rgb.z)};
-    }
+  tbb::parallel_for(tbb::blocked_range<int>(0, height_), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < width_; ++x) {
+        const float* p = source->at(x, y);
+        Vec3 rgb = colours >= 3 ? Vec3(sanitize(p[0]), sanitize(p[1]), sanitize(p[2]))
+                                : Vec3(sanitize(p[0]), sanitize(p[0]), sanitize(p[0]));
+        rgb = rgb * intensity_;
+        texels_[std::size_t(y) * width_ + x] = Texel{finite_float(rgb.x), finite_float(rgb.y), finite_float(rgb.z)};
+      }
+  });
 }
 
 Vec3 EnvironmentLight::radiance(const Vec3& d) const {

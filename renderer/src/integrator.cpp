@@ -71,7 +71,11 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
     const bool compensated = s == Strategy::MisCompensated;
     whole_ = {{LightTechnique{&light_.distribution(options_.light_method, compensated), options_.light_samples}}, 1};
     if (options_.sun_samples > 0) {
-      sun_ = SunSplit::make(light_.tables(), options_.light_method, compensated);
+      // A table file may hold the split (envbake --tables ...,sun); else it is built here.
+      if (auto stored = light_.tables().stored_sun_split(options_.light_method, compensated))
+        sun_ = std::move(*stored);
+      else if (std::optional<SunSplit> made = SunSplit::make(light_.tables(), options_.light_method, compensated))
+        sun_ = std::make_shared<const SunSplit>(std::move(*made));
       if (sun_) {
         split_ = {{LightTechnique{&sun_->residual(), options_.light_samples},
                    LightTechnique{&sun_->sun_distribution(), options_.sun_samples}},

@@ -7,15 +7,14 @@
 // stands between it and the samplers. A load must either throw envkit::Error naming the file, or give tables whose
 // samples have finite, positive pdfs, texels inside the grid, finite unit directions and pdf(direction) finite.
 //
-// Record layout (7 bytes, up to 16 records): section index (mod the section count), value kind, byte offset
+// Byte 0 chooses the file (even: 16 x 8, every method and the compensated twins; odd: a stored sun split), then
+// records of 7 bytes, up to 16: section index (mod the section count), value kind, byte offset
 // (uint32 little endian, mod the section size, rounded down to the value's alignment), one spare byte of raw bits.
-#include "fuzz_support.h"
-#include "seed_tables.h"
-
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/error.h>
 #include <envkit/latlong.h>
+#include <envkit/sun_split.h>
 
 #include <cfloat>
 #include <cmath>
@@ -28,15 +27,19 @@
 #include <string>
 #include <vector>
 
+#include "fuzz_support.h"
+#include "seed_tables.h"
+
 namespace {
 
 using envkit::fuzz::finding;
 
-std::vector<std::byte> g_seed;  // a valid table file: 16x8 lat-long, every method, compensated twins
+std::vector<std::byte> g_seeds[2];  // valid table files (seed_tables.h): every method; a stored sun split
 
-std::vector<std::byte> bake_seed() {
+template <class Write>
+std::vector<std::byte> bake_seed(const Write& write_seed) {
   const std::string path = (envkit::fuzz::scratch_dir() / "seed.envtables").string();
-  envkit::fuzz::write_seed_tables(path);
+  write_seed(path);
   std::ifstream f(path, std::ios::binary);
   const std::vector<char> bytes((std::istreambuf_iterator<char>(f)), {});
   std::vector<std::byte> out(bytes.size());
@@ -69,34 +72,38 @@ void patch(std::vector<std::byte>& file, std::size_t begin, std::size_t size, st
   else file[at] = std::byte(raw);  // one raw byte
 }
 
-std::string where(envkit::SamplingMethod method, bool compensated, envkit::Vec2 u) {
-  return std::string(envkit::method_name(method)) + (compensated ? " (compensated)" : "") + " at u = (" +
-         std::to_string(u.x) + ", " + std::to_string(u.y) + ")";
+// 64 samples of `d` (one of the tables or a stored sun split's part): finite positive pdfs, texels inside the grid,
+// unit directions, pdf(direction) finite.
+void check_distribution(const envkit::SphericalDistribution& d, const std::string& name) {
+  const int W = d.distribution().width(), H = d.distribution().height();
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j) {
+      const envkit::Vec2 u((i + 0.37) / 8.0, (j + 0.61) / 8.0);
+      const std::string at = name + " at u = (" + std::to_string(u.x) + ", " + std::to_string(u.y) + ")";
+      const envkit::DirectionSample s = d.sample(u);
+      if (!(std::isfinite(s.pdf) && s.pdf > 0.0))
+        finding("a drawn sample with a pdf that is not finite and > 0: " + at + " gives texel (" + std::to_string(s.x) +
+                ", " + std::to_string(s.y) + ") with pdf " + std::to_string(s.pdf));
+      if (s.x < 0 || s.x >= W || s.y < 0 || s.y >= H) finding("a sample outside the grid: " + at);
+      const double len =
+          std::sqrt(s.direction.x * s.direction.x + s.direction.y * s.direction.y + s.direction.z * s.direction.z);
+      if (!(std::abs(len - 1.0) < 1e-6)) finding("a sample direction that is not a unit vector: " + at);
+      const double p = d.pdf(s.direction);
+      if (!(std::isfinite(p) && p >= 0.0)) finding("pdf(direction) not finite and >= 0: " + at);
+      const envkit::TexelSample t = d.distribution().sample_texel(u);
+      if (t.x < 0 || t.x >= W || t.y < 0 || t.y >= H) finding("sample_texel outside the grid: " + at);
+    }
 }
 
 void check_tables(const envkit::EnvTables& tables) {
   for (auto method : {envkit::SamplingMethod::Cdf, envkit::SamplingMethod::Alias, envkit::SamplingMethod::Hierarchical})
     for (bool comp : {false, true}) {
-      const envkit::SphericalDistribution* d = tables.distribution(method, comp);
-      if (!d) continue;
-      const int W = d->distribution().width(), H = d->distribution().height();
-      for (int i = 0; i < 8; ++i)
-        for (int j = 0; j < 8; ++j) {
-          const envkit::Vec2 u((i + 0.37) / 8.0, (j + 0.61) / 8.0);
-          const envkit::DirectionSample s = d->sample(u);
-          if (!(std::isfinite(s.pdf) && s.pdf > 0.0))
-            finding("a drawn sample with a pdf that is not finite and > 0: " + where(method, comp, u) +
-                    " gives texel (" + std::to_string(s.x) + ", " + std::to_string(s.y) + ") with pdf " +
-                    std::to_string(s.pdf));
-          if (s.x < 0 || s.x >= W || s.y < 0 || s.y >= H) finding("a sample outside the grid");
-          const double len = std::sqrt(s.direction.x * s.direction.x + s.direction.y * s.direction.y +
-                                       s.direction.z * s.direction.z);
-          if (!(std::abs(len - 1.0) < 1e-6)) finding("a sample direction that is not a unit vector");
-          const double p = d->pdf(s.direction);
-          if (!(std::isfinite(p) && p >= 0.0)) finding("pdf(direction) not finite and >= 0");
-          const envkit::TexelSample t = d->distribution().sample_texel(u);
-          if (t.x < 0 || t.x >= W || t.y < 0 || t.y >= H) finding("sample_texel outside the grid");
-        }
+      const std::string name = std::string(envkit::method_name(method)) + (comp ? " (compensated)" : "");
+      if (const envkit::SphericalDistribution* d = tables.distribution(method, comp)) check_distribution(*d, name);
+      if (const auto split = tables.stored_sun_split(method, comp); split && *split) {
+        check_distribution((*split)->residual(), "the sun split's residual of " + name);
+        check_distribution((*split)->sun_distribution(), "the sun split's sun of " + name);
+      }
     }
 }
 
@@ -104,15 +111,18 @@ void check_tables(const envkit::EnvTables& tables) {
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   envkit::fuzz::scratch_dir("table_values");
-  g_seed = bake_seed();
-  if (envkit::table_file_sections(g_seed).empty()) finding("the baked seed has no sections");
+  g_seeds[0] = bake_seed(envkit::fuzz::write_seed_tables);
+  g_seeds[1] = bake_seed(envkit::fuzz::write_sun_seed_tables);
+  for (const auto& seed : g_seeds)
+    if (envkit::table_file_sections(seed).empty()) finding("a baked seed has no sections");
   return 0;
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  std::vector<std::byte> file = g_seed;
+  if (size == 0) return 0;
+  std::vector<std::byte> file = g_seeds[data[0] & 1];
   const std::vector<envkit::TableFileSection> sections = envkit::table_file_sections(file);
-  for (std::size_t r = 0; r + 7 <= size && r < 16 * 7; r += 7) {
+  for (std::size_t r = 1; r + 7 <= size && r < 1 + 16 * 7; r += 7) {
     const envkit::TableFileSection& s = sections[data[r] % sections.size()];
     if (s.name == "descriptor") continue;  // JSON text: fuzz_tables and the descriptor checks cover it
     std::uint32_t offset;

@@ -1,9 +1,9 @@
 #pragma once
 /// @file seed_tables.h
-/// What the table fuzzers (fuzz_tables, fuzz_table_values) share: the valid table file they start from (a 16 x 8
-/// lat-long with one bright texel, every method and the compensated twins), writing an input to the scratch
-/// directory, and the contract of a load (an envkit::Error naming the file, or tables that pass the caller's
-/// checks; anything else is a finding).
+/// What the table fuzzers (fuzz_tables, fuzz_table_values) share: the valid table files they start from (a 16 x 8
+/// lat-long with one bright texel, every method and the compensated twins; one with a stored sun split), writing an
+/// input to the scratch directory, and the contract of a load (an envkit::Error naming the file, or tables that pass
+/// the caller's checks; anything else is a finding).
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/error.h>
@@ -58,6 +58,23 @@ inline void write_seed_tables(const std::string& path) {
   BakeOptions options;
   options.compensated = true;
   EnvTables::bake(map, options, "seed.exr").save(path);
+}
+
+/// A table file with a stored sun split (BakeOptions::sun): a 128 x 64 lat-long (the smallest whose texels are small
+/// enough for a sun) with one sun texel over a sky, the hierarchical table only, to keep each fuzz run cheap.
+inline void write_sun_seed_tables(const std::string& path) {
+  EnvMap map;
+  map.image = Image(128, 64, 3);
+  map.image.channel_names = default_channel_names(3);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 128; ++x)
+      for (int c = 0; c < 3; ++c)
+        map.image.at(x, y, c) = (x == 40 && y == 20) ? 5e4f : 0.1f + 0.005f * float(y + c) + 0.001f * float(x % 7);
+  map.param = std::make_unique<LatLongMap>(128, 64);
+  BakeOptions options;
+  options.cdf = options.alias = false;
+  options.sun = true;
+  EnvTables::bake(map, options, "sun.exr").save(path);
 }
 
 }  // namespace envkit::fuzz

@@ -43,6 +43,7 @@
 namespace envkit {
 
 struct EnvMap;
+class SunSplit;
 
 /// How a texel's colour becomes one scalar.
 enum class ImportanceMode { Luminance, Average, Max };
@@ -67,13 +68,16 @@ struct BakeOptions {
   bool alias = true;
   bool hierarchical = true;
   bool compensated = false;  ///< also build the compensated twin of every requested method
+  /// Also look for the map's sun (sun.h, default SunOptions) and, when there is one, store the sun split
+  /// (sun_split.h) of every table: a renderer then loads it instead of building it.
+  bool sun = false;
   bool conservative = false;
   std::function<void(double fraction, const char* stage)> progress;  ///< optional, from the calling thread
 };
 
 /// Sets which tables a bake builds from their names, as envbake's --tables and Python's bake(tables=...) take them:
-/// the methods ("cdf", "alias", "hierarchical", also spelled "pyramid") and "compensated". The others are cleared.
-/// Throws Error("unknown table '...' (cdf, alias, hierarchical, compensated)") for another name and
+/// the methods ("cdf", "alias", "hierarchical", also spelled "pyramid"), "compensated" and "sun". The others are
+/// cleared. Throws Error("unknown table '...' (cdf, alias, hierarchical, compensated, sun)") for another name and
 /// Error("name at least one of cdf, alias, hierarchical") when no method is named.
 void select_tables(const std::vector<std::string>& names, BakeOptions& options);
 
@@ -98,6 +102,9 @@ class EnvTables {
 
   /// The distribution of a method, or nullptr when it was not baked.
   const SphericalDistribution* distribution(SamplingMethod method, bool compensated = false) const;
+  /// The sun split of that distribution as a bake with BakeOptions::sun stored it: nullopt when none was stored for
+  /// it (SunSplit::make builds one), a null pointer when the bake found no sun in the map.
+  std::optional<std::shared_ptr<const SunSplit>> stored_sun_split(SamplingMethod method, bool compensated) const;
 
   Kind grid() const { return grid_; }
   /// Size of the distributions (the importance resolution).
@@ -131,6 +138,8 @@ class EnvTables {
  private:
   EnvTables() = default;
   void build_distributions(const BakeOptions& options);
+  /// Finds the map's sun once and stores the split of every distribution (BakeOptions::sun).
+  void store_sun_splits();
   std::string make_descriptor(const BakeOptions* options) const;
 
   Kind grid_ = Kind::LatLong;
@@ -150,6 +159,8 @@ class EnvTables {
   std::vector<std::string> warnings_;
   // [compensated][method]
   std::array<std::array<std::unique_ptr<SphericalDistribution>, 3>, 2> distributions_;
+  bool sun_looked_for_ = false;  // BakeOptions::sun; the splits below are null when the map has no sun
+  std::array<std::array<std::shared_ptr<const SunSplit>, 3>, 2> sun_splits_;
 };
 
 /// The table of `method` over a bake grid (kind, width, height as EnvTables::grid(), width(), height()) from

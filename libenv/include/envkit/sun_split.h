@@ -29,6 +29,9 @@ class SunSplit {
   /// builds it from max(residual - its solid-angle mean, 0) (Karlik et al. 2019), as the compensated tables are.
   static std::optional<SunSplit> make(const EnvTables& tables, SamplingMethod method, bool compensated,
                                       const SunOptions& options = {});
+  /// The same sun over another table of the same `tables`: shares this split's sun, builds the residual of `method`
+  /// (a bake that stores the split of each of its tables detects the sun once).
+  SunSplit with_method(const EnvTables& tables, SamplingMethod method, bool compensated) const;
 
   /// The sun on the importance grid, in the tables' frame; power and radiance are importance (luminance).
   const SunEstimate& sun() const { return sun_; }
@@ -40,11 +43,21 @@ class SunSplit {
   /// sun_distribution()'s pdf is 0 outside it (a test before a texel search).
   double cos_bound() const { return cos_bound_; }
 
+  /// Table files (env_tables.h): the sun (estimate, its texels' distribution, the bound) as one blob; the residual is
+  /// saved as a table of its own.
+  void save_sun(BlobWriter& out) const;
+  /// A split from a save_sun() blob over a width x height `grid` and its residual table, as a table file holds them.
+  /// Validates what it reads (a checksum says only that the bytes are as written): Error naming in.context().
+  static SunSplit restore(BlobReader& in, Kind grid, int width, int height,
+                          std::shared_ptr<const SphericalDistribution> residual);
+
  private:
   SunSplit() = default;
+  /// The sun's part of make(): detection, the sun's texels' distribution and the bound; no residual.
+  static std::optional<SunSplit> find(const EnvTables& tables, const SunOptions& options);
   SunEstimate sun_;
-  std::unique_ptr<SphericalDistribution> sun_distribution_;
-  std::unique_ptr<SphericalDistribution> residual_;
+  std::shared_ptr<const SphericalDistribution> sun_distribution_;
+  std::shared_ptr<const SphericalDistribution> residual_;
   double cos_bound_ = 1.0;
 };
 

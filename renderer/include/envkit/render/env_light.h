@@ -16,6 +16,7 @@
 #include <envkit/env_sampling.h>
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
+#include <envkit/huge_page_allocator.h>
 #include <envkit/vec.h>
 
 #include <memory>
@@ -73,7 +74,7 @@ class EnvironmentLight {
     float r = 0.0f, g = 0.0f, b = 0.0f;
     Vec3 rgb() const { return Vec3(r, g, b); }
   };
-  std::vector<Texel> texels_;  // the radiance grid, row-major
+  std::vector<Texel, HugePageAllocator<Texel>> texels_;  // the radiance grid, row-major (huge pages: fewer faults)
 };
 
 /// Loads `tables_path` and checks it against `map` (stale or missing tables are errors naming the file, with

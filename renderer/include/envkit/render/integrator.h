@@ -89,7 +89,7 @@ class Integrator {
 
   const IntegratorOptions& options() const { return options_; }
   /// The sun the light techniques split off (sun_split.h; directions in the tables' frame), or nullptr.
-  const SunSplit* sun_split() const { return sun_ ? &*sun_ : nullptr; }
+  const SunSplit* sun_split() const { return sun_.get(); }
   /// Whether the product strategies built tables (no: other strategies, or no material with a non-delta lobe).
   bool has_product_tables() const { return product_whole_ || product_split_; }
   /// The number of lobes the product tables were built for (both sets), and the memory they hold (bytes).
@@ -162,7 +162,7 @@ class Integrator {
   DirectFn direct_ = nullptr;
   LightTechniques whole_;  ///< the strategy's table of the whole map
   LightTechniques split_;  ///< the rest of the map and the sun, when it has one
-  std::optional<SunSplit> sun_;
+  std::shared_ptr<const SunSplit> sun_;
   Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
   /// Product strategies: tables of the scene's lobes over the whole map and over the rest of the map beside the sun
   /// (each for the lobes of the materials that use that table; nullptr when none does).
