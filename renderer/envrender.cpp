@@ -49,8 +49,8 @@ struct Args {
   std::string resolution;
   int spp = 16;
   double time = 0.0;
-  int bsdf_samples = 1;
-  int light_samples = 1;
+  std::optional<int> bsdf_samples;  // unset: by the material's lobe (sample_counts())
+  std::optional<int> light_samples;
   int sun_samples = envkit::render::IntegratorOptions{}.sun_samples;
   int max_depth = 1;
   int threads = 0;
@@ -169,8 +169,8 @@ int run(const Args& a) {
       {"envkit:strategy", a.strategy},
       {"envkit:light_method", envkit::method_name(io.light_method)},
       {"envkit:heuristic", a.heuristic},
-      {"envkit:bsdf_samples", std::to_string(a.bsdf_samples)},
-      {"envkit:light_samples", std::to_string(a.light_samples)},
+      {"envkit:bsdf_samples", a.bsdf_samples ? std::to_string(*a.bsdf_samples) : "by lobe"},
+      {"envkit:light_samples", a.light_samples ? std::to_string(*a.light_samples) : "by lobe"},
       {"envkit:sun_samples", std::to_string(integrator.sun_split() ? a.sun_samples : 0)},
       {"envkit:max_depth", std::to_string(a.max_depth)},
       {"envkit:spp", std::to_string(stats.spp)},
@@ -216,12 +216,21 @@ int main(int argc, char** argv) {
   app.add_option("--heuristic", a.heuristic, "MIS heuristic: balance|power")
       ->check(CLI::IsMember({"balance", "power"}))
       ->capture_default_str();
-  app.add_option("--bsdf-samples", a.bsdf_samples, "BSDF samples per shading point (N)")
-      ->transform(tools::integer_in(0, 1024))
-      ->capture_default_str();
-  app.add_option("--light-samples", a.light_samples, "light (or product) samples per shading point (M)")
-      ->transform(tools::integer_in(0, 1024))
-      ->capture_default_str();
+  const std::string narrow = tools::fmt(envkit::render::kWideLobeAlpha, 3);
+  app.add_option("--bsdf-samples", a.bsdf_samples,
+                 "BSDF samples per shading point (N) for every material; default: by the material's lobe, " +
+                     std::to_string(envkit::render::kNarrowBsdfSamples) +
+                     " for materials with a lobe narrower than GGX alpha " + narrow +
+                     " (a glossy metal or coat), "
+                     "else 1")
+      ->transform(tools::integer_in(0, 1024));
+  app.add_option("--light-samples", a.light_samples,
+                 "light (or product) samples per shading point (M) for every material; default: by the material's "
+                 "lobe, " +
+                     std::to_string(envkit::render::kWideLightSamples) +
+                     " for materials whose lobes are all at least as wide as GGX alpha " + narrow +
+                     " (Lambertian, rough metal), else 1")
+      ->transform(tools::integer_in(0, 1024));
   app.add_option("--sun-samples", a.sun_samples,
                  "light, mis, mis-compensated, product, product-mis: samples of the map's sun per shading point, drawn "
                  "apart from the rest "

@@ -25,12 +25,12 @@ if [ -n "${CONFIGS:-}" ]; then
   mapfile -t configs <<<"$CONFIGS"
 else
   configs=(
-    "mis power 1+1|$SPP|--strategy mis --heuristic power"
-    "mis power 1+4|$((SPP / 2))|--strategy mis --heuristic power --light-samples 4"
-    "mis-compensated 1+1|$SPP|--strategy mis-compensated"
-    "product M1|$SPP|--strategy product"
-    "product-mis 1+1|$SPP|--strategy product-mis"
-    "product-mis 1+2|$((SPP / 2))|--strategy product-mis --light-samples 2"
+    "mis power 1+1|$SPP|--strategy mis --heuristic power --bsdf-samples 1 --light-samples 1"
+    "mis power 1+4|$((SPP / 2))|--strategy mis --heuristic power --bsdf-samples 1 --light-samples 4"
+    "mis-compensated 1+1|$SPP|--strategy mis-compensated --bsdf-samples 1 --light-samples 1"
+    "product M1|$SPP|--strategy product --light-samples 1"
+    "product-mis 1+1|$SPP|--strategy product-mis --bsdf-samples 1 --light-samples 1"
+    "product-mis by lobe (default)|$SPP|--strategy product-mis"
   )
 fi
 config_args=()

@@ -93,12 +93,17 @@ std::vector<IntegratorOptions> strategies() {
   add(Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   add(Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 2);
   list.back().sun_samples = 0;
+  list.emplace_back();  // the defaults: product-mis, N and M by the material's lobe
+  list.emplace_back();
+  list.back().strategy = Strategy::Mis;
+  list.back().light_samples = 2;  // N by lobe
   return list;
 }
 
 std::string describe(const IntegratorOptions& o) {
   return std::string(strategy_name(o.strategy)) + " " + method_name(o.light_method) +
-         " N=" + std::to_string(o.bsdf_samples) + " M=" + std::to_string(o.light_samples) +
+         " N=" + (o.bsdf_samples ? std::to_string(*o.bsdf_samples) : "lobe") +
+         " M=" + (o.light_samples ? std::to_string(*o.light_samples) : "lobe") +
          (o.heuristic == Heuristic::Balance ? " balance" : "") + " sun=" + std::to_string(o.sun_samples);
 }
 
@@ -194,4 +199,57 @@ TEST(RenderReference, SunSplitFromTheRestOfTheMap) {
   EXPECT_GE(check_point(sun, rotation_from_euler_degrees(0, 120, 0), make_conductor(Vec3(0.0), Vec3(1.0), 0.1), 3e-3, 0,
                         256, 3),
             5);
+}
+
+// Counts the options leave unset follow the material's lobe; given counts hold for every material.
+TEST(RenderSampleCounts, ByLobeUnlessGiven) {
+  const IntegratorOptions unset;
+  const auto diffuse = make_diffuse(Vec3(0.5)), rough_plastic = make_plastic(Vec3(0.5), 0.3);
+  const auto glossy_plastic = make_plastic(Vec3(0.5), 0.05);  // a wide base, a narrow coat
+  const auto narrow = make_conductor(Vec3(0.0), Vec3(1.0), 0.05), wide = make_conductor(Vec3(0.0), Vec3(1.0), 0.3);
+  for (const Material* m : {diffuse.get(), rough_plastic.get(), wide.get()}) {
+    EXPECT_EQ(sample_counts(unset, *m).bsdf, 1) << m->name();
+    EXPECT_EQ(sample_counts(unset, *m).light, kWideLightSamples) << m->name();
+  }
+  for (const Material* m : {narrow.get(), glossy_plastic.get()}) {
+    EXPECT_EQ(sample_counts(unset, *m).bsdf, kNarrowBsdfSamples) << m->name();
+    EXPECT_EQ(sample_counts(unset, *m).light, 1) << m->name();
+  }
+  IntegratorOptions given;
+  given.light_samples = 5;
+  EXPECT_EQ(sample_counts(given, *narrow).light, 5);
+  EXPECT_EQ(sample_counts(given, *narrow).bsdf, kNarrowBsdfSamples);
+  given.bsdf_samples = 0;
+  EXPECT_EQ(sample_counts(given, *diffuse).bsdf, 0);
+  EXPECT_EQ(sample_counts(given, *diffuse).light, 5);
+}
+
+// The integrator draws those counts: light sampling of a diffuse point with the counts unset (3 light samples) has
+// about a third of the variance of 1 light sample. And only given counts can be refused.
+TEST(RenderSampleCounts, TheIntegratorDrawsThem) {
+  const Environment env(probes::CheckerProbe(4, 8, Vec3(2.0, 1.0, 0.5), Vec3(0.1, 0.3, 0.6)), identity3());
+  Scene empty;
+  const Material& material = empty.material(empty.add_material("m", make_diffuse(Vec3(0.8, 0.6, 0.4))));
+  empty.commit();
+  const Frame frame = Frame::from_normal(Vec3(0.3, 1.0, -0.2).normalized());
+  const Vec3 wo = Vec3(0.35, -0.2, 0.9).normalized();
+  IntegratorOptions options;
+  options.strategy = Strategy::Light;
+  options.sun_samples = 0;
+  double variance[2];
+  for (int one : {0, 1}) {
+    if (one) options.light_samples = 1;
+    const Integrator integrator(empty, *env.light, options);
+    Vec3 mean, se;
+    estimate(integrator, frame, material, wo, 4096, mean, se);
+    variance[one] = se.y * se.y;
+  }
+  EXPECT_GT(variance[0], 0.0);
+  EXPECT_NEAR(variance[0] / variance[1], 1.0 / kWideLightSamples, 0.4 / kWideLightSamples);
+
+  options.strategy = Strategy::Mis;
+  options.light_samples = 0;  // the BSDF count is unset, so at least 1
+  EXPECT_NO_THROW(Integrator(empty, *env.light, options));
+  options.bsdf_samples = 0;
+  EXPECT_THROW(Integrator(empty, *env.light, options), Error);
 }

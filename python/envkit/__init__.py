@@ -87,8 +87,8 @@ def render(
     strategy=None,
     light_method="hierarchical",
     heuristic="power",
-    bsdf_samples=1,
-    light_samples=1,
+    bsdf_samples=None,
+    light_samples=None,
     sun_samples=1,
     max_depth=1,
     seed=0,
@@ -102,7 +102,8 @@ def render(
 
     scene: None (the built-in default scene), a path to a JSON scene file (docs/SCENE_FORMAT.md), or a dict in
     that format (relative paths inside it are relative to base_dir, default the current directory). The other
-    arguments are envrender's options (strategy None: envrender's default); crop = (x0, y0, x1, y1).
+    arguments are envrender's options (strategy None: envrender's default; bsdf_samples and light_samples None: by
+    each material's lobe, as envrender without --bsdf-samples / --light-samples); crop = (x0, y0, x1, y1).
     """
     if not has_renderer:
         raise Error("this envkit was built without the renderer (ENVKIT_BUILD_RENDERER=OFF)")

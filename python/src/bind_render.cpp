@@ -18,8 +18,8 @@ void bind_render(py::module_& m) {
       "_render",
       [](const std::optional<std::string>& path, const std::optional<std::string>& text, const std::string& base,
          int spp, const std::optional<std::string>& strategy, const std::string& light_method,
-         const std::string& heuristic, int bsdf_samples, int light_samples, int sun_samples, int max_depth,
-         std::uint32_t seed, int width, int height, bool bake,
+         const std::string& heuristic, std::optional<int> bsdf_samples, std::optional<int> light_samples,
+         int sun_samples, int max_depth, std::uint32_t seed, int width, int height, bool bake,
          const std::optional<std::tuple<int, int, int, int>>& crop) {
         using namespace envkit::render;
         IntegratorOptions io;

@@ -10,16 +10,19 @@ namespace envkit::render {
 
 namespace {
 
-/// Narrower lobes than this GGX alpha take no sun samples: a narrow lobe sees the sun only where it reflects it,
-/// elsewhere the sun sample's shadow ray is spent on a contribution its BSDF samples find as well (the threshold
-/// lies between the alphas where the split was measured to win and to lose: BENCHMARKS.md, "The sun sampled apart").
-constexpr double kSunSplitMinAlpha = 0.25;
-
 bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 bool is_black(const Vec3& v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
 Vec3 mul(const Vec3& a, const Vec3& b) { return Vec3(a.x * b.x, a.y * b.y, a.z * b.z); }
 
+bool has_wide_lobe(const Material& material) { return material.widest_lobe_alpha() >= kWideLobeAlpha; }
+
 }  // namespace
+
+SampleCounts sample_counts(const IntegratorOptions& options, const Material& material) {
+  const bool wide = material.narrowest_lobe_alpha() >= kWideLobeAlpha;  // every lobe of it wide
+  return {options.bsdf_samples.value_or(wide ? 1 : kNarrowBsdfSamples),
+          options.light_samples.value_or(wide ? kWideLightSamples : 1)};
+}
 
 const char* strategy_name(Strategy s) {
   switch (s) {
@@ -48,28 +51,30 @@ Heuristic parse_heuristic(const std::string& name) {
 
 Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
     : scene_(scene), light_(light), options_(options) {
-  if (options_.bsdf_samples < 0 || options_.light_samples < 0) throw Error("sample counts must be >= 0");
+  // Counts the options leave unset are at least 1 (sample_counts()): only given counts can fail these rules.
+  const int n_min = options_.bsdf_samples.value_or(1), m_min = options_.light_samples.value_or(1);
+  if (n_min < 0 || m_min < 0) throw Error("sample counts must be >= 0");
   if (options_.max_depth < 1) throw Error("--max-depth must be >= 1");
   const Strategy s = options_.strategy;
-  if (s == Strategy::Bsdf && options_.bsdf_samples < 1) throw Error("strategy bsdf needs --bsdf-samples >= 1");
-  if (s == Strategy::Light && options_.light_samples < 1) throw Error("strategy light needs --light-samples >= 1");
-  if ((s == Strategy::Mis || s == Strategy::MisCompensated) && options_.bsdf_samples + options_.light_samples < 1)
+  if (s == Strategy::Bsdf && n_min < 1) throw Error("strategy bsdf needs --bsdf-samples >= 1");
+  if (s == Strategy::Light && m_min < 1) throw Error("strategy light needs --light-samples >= 1");
+  if ((s == Strategy::Mis || s == Strategy::MisCompensated) && n_min + m_min < 1)
     throw Error("strategy mis needs at least one sample");
-  if (s == Strategy::MisCompensated && options_.bsdf_samples < 1)
+  if (s == Strategy::MisCompensated && n_min < 1)
     throw Error("strategy mis-compensated needs --bsdf-samples >= 1 (BSDF sampling covers what the compensated "
                 "table leaves out)");
   if (options_.sun_samples < 0) throw Error("--sun-samples must be >= 0");
   const bool product = s == Strategy::Product || s == Strategy::ProductMis;
-  if (s == Strategy::Product && options_.light_samples < 1) throw Error("strategy product needs --light-samples >= 1");
-  if (s == Strategy::ProductMis && options_.bsdf_samples + options_.light_samples < 1)
-    throw Error("strategy product-mis needs at least one sample");
+  if (s == Strategy::Product && m_min < 1) throw Error("strategy product needs --light-samples >= 1");
+  if (s == Strategy::ProductMis && n_min + m_min < 1) throw Error("strategy product-mis needs at least one sample");
   if (product && options_.light_method != SamplingMethod::Hierarchical)
     throw Error(std::string("--light-method ") + method_name(options_.light_method) +
                 ": the product strategies refine " +
                 "the hierarchical table (another method needs --strategy light, mis or mis-compensated)");
   if (s != Strategy::Bsdf) {
     const bool compensated = s == Strategy::MisCompensated;
-    whole_ = {{LightTechnique{&light_.distribution(options_.light_method, compensated), options_.light_samples}}, 1};
+    // The light counts are the shading point's (techniques()).
+    whole_ = {{LightTechnique{&light_.distribution(options_.light_method, compensated), 0}}, 1};
     if (options_.sun_samples > 0) {
       // A table file may hold the split (envbake --tables ...,sun); else it is built here.
       if (auto stored = light_.tables().stored_sun_split(options_.light_method, compensated))
@@ -77,9 +82,8 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
       else if (std::optional<SunSplit> made = SunSplit::make(light_.tables(), options_.light_method, compensated))
         sun_ = std::make_shared<const SunSplit>(std::move(*made));
       if (sun_) {
-        split_ = {{LightTechnique{&sun_->residual(), options_.light_samples},
-                   LightTechnique{&sun_->sun_distribution(), options_.sun_samples}},
-                  2};
+        split_ = {
+            {LightTechnique{&sun_->residual(), 0}, LightTechnique{&sun_->sun_distribution(), options_.sun_samples}}, 2};
         sun_axis_ = apply(light_.rotation(), sun_->sun().direction);
       }
     }
@@ -104,7 +108,7 @@ void Integrator::build_product_tables() {
     const Material& material = scene_.material(m);
     const std::optional<Lobe> lobe = product_lobe(material);
     if (!lobe) continue;
-    std::vector<Lobe>& set = sun_ && material.widest_lobe_alpha() >= kSunSplitMinAlpha ? split : whole;
+    std::vector<Lobe>& set = sun_ && has_wide_lobe(material) ? split : whole;
     if (std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
   }
   if (!whole.empty()) product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].distribution, whole);
@@ -132,8 +136,12 @@ double Integrator::mis_weight(double a, double b) const {
 }
 
 Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x) const {
-  const bool split = sun_ && x.material.widest_lobe_alpha() >= kSunSplitMinAlpha;
+  // Narrow lobes take no sun samples: a narrow lobe sees the sun only where it reflects it, elsewhere the sun
+  // sample's shadow ray is spent on a contribution its BSDF samples find as well (the threshold lies between the
+  // alphas where the split was measured to win and to lose: BENCHMARKS.md, "The sun sampled apart").
+  const bool split = sun_ && has_wide_lobe(x.material);
   LightTechniques t = split ? split_ : whole_;
+  t.parts[0].count = sample_counts(options_, x.material).light;
   const LobeProductTables* tables = split ? product_split_.get() : product_whole_.get();
   if (!tables) return t;
   // By lobe, not by material: a material outside the scene (direct() is public) with a lobe of the scene's gets
@@ -195,7 +203,7 @@ Vec3 Integrator::delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const 
 }
 
 Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
-  const int N = options_.bsdf_samples;
+  const int N = sample_counts(options_, x.material).bsdf;
   Vec3 sum(0, 0, 0);
   for (int i = 0; i < N; ++i) sum += bsdf_term(x, sampler).value;
   return sum / double(N);
@@ -215,7 +223,7 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
-  const int N = options_.bsdf_samples;
+  const int N = sample_counts(options_, x.material).bsdf;
   const LightTechniques light = techniques(x);
   Vec3 sum(0, 0, 0);
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).

@@ -34,6 +34,7 @@ class PlasticMaterial final : public Material {
 
   const char* name() const override { return "plastic"; }
   double widest_lobe_alpha() const override { return 1.0; }
+  double narrowest_lobe_alpha() const override { return alpha_; }
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
     Vec3 h;

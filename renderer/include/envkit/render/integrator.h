@@ -10,7 +10,8 @@
 /// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
 /// --max-depth 1 (the default) is direct illumination only.
 ///
-/// Strategies for D (N = bsdf_samples, M = light_samples, S = sun_samples):
+/// Strategies for D (N BSDF, M light and S sun samples per shading point; N and M by the material's lobe unless the
+/// options set them: sample_counts()):
 ///  - bsdf:  (1/N) sum f cos L / p_bsdf over N BSDF samples.
 ///  - light: (1/M) sum f cos L V / p_light over M environment samples (light_method: cdf|alias|hierarchical).
 ///  - mis:   Veach's multi-sample model, N BSDF + M light samples, weights w_i = (n_i p_i)^b / sum_k (n_k p_k)^b,
@@ -65,14 +66,37 @@ struct IntegratorOptions {
   Strategy strategy = Strategy::ProductMis;
   SamplingMethod light_method = SamplingMethod::Hierarchical;
   Heuristic heuristic = Heuristic::Power;
-  int bsdf_samples = 1;
-  int light_samples = 1;
+  /// BSDF (N) and light (M) samples per shading point, for every material; unset: by the material's lobe
+  /// (sample_counts()).
+  std::optional<int> bsdf_samples;
+  std::optional<int> light_samples;
   int max_depth = 1;  ///< scattering events per path (1 = direct only)
-  /// Samples of the sun's texels per shading point when the map has a sun (sun_split.h); light_samples then draw
-  /// from the rest of the map. 0 = no split. Used by every strategy but bsdf, at shading points whose
-  /// material has a lobe at least as wide as GGX alpha 0.25 (Lambertian and plastic always; see integrator.cpp).
+  /// Samples of the sun's texels per shading point when the map has a sun (sun_split.h); the light samples then
+  /// draw from the rest of the map. 0 = no split. Used by every strategy but bsdf, at shading points whose
+  /// material has a wide lobe (kWideLobeAlpha: Lambertian and plastic always).
   int sun_samples = 1;
 };
+
+/// A lobe is wide when it is at least this GGX alpha (Lambertian counts as 1): it sees much of the sky from a
+/// shading point. Materials with a wide lobe (Lambertian, plastic, rough metal) take sun samples; the others keep the
+/// whole map's table. Materials whose lobes are all wide take the wide sample counts below.
+inline constexpr double kWideLobeAlpha = 0.25;
+/// Light samples of a wide lobe and BSDF samples of a narrow one when the options leave the counts unset.
+inline constexpr int kWideLightSamples = 3;
+inline constexpr int kNarrowBsdfSamples = 3;
+
+/// BSDF (N) and light (M) samples per shading point.
+struct SampleCounts {
+  int bsdf = 1;
+  int light = 1;
+};
+/// The options' counts where set, else by the material's lobes. A material whose lobes are all wide (Lambertian, GGX
+/// alpha >= kWideLobeAlpha) has the noise of its light samples (and of the shadows): kWideLightSamples light samples
+/// and 1 BSDF sample. One with a narrow lobe (a glossy metal, a plastic's glossy coat) sees the bright sky through
+/// a small window, where BSDF samples are the better guide: kNarrowBsdfSamples BSDF samples and 1 light sample.
+/// Pure delta materials take one BSDF sample whatever the counts. Why these numbers: BENCHMARKS.md, "Samples per
+/// shading point".
+SampleCounts sample_counts(const IntegratorOptions& options, const Material& material);
 
 class Integrator {
  public:

@@ -63,6 +63,9 @@ class Material {
   /// GGX alpha of the material's widest non-delta lobe, 1 for a Lambertian part (as wide as lobes get), 0 when it
   /// has none: how much of the sky one of its shading points sees.
   virtual double widest_lobe_alpha() const = 0;
+  /// GGX alpha of the material's narrowest non-delta lobe (1 for Lambertian, 0 for a pure delta material): a plastic's
+  /// coat. The same as widest_lobe_alpha() for single-lobe materials.
+  virtual double narrowest_lobe_alpha() const { return widest_lobe_alpha(); }
 };
 
 std::unique_ptr<Material> make_diffuse(const Vec3& albedo);
