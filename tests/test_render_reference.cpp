@@ -225,7 +225,7 @@ TEST(RenderSampleCounts, ByLobeUnlessGiven) {
 }
 
 // The integrator draws those counts: light sampling of a diffuse point with the counts unset (3 light samples) has
-// about a third of the variance of 1 light sample. And only given counts can be refused.
+// at most about a third of the variance of 1 light sample. And only given counts can be refused.
 TEST(RenderSampleCounts, TheIntegratorDrawsThem) {
   const Environment env(probes::CheckerProbe(4, 8, Vec3(2.0, 1.0, 0.5), Vec3(0.1, 0.3, 0.6)), identity3());
   Scene empty;
@@ -245,7 +245,8 @@ TEST(RenderSampleCounts, TheIntegratorDrawsThem) {
     variance[one] = se.y * se.y;
   }
   EXPECT_GT(variance[0], 0.0);
-  EXPECT_NEAR(variance[0] / variance[1], 1.0 / kWideLightSamples, 0.4 / kWideLightSamples);
+  // At most about 1/M of it (less: the M samples of a point are stratified together, Sampler::point_2d).
+  EXPECT_LT(variance[0] / variance[1], 1.3 / kWideLightSamples);
 
   options.strategy = Strategy::Mis;
   options.light_samples = 0;  // the BSDF count is unset, so at least 1

@@ -19,7 +19,7 @@ std::vector<Vec2> points(std::uint32_t seed, int px, int py, int dimension_pair,
   std::vector<Vec2> p;
   for (int i = 0; i < n; ++i) {
     s.start_sample(std::uint32_t(i));
-    Vec2 v;
+    Vec2 v(0.0, 0.0);
     for (int d = 0; d <= dimension_pair; ++d) v = s.next_2d();
     p.push_back(v);
   }
@@ -79,4 +79,36 @@ TEST(OwenSobolSampler, DimensionPairsAreDecorrelated) {
   const double cov = sab / n - sa / n * sb / n;
   const double corr = cov / std::sqrt((saa / n - sa / n * sa / n) * (sbb / n - sb / n * sb / n));
   EXPECT_LT(std::abs(corr), 0.06);  // 4 standard errors of an uncorrelated pair at n = 4096
+}
+
+// point_2d: the m points of each of a pixel's samples are together one sequence. With m = 4 points per sample,
+// the first n samples' 4n points are a (0, 2)-net, as 4n samples of next_2d() are; the pair is consumed once.
+TEST(OwenSobolSampler, SeveralPointsPerSampleAreOneStratifiedSequence) {
+  constexpr std::uint32_t m = 4;
+  OwenSobolSampler s(5u, 17, 3);
+  std::vector<Vec2> p;
+  for (std::uint32_t i = 0; i < 256; ++i) {
+    s.start_sample(i);
+    s.next_2d();  // another pair before: the group's own pair is whichever reserve() returns
+    const std::uint32_t d = s.reserve(1);
+    for (std::uint32_t k = 0; k < m; ++k) p.push_back(s.point_2d(d, k, m));
+    EXPECT_EQ(s.reserve(0), d + 1);  // one pair for the whole group
+    EXPECT_EQ(s.point_1d(d, 0, m), p[i * m].x);
+  }
+  for (const int n : {4, 64, 1024}) {
+    const int bits = int(std::log2(n));
+    for (int k = 0; k <= bits; ++k) {
+      const int cx = 1 << k, cy = 1 << (bits - k);
+      std::set<long> cells;
+      for (int i = 0; i < n; ++i) cells.insert(long(std::floor(p[i].x * cx)) * cy + long(std::floor(p[i].y * cy)));
+      EXPECT_EQ(int(cells.size()), n) << "first " << n << " points in " << cx << " x " << cy << " cells";
+    }
+  }
+  // A group of one point is next_2d().
+  OwenSobolSampler a(8u, 1, 2), b(8u, 1, 2);
+  a.start_sample(9);
+  b.start_sample(9);
+  const Vec2 u = a.next_2d(), v = b.point_2d(b.reserve(1), 0, 1);
+  EXPECT_EQ(u.x, v.x);
+  EXPECT_EQ(u.y, v.y);
 }

@@ -235,3 +235,26 @@ TEST(SunSplitStored, InvalidSunValuesBehindValidChecksumsAreRefused) {
   EXPECT_NE(patched(0, as_double).find("section sun: invalid flag"), std::string::npos);
   std::filesystem::remove(path);
 }
+
+// A residual that still holds the sun would count the sun twice (the parts are weighed as disjoint): refused.
+TEST(SunSplitStored, AResidualWithTheSunInItIsRefused) {
+  const probes::OutdoorProbe probe;
+  const EnvTables tables = bake(probe, std::make_unique<LatLongMap>(256, 128), Kind::LatLong);
+  const std::optional<SunSplit> split = SunSplit::make(tables, SamplingMethod::Hierarchical, false);
+  ASSERT_TRUE(split.has_value());
+  BlobWriter out;
+  split->save_sun(out);
+  const std::vector<std::byte> blob = out.flatten();
+  const auto restore = [&](const SphericalDistribution& residual) {
+    BlobReader in(blob.data(), blob.size(), "sun");
+    const std::shared_ptr<const SphericalDistribution> shared(&residual, [](const SphericalDistribution*) {});
+    return SunSplit::restore(in, tables.grid(), tables.width(), tables.height(), shared);
+  };
+  EXPECT_EQ(restore(split->residual()).sun().region, split->sun().region);
+  try {
+    restore(*tables.distribution(SamplingMethod::Hierarchical));  // the whole map: the sun is in it
+    ADD_FAILURE() << "a residual holding the sun was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("light on the sun's texels"), std::string::npos) << e.what();
+  }
+}

@@ -97,17 +97,23 @@ double OwenSobolSampler::first_coordinate(std::uint32_t dim_seed, std::uint32_t 
   return to_unit(reverse_bits(laine_karras_permutation(shuffled, combine(dim_seed, 1u))), low);
 }
 
-Vec2 OwenSobolSampler::next_2d() {
-  const std::uint32_t dim_seed = combine(pixel_seed_, dimension_++);
-  const std::uint32_t shuffled = nested_uniform_scramble(index_, dim_seed);
-  const std::uint32_t low = combine(dim_seed, index_);
+Vec2 OwenSobolSampler::next_2d() { return point_2d(reserve(1), 0, 1); }
+
+double OwenSobolSampler::next_1d() { return point_1d(reserve(1), 0, 1); }
+
+Vec2 OwenSobolSampler::point_2d(std::uint32_t dimension, std::uint32_t k, std::uint32_t m) const {
+  const std::uint32_t index = index_ * m + k;
+  const std::uint32_t dim_seed = combine(pixel_seed_, dimension);
+  const std::uint32_t shuffled = nested_uniform_scramble(index, dim_seed);
+  const std::uint32_t low = combine(dim_seed, index);
   const std::uint32_t y = nested_uniform_scramble(sobol1(shuffled), combine(dim_seed, 2u));
   return Vec2(first_coordinate(dim_seed, shuffled, low), to_unit(y, combine(low, 3u)));
 }
 
-double OwenSobolSampler::next_1d() {
-  const std::uint32_t dim_seed = combine(pixel_seed_, dimension_++);
-  return first_coordinate(dim_seed, nested_uniform_scramble(index_, dim_seed), combine(dim_seed, index_));
+double OwenSobolSampler::point_1d(std::uint32_t dimension, std::uint32_t k, std::uint32_t m) const {
+  const std::uint32_t index = index_ * m + k;
+  const std::uint32_t dim_seed = combine(pixel_seed_, dimension);
+  return first_coordinate(dim_seed, nested_uniform_scramble(index, dim_seed), combine(dim_seed, index));
 }
 
 }  // namespace envkit

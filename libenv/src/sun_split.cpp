@@ -157,6 +157,11 @@ SunSplit SunSplit::restore(BlobReader& in, Kind grid, int width, int height,
     if (!std::binary_search(region.begin(), region.end(), t)) throw refuse("a sampled texel outside the sun");
   if (!residual || residual->grid() != grid || residual->width() != width || residual->height() != height)
     throw refuse("the residual table is on another grid");
+  // The two parts are weighed as disjoint (sun_split.h): a residual with light on the sun's texels would count it
+  // twice.
+  for (std::uint64_t t : region)
+    if (residual->texel_pdf(int(t % std::uint64_t(width)), int(t / std::uint64_t(width))) != 0.0)
+      throw refuse("the residual table has light on the sun's texels");
   sun.clipped = clipped >= 0;
   sun.clipped_texels = sun.clipped ? int(clipped) : 0;
   sun.texels = int(region.size());

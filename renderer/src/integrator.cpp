@@ -159,13 +159,15 @@ double Integrator::sun_pdf(const Vec3& wi_world) const {
   return light_.pdf(sun_->sun_distribution(), wi_world);
 }
 
-Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, Sampler& sampler,
-                                           const LightTechniques* light) const {
+Integrator::BsdfDraw Integrator::bsdf_draw(const Sampler& sampler, std::uint32_t dimension, int k, int n) {
+  return {sampler.point_2d(dimension, std::uint32_t(k), std::uint32_t(n)),
+          sampler.point_1d(dimension + 1, std::uint32_t(k), std::uint32_t(n))};
+}
+
+Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw, const LightTechniques* light) const {
   BsdfTerm t;
-  const Vec2 u = sampler.next_2d();
-  const double u_lobe = sampler.next_1d();
   BsdfSample bs;
-  if (!x.material.sample(x.wo, u, u_lobe, bs) || !(bs.pdf > 0.0) || is_black(bs.f_cos)) return t;
+  if (!x.material.sample(x.wo, draw.u, draw.u_lobe, bs) || !(bs.pdf > 0.0) || is_black(bs.f_cos)) return t;
   t.wi_world = x.frame.to_world(bs.wi);
   if ((t.wi_world ^ x.ng) <= 0.0) return t;  // the shading normal let it through the geometric surface
   t.pdf = bs.pdf;
@@ -184,9 +186,9 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, Sampler& sampl
 }
 
 Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const SphericalDistribution& distribution,
-                                             Sampler& sampler) const {
+                                             Vec2 u) const {
   LightTerm t;
-  const LightSample ls = light_.sample(distribution, sampler.next_2d());
+  const LightSample ls = light_.sample(distribution, u);
   t.pdf = ls.pdf;
   if (!(ls.pdf > 0.0) || (ls.direction ^ x.ng) <= 0.0 || is_black(ls.radiance)) return t;
   t.wi_local = x.frame.to_local(ls.direction);
@@ -198,14 +200,15 @@ Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const Spheri
 
 Vec3 Integrator::delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const {
   if (!x.material.has_delta()) return Vec3(0, 0, 0);
-  const BsdfTerm b = bsdf_term(x, sampler);
+  const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, sampler.reserve(2), 0, 1));
   return b.is_delta ? b.value : Vec3(0, 0, 0);
 }
 
 Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
   const int N = sample_counts(options_, x.material).bsdf;
+  const std::uint32_t dimension = sampler.reserve(2);
   Vec3 sum(0, 0, 0);
-  for (int i = 0; i < N; ++i) sum += bsdf_term(x, sampler).value;
+  for (int i = 0; i < N; ++i) sum += bsdf_term(x, bsdf_draw(sampler, dimension, i, N)).value;
   return sum / double(N);
 }
 
@@ -214,8 +217,10 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
+    const std::uint32_t dimension = sampler.reserve(1);
     for (int j = 0; j < t.count; ++j) {
-      const LightTerm l = light_term(x, *t.distribution, sampler);
+      const LightTerm l =
+          light_term(x, *t.distribution, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
       if (!is_black(l.value)) sum += l.value / (l.pdf * t.count);
     }
   }
@@ -229,15 +234,18 @@ Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
+    const std::uint32_t dimension = sampler.reserve(1);
     for (int j = 0; j < t.count; ++j) {
-      const LightTerm l = light_term(x, *t.distribution, sampler);
+      const LightTerm l =
+          light_term(x, *t.distribution, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
       if (is_black(l.value)) continue;
       const double p_b = x.material.pdf(x.wo, l.wi_local);
       sum += l.value * (mis_weight(t.count * l.pdf, N * p_b) / (t.count * l.pdf));
     }
   }
+  const std::uint32_t dimension = sampler.reserve(2);
   for (int i = 0; i < N; ++i) {
-    const BsdfTerm b = bsdf_term(x, sampler, &light);
+    const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N), &light);
     if (!(b.pdf > 0.0) || is_black(b.value)) continue;
     if (b.is_delta) {
       sum += b.value / double(N);
@@ -252,7 +260,7 @@ Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng
                         const Material& material, Sampler& sampler) const {
   const ShadingPoint x{Scene::offset_origin(position, ng), frame, ng, wo, material};
   // Pure delta materials: one BSDF sample, weight 1, in every strategy.
-  if (material.is_pure_delta()) return bsdf_term(x, sampler).value;
+  if (material.is_pure_delta()) return bsdf_term(x, bsdf_draw(sampler, sampler.reserve(2), 0, 1)).value;
   return (this->*direct_)(x, sampler);
 }
 

@@ -34,6 +34,19 @@ class OwenSobolSampler {
   /// The next 1D value (consumes one dimension pair): next_2d().x without computing y.
   double next_1d();
 
+  /// Several points of one sample from the same dimension pairs (a shading point's M light samples): reserve(n)
+  /// consumes n pairs and returns the first; point_2d(d, k, m) is point k (0 <= k < m) of pair d, index
+  /// sample * m + k of its sequence. So the m points of every sample of a pixel are together one stratified
+  /// sequence of spp x m points, rather than m sequences of spp points, one per pair. (Indices wrap at 2^32: points
+  /// stay uniform, later ones repeat earlier ones.)
+  std::uint32_t reserve(std::uint32_t pairs) {
+    const std::uint32_t first = dimension_;
+    dimension_ += pairs;
+    return first;
+  }
+  Vec2 point_2d(std::uint32_t dimension, std::uint32_t k, std::uint32_t m) const;
+  double point_1d(std::uint32_t dimension, std::uint32_t k, std::uint32_t m) const;
+
  private:
   double first_coordinate(std::uint32_t dim_seed, std::uint32_t shuffled, std::uint32_t low) const;
 

@@ -32,6 +32,9 @@
 ///           for Lambertian and plastic, the GGX reflection lobe of the material's alpha around the mirror
 ///           direction for rough conductors) and a grid of axes; a shading point draws from the table of its
 ///           lobe's axis. The table's pdf enters the weights as any light table's. Uses the hierarchical table.
+/// Random numbers: the M samples of a light technique (and the N BSDF samples) at a shading point draw points k =
+/// 0 .. M - 1 of one dimension pair at index sample x M + k (Sampler::point_2d), so that over a pixel's samples
+/// they are one stratified sequence of spp x M points.
 /// Delta lobes (perfect mirror): no light sample can hit them, so every strategy follows them by BSDF sampling
 /// with weight 1 (pure-delta materials take exactly one BSDF sample, whatever N and M say).
 /// No NaN or Inf leaves radiance(): a non-finite estimate (never expected) is replaced by 0 and counted.
@@ -156,11 +159,19 @@ class Integrator {
     Vec3 wi_local;
     double pdf = 0.0;
   };
+  /// The random numbers of one BSDF sample: the direction's and the lobe choice's.
+  struct BsdfDraw {
+    Vec2 u;
+    double u_lobe = 0.0;
+  };
   using DirectFn = Vec3 (Integrator::*)(const ShadingPoint&, Sampler&) const;
 
   double mis_weight(double a, double b) const;
   /// `light`: also find those techniques' density at the direction (MIS), the first in the radiance's texel search.
-  BsdfTerm bsdf_term(const ShadingPoint& x, Sampler& sampler, const LightTechniques* light = nullptr) const;
+  BsdfTerm bsdf_term(const ShadingPoint& x, BsdfDraw draw, const LightTechniques* light = nullptr) const;
+  /// Draw k of the n BSDF samples of a shading point from the two dimension pairs reserved at `dimension`: the n
+  /// draws of every sample of a pixel are one stratified sequence (Sampler::point_2d), as are the light draws.
+  static BsdfDraw bsdf_draw(const Sampler& sampler, std::uint32_t dimension, int k, int n);
   /// The split when the map has a sun and the material's lobes are wide enough to gain from it, else the whole map.
   /// With product tables, the first part is the table of the material's lobe at this point's axis.
   LightTechniques techniques(const ShadingPoint& x) const;
@@ -170,7 +181,7 @@ class Integrator {
   void build_product_tables();
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;
-  LightTerm light_term(const ShadingPoint& x, const SphericalDistribution& distribution, Sampler& sampler) const;
+  LightTerm light_term(const ShadingPoint& x, const SphericalDistribution& distribution, Vec2 u) const;
   /// A material's delta lobe (one BSDF sample kept only when it picked that lobe), for strategies whose other
   /// samples cannot reach it; 0 for materials without one (no sample drawn).
   Vec3 delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const;
