@@ -228,6 +228,27 @@ TEST_F(RenderCli, AStoredSunSplitRendersTheImageOfOneBuiltAtLoad) {
   EXPECT_TRUE(std::equal(built.pixels.begin(), built.pixels.end(), stored.pixels.begin()));
 }
 
+// A sun that is all the map's light (a black sky): the split would leave an empty rest of the map, whose uniform
+// fallback draws the sun's texels too and doubled the sunlight. It is not split: the image is the one rendered
+// without sun samples.
+TEST_F(RenderCli, ASunThatIsAllTheLightIsNotCountedTwice) {
+  const probes::SunProbe probe(Vec3(0.3, 0.5, 0.8), 1.0 * kPi / 180.0, Vec3(1e3), Vec3(0.0));
+  write_image((dir_ / "sun.exr").string(), probes::rasterize(probe, LatLongMap(256, 128)));
+  const auto file =
+      write("sun.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])", R"("image": "sun.exr")"));
+  fs::path out[2];
+  for (const int sun_samples : {0, 1}) {
+    out[sun_samples] = dir_ / ("sun" + std::to_string(sun_samples) + ".exr");
+    const auto r = envrender({"--scene", file.string(), "-o", out[sun_samples].string(), "--spp", "16", "--bake",
+                              "--strategy", "light", "--sun-samples", std::to_string(sun_samples)});
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.err.find("sampling the sun apart"), std::string::npos) << r.err;
+  }
+  const Image a = read_image(out[0].string()), b = read_image(out[1].string());
+  ASSERT_EQ(a.pixels.size(), b.pixels.size());
+  EXPECT_TRUE(std::equal(a.pixels.begin(), a.pixels.end(), b.pixels.begin()));
+}
+
 // The product strategies say what they built and render the image mis renders, within its noise.
 TEST_F(RenderCli, ProductStrategiesNameTheirTablesAndAgreeWithMis) {
   const auto file = write("ok.json", scene());

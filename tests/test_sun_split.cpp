@@ -106,6 +106,18 @@ TEST(SunSplit, CompensatedResidualKeepsTheSunOut) {
   EXPECT_GT(zero, int(split->sun().region.size()));
 }
 
+// A map whose only light is its sun: the rest would be an empty table, whose uniform fallback would draw the sun's
+// texels too and count the sun twice. Not split: one table samples the sun as well.
+TEST(SunSplit, ASunThatIsAllTheLightIsNotSplit) {
+  const probes::SunProbe probe(Vec3(0.4, 0.5, -0.77).normalized(), 1.0 * kPi / 180.0, Vec3(1e3), Vec3(0.0));
+  const EnvTables tables = bake(probe, std::make_unique<LatLongMap>(256, 128), Kind::LatLong, /*sun=*/true);
+  for (bool compensated : {false, true})
+    EXPECT_FALSE(SunSplit::make(tables, SamplingMethod::Hierarchical, compensated).has_value());
+  const auto stored = tables.stored_sun_split(SamplingMethod::Hierarchical, false);
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_EQ(*stored, nullptr);
+}
+
 TEST(SunSplit, MapsWithoutASunAreNotSplit) {
   const probes::GradientProbe sky(Vec3(0.2), Vec3(1.0), probes::GradientProbe::Form::Quadratic);
   const EnvTables tables = bake(sky, std::make_unique<LatLongMap>(256, 128), Kind::LatLong);

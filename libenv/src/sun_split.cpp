@@ -41,13 +41,15 @@ std::unique_ptr<Parameterization> grid_of(const EnvTables& tables) {
 
 /// The residual table of `method`: the importance with the sun's texels at 0; `compensated`: max(that - its
 /// solid-angle mean, 0), unless that is zero everywhere (a constant residual keeps its plain importance, as the
-/// bake does).
+/// bake does). Null when the rest of the map carries no light: its table would fall back to uniform sampling, whose
+/// samples land on the sun's texels too, and the sun would be counted twice.
 std::shared_ptr<const SphericalDistribution> residual_table(const EnvTables& tables,
                                                             const std::vector<std::size_t>& sun_texels,
                                                             SamplingMethod method, bool compensated) {
   const int W = tables.width(), H = tables.height();
   std::vector<float> residual(tables.importance().begin(), tables.importance().end());
   for (std::size_t t : sun_texels) residual[t] = 0.0f;
+  if (std::none_of(residual.begin(), residual.end(), [](float v) { return v > 0.0f; })) return nullptr;
   if (compensated) {
     const auto grid = grid_of(tables);
     double power = 0.0;
@@ -96,13 +98,16 @@ std::optional<SunSplit> SunSplit::find(const EnvTables& tables, const SunOptions
 std::optional<SunSplit> SunSplit::make(const EnvTables& tables, SamplingMethod method, bool compensated,
                                        const SunOptions& options) {
   std::optional<SunSplit> split = find(tables, options);
-  if (split) split->residual_ = residual_table(tables, split->sun_.region, method, compensated);
+  if (!split) return std::nullopt;
+  split->residual_ = residual_table(tables, split->sun_.region, method, compensated);
+  if (!split->residual_) return std::nullopt;  // the sun is all the light: one table samples it as well
   return split;
 }
 
 SunSplit SunSplit::with_method(const EnvTables& tables, SamplingMethod method, bool compensated) const {
   SunSplit split = *this;
   split.residual_ = residual_table(tables, sun_.region, method, compensated);
+  if (!split.residual_) throw Error("sun split: the rest of the map carries no light");  // make() did not split
   return split;
 }
 

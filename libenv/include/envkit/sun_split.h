@@ -25,7 +25,8 @@ namespace envkit {
 class SunSplit {
  public:
   /// The split of `tables`' importance on their distribution grid, or nothing when detect_sun (with `options`,
-  /// reading the importance as luminance) finds no sun there. The residual is a table of `method`; `compensated`
+  /// reading the importance as luminance) finds no sun there, or when the sun is all of the map's light (the rest
+  /// would be an empty table). The residual is a table of `method`; `compensated`
   /// builds it from max(residual - its solid-angle mean, 0) (Karlik et al. 2019), as the compensated tables are.
   static std::optional<SunSplit> make(const EnvTables& tables, SamplingMethod method, bool compensated,
                                       const SunOptions& options = {});
