@@ -60,7 +60,7 @@ RowScales latlong_row_scales(const Parameterization& dst) {
 }
 
 /// Fraction of [lo, hi) inside cell [c, c + 1), for each cell the interval touches; returns the first cell.
-int overlaps(double lo, double hi, double* fraction, int& count) {
+inline int overlaps(double lo, double hi, double* fraction, int& count) {
   const int first = static_cast<int>(std::floor(lo));
   if (hi <= first + 1.0) {  // inside one cell
     fraction[0] = 1.0;
@@ -79,12 +79,75 @@ int overlaps(double lo, double hi, double* fraction, int& count) {
   return first;
 }
 
-/// Contributions of a chunk of source rows: runs of consecutive texels that land in the same output texel, summed
-/// in double (a whole polar row can land in one output texel).
+/// The output texels that resolve to themselves from an anchor texel (Parameterization::resolve): those of the
+/// anchor's tap_cell() block, or the whole image when tap_cell() is 0; none when every tap must be resolved. Kept
+/// from one anchor to the next while the anchor stays in the block, which spares resolve's divisions per tap.
+class AnchorBlock {
+ public:
+  explicit AnchorBlock(const Parameterization& p) : cell_(p.tap_cell()), width_(p.width()), height_(p.height()) {
+    if (cell_ == 0) x1_ = width_, y1_ = height_;
+  }
+  void move_to(int i, int j) {
+    if (cell_ <= 0 || holds(i, j)) return;
+    x0_ = i / cell_ * cell_;
+    y0_ = j / cell_ * cell_;
+    x1_ = std::min(x0_ + cell_, width_);
+    y1_ = std::min(y0_ + cell_, height_);
+  }
+  bool holds(int i, int j) const { return i >= x0_ && i < x1_ && j >= y0_ && j < y1_; }
+
+ private:
+  int cell_, width_, height_;
+  int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0;
+};
+
+/// Slots of a chunk's accumulator (a power of two). A source row revisits the output texels the row above it
+/// reached, some thousands of them across four cube faces at 8k -> 1024: the slots hold about two rows' worth, so
+/// most contributions are summed in the slot (in cache) and each output texel leaves a chunk a few times at most.
+constexpr int kSlotBits = 14;
+
+/// Contributions of a chunk of source rows, summed in double (a whole polar row can land in one output texel) per
+/// output texel: first in a direct-mapped accumulator of slots, keyed by output texel, then as runs (a texel whose
+/// slot is taken by another leaves its sum as a run, as does every slot at the chunk's end). The runs depend only on
+/// the chunk's texels, never on the thread that projected it.
 struct Chunk {
   int first_row = 0, end_row = 0;
   std::vector<std::size_t> cells;  // output texel of each run
   std::vector<double> sums;        // per run: C flux-weighted channel sums, then the weight
+  std::vector<std::size_t> slot_cell;  // output texel held by each slot, kEmpty when none
+  std::vector<double> slot_sums;       // per slot: as sums
+  static constexpr std::size_t kEmpty = std::size_t(-1);
+
+  void start(int first, int end, int stride) {
+    first_row = first;
+    end_row = end;
+    cells.clear();
+    sums.clear();
+    slot_cell.assign(std::size_t(1) << kSlotBits, kEmpty);
+    slot_sums.resize(slot_cell.size() * stride);
+  }
+  /// The sums of output texel `cell` (C channel sums, then the weight), zero the first time.
+  double* sums_of(std::size_t cell, int stride) {
+    const std::size_t slot = (cell * 0x9E3779B97F4A7C15ull) >> (64 - kSlotBits);
+    double* held = slot_sums.data() + slot * stride;
+    if (slot_cell[slot] != cell) {
+      if (slot_cell[slot] != kEmpty) emit(slot_cell[slot], held, stride);
+      slot_cell[slot] = cell;
+      std::fill_n(held, stride, 0.0);
+    }
+    return held;
+  }
+  /// Moves what the slots hold into the runs, in slot order.
+  void flush(int stride) {
+    for (std::size_t slot = 0; slot < slot_cell.size(); ++slot)
+      if (slot_cell[slot] != kEmpty) emit(slot_cell[slot], slot_sums.data() + slot * stride, stride);
+  }
+
+ private:
+  void emit(std::size_t cell, const double* value, int stride) {
+    cells.push_back(cell);
+    sums.insert(sums.end(), value, value + stride);
+  }
 };
 
 template <class Real>
@@ -115,15 +178,10 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   const int stride = C + 1;
 
   // Stage 2 of the pipeline: project a chunk's texels and spread each one's flux over the output texels its
-  // square overlaps, as runs.
+  // square overlaps, summed per output texel in the chunk's slots and handed on as runs.
   const auto project = [&](Chunk& chunk) {
-    // About one run per two or three texels when shrinking: reserve for one per texel.
-    const std::size_t texels = std::size_t(chunk.end_row - chunk.first_row) * W;
-    chunk.cells.reserve(texels);
-    chunk.sums.reserve(texels * stride);
     double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
-    std::size_t run_cell = std::size_t(-1);
-    double* run = nullptr;
+    AnchorBlock block(dst);
     for (int j = chunk.first_row; j < chunk.end_row; ++j) {
       // Hot texels (splatted exactly afterwards) still give their weight here, with zero colour.
       auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
@@ -150,15 +208,10 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
           width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
         }
         const float* px = img.pixels.data() + index * C;
+        block.move_to(ti, tj);
         const auto add = [&](int ci, int cj, double w) {
-          if (!dst.resolve(ti, tj, ci, cj)) return;
-          const std::size_t cell = std::size_t(cj) * DW + ci;
-          if (cell != run_cell) {
-            run_cell = cell;
-            chunk.cells.push_back(cell);
-            chunk.sums.resize(chunk.sums.size() + stride, 0.0);
-            run = chunk.sums.data() + chunk.sums.size() - stride;
-          }
+          if (!block.holds(ci, cj) && !dst.resolve(ti, tj, ci, cj)) return;
+          double* run = chunk.sums_of(std::size_t(cj) * DW + ci, stride);
           for (int c = 0; c < C; ++c)
             if (!is_hot || c == img.alpha_channel) run[c] += w * px[c];
           run[C] += w;
@@ -175,6 +228,7 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
             if (fx[a] * fy[b] > 0.0) add(cx + a, cy + b, omega_s * fx[a] * fy[b]);
       }
     }
+    chunk.flush(stride);
   };
 
   // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
@@ -183,14 +237,14 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
     std::fill(sum.begin() + r.begin(), sum.begin() + r.end(), Real(0));
   });
   int next_row = 0;
-  // Chunks are recycled: a fresh multi-megabyte buffer per chunk would page-fault all over again. A chunk reserves
-  // one run (its cell and C + 1 sums) per texel.
+  // Chunks are recycled: fresh buffers per chunk would page-fault all over again. A chunk's runs are at most one
+  // per contribution, and in practice about one per output texel the chunk reaches.
   std::vector<std::unique_ptr<Chunk>> chunks;
   tbb::concurrent_queue<Chunk*> free_chunks;
   const std::size_t row_bytes = std::size_t(W) * (sizeof(std::size_t) + sizeof(double) * stride);
   const int rows_per_chunk =
       static_cast<int>(std::clamp<std::size_t>(kChunkBytes / std::max<std::size_t>(row_bytes, 1), 1, kMaxRowsPerChunk));
-  const std::size_t chunk_bytes = row_bytes * rows_per_chunk;
+  const std::size_t chunk_bytes = row_bytes * rows_per_chunk + (std::size_t(1) << kSlotBits) * (sizeof(std::size_t) + sizeof(double) * stride);
   const std::size_t tokens =
       std::clamp<std::size_t>(kScratchBytes / chunk_bytes, 2,
                               std::max<std::size_t>(2, 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency())));
@@ -207,10 +261,9 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
                                          chunks.push_back(std::make_unique<Chunk>());
                                          chunk = chunks.back().get();
                                        }
-                                       chunk->cells.clear();
-                                       chunk->sums.clear();
-                                       chunk->first_row = next_row;
-                                       chunk->end_row = next_row = std::min(H, next_row + rows_per_chunk);
+                                       const int first = next_row;
+                                       next_row = std::min(H, next_row + rows_per_chunk);
+                                       chunk->start(first, next_row, stride);
                                        return chunk;
                                      }) &
           tbb::make_filter<Chunk*, Chunk*>(tbb::filter_mode::parallel,
