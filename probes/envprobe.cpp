@@ -85,7 +85,7 @@ struct Args {
   std::string preview;
   double radius_deg = 0.265, elevation_deg = 35.0, azimuth_deg = 40.0, exposure = -1.0, cloud_cover = 0.35;
   unsigned seed = 7;
-  bool json = false, alpha = false, half = false;
+  bool json = false, alpha = false, half = false, quiet = false;
 };
 
 // Options that belong to one kind only: using them with another kind is an error, not silently ignored.
@@ -291,12 +291,13 @@ int run(const Args& a, const CLI::App& app) {
            << "): " << rgb_text(power) << "\n"
            << "map power (sum L x texel solid angle): " << rgb_text(map_power) << "\n";
     if (irradiance) report << "upward irradiance (+Y plane): " << rgb_text(*irradiance) << "\n";
-    for (const probes::FeatureStats& f : stats.features)
-      if (f.lost) report << "warning: a feature lies where the map holds no data; its flux is missing\n";
     report << "wrote " << a.output << (a.preview.empty() ? "" : " and " + a.preview) << "\n";
   }
   group.commit();
-  std::cout << report.str();
+  if (!a.json)
+    for (const probes::FeatureStats& f : stats.features)
+      if (f.lost) std::cerr << "envprobe: warning: a feature lies where the map holds no data; its flux is missing\n";
+  if (a.json || !a.quiet) std::cout << report.str();
   return 0;
 }
 
@@ -348,5 +349,6 @@ int main(int argc, char** argv) {
       ->check(tools::number_in(-64.0, 64.0))
       ->capture_default_str();
   app.add_flag("--json", a.json, "print the report as JSON");
+  app.add_flag("-q,--quiet", a.quiet, "print only warnings and errors (--json still prints its report)");
   return tools::run_cli(app, argc, argv, [&] { return run(a, app); });
 }

@@ -127,12 +127,12 @@ int run(const Args& a) {
                           tools::fmt(std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / envkit::kPi, 3) + " deg, " +
                           tools::fmt(100.0 * sun->sun().power_share, 3) + "% of the light, " +
                           std::to_string(a.sun_samples) + " sample(s) per shading point");
-    const bool stored =
-        scene.tables->stored_sun_split(io.light_method, io.strategy == Strategy::MisCompensated).has_value();
-    if (stored)
+    const bool compensated = io.strategy == Strategy::MisCompensated;
+    if (scene.tables->stored_sun_split(io.light_method, compensated).has_value())
       setup_notes.back() += ", the split read from " + scene.tables->file_path();
     else if (!scene.tables->file_path().empty())
-      setup_notes.back() += " (split at load; envbake --tables hierarchical,sun stores it with the tables)";
+      setup_notes.back() += std::string(" (split at load; envbake --tables ") + envkit::method_name(io.light_method) +
+                            (compensated ? ",compensated" : "") + ",sun stores it with the tables)";
   }
   if (integrator.has_product_tables())
     setup_notes.push_back("product tables for the scene's " + std::to_string(integrator.product_lobe_count()) +

@@ -585,6 +585,12 @@ TEST_F(EnvprobeCli, CubeOutput) {
   EXPECT_EQ(img.width, 16);
   EXPECT_EQ(img.height, 96);
   EXPECT_EQ(img.metadata.at("envkit:parameterization"), "cube");
+  // -q: the map is written, nothing is printed.
+  std::filesystem::remove(out);
+  const std::string quiet = run(kEnvprobe + " checker -o " + out + " --param cube --size 16 -q", status);
+  ASSERT_EQ(status, 0) << quiet;
+  EXPECT_EQ(quiet, "");
+  EXPECT_TRUE(std::filesystem::exists(out));
 }
 #endif
 

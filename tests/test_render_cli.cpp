@@ -222,10 +222,19 @@ TEST_F(RenderCli, AStoredSunSplitRendersTheImageOfOneBuiltAtLoad) {
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.err.find("sampling the sun apart"), std::string::npos) << r.err;
     EXPECT_EQ(r.err.find("the split read from") != std::string::npos, stored) << r.err;
+    EXPECT_EQ(r.err.find("envbake --tables hierarchical,sun stores it") != std::string::npos, !stored) << r.err;
   }
   const Image built = read_image(out[0].string()), stored = read_image(out[1].string());
   ASSERT_EQ(built.pixels.size(), stored.pixels.size());
   EXPECT_TRUE(std::equal(built.pixels.begin(), built.pixels.end(), stored.pixels.begin()));
+  // The hint names the tables the render samples.
+  const auto baked = test::run_tool(
+      "envbake", {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q", "-f", "--tables", "cdf"}, dir_);
+  ASSERT_EQ(baked.code, 0) << baked.err;
+  const auto r = envrender({"--scene", file.string(), "-o", (dir_ / "cdf.exr").string(), "--spp", "1", "--strategy",
+                            "mis", "--light-method", "cdf"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("envbake --tables cdf,sun stores it"), std::string::npos) << r.err;
 }
 
 // A sun that is all the map's light (a black sky): the split would leave an empty rest of the map, whose uniform

@@ -135,13 +135,13 @@ double Integrator::mis_weight(double a, double b) const {
   return sum > 0.0 && std::isfinite(sum) ? a / sum : (std::isinf(a) ? 1.0 : 0.0);
 }
 
-Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x) const {
+Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int light_samples) const {
   // Narrow lobes take no sun samples: a narrow lobe sees the sun only where it reflects it, elsewhere the sun
   // sample's shadow ray is spent on a contribution its BSDF samples find as well (the threshold lies between the
   // alphas where the split was measured to win and to lose: BENCHMARKS.md, "The sun sampled apart").
   const bool split = sun_ && has_wide_lobe(x.material);
   LightTechniques t = split ? split_ : whole_;
-  t.parts[0].count = sample_counts(options_, x.material).light;
+  t.parts[0].count = light_samples;
   const LobeProductTables* tables = split ? product_split_.get() : product_whole_.get();
   if (!tables) return t;
   // By lobe, not by material: a material outside the scene (direct() is public) with a lobe of the scene's gets
@@ -213,7 +213,7 @@ Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
-  const LightTechniques light = techniques(x);
+  const LightTechniques light = techniques(x, sample_counts(options_, x.material).light);
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
@@ -228,8 +228,9 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
-  const int N = sample_counts(options_, x.material).bsdf;
-  const LightTechniques light = techniques(x);
+  const SampleCounts counts = sample_counts(options_, x.material);
+  const int N = counts.bsdf;
+  const LightTechniques light = techniques(x, counts.light);
   Vec3 sum(0, 0, 0);
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
   for (int k = 0; k < light.count; ++k) {

@@ -47,14 +47,21 @@ void load_and_check(const std::string& path, const Check& check) {
   }
 }
 
-inline void write_seed_tables(const std::string& path) {
+/// A `width` x `height` lat-long map: `bright` at texel (bright_x, bright_y), sky(x, y, c) elsewhere.
+template <class Sky>
+EnvMap seed_map(int width, int height, int bright_x, int bright_y, float bright, const Sky& sky) {
   EnvMap map;
-  map.image = Image(16, 8, 3);
+  map.image = Image(width, height, 3);
   map.image.channel_names = default_channel_names(3);
-  for (int y = 0; y < 8; ++y)
-    for (int x = 0; x < 16; ++x)
-      for (int c = 0; c < 3; ++c) map.image.at(x, y, c) = (x == 5 && y == 2) ? 50.0f : 0.1f + 0.05f * float(y + c);
-  map.param = std::make_unique<LatLongMap>(16, 8);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < 3; ++c) map.image.at(x, y, c) = (x == bright_x && y == bright_y) ? bright : sky(x, y, c);
+  map.param = std::make_unique<LatLongMap>(width, height);
+  return map;
+}
+
+inline void write_seed_tables(const std::string& path) {
+  const EnvMap map = seed_map(16, 8, 5, 2, 50.0f, [](int, int y, int c) { return 0.1f + 0.05f * float(y + c); });
   BakeOptions options;
   options.compensated = true;
   EnvTables::bake(map, options, "seed.exr").save(path);
@@ -63,14 +70,9 @@ inline void write_seed_tables(const std::string& path) {
 /// A table file with a stored sun split (BakeOptions::sun): a 128 x 64 lat-long (the smallest whose texels are small
 /// enough for a sun) with one sun texel over a sky, the hierarchical table only, to keep each fuzz run cheap.
 inline void write_sun_seed_tables(const std::string& path) {
-  EnvMap map;
-  map.image = Image(128, 64, 3);
-  map.image.channel_names = default_channel_names(3);
-  for (int y = 0; y < 64; ++y)
-    for (int x = 0; x < 128; ++x)
-      for (int c = 0; c < 3; ++c)
-        map.image.at(x, y, c) = (x == 40 && y == 20) ? 5e4f : 0.1f + 0.005f * float(y + c) + 0.001f * float(x % 7);
-  map.param = std::make_unique<LatLongMap>(128, 64);
+  const EnvMap map = seed_map(128, 64, 40, 20, 5e4f, [](int x, int y, int c) {
+    return 0.1f + 0.005f * float(y + c) + 0.001f * float(x % 7);
+  });
   BakeOptions options;
   options.cdf = options.alias = false;
   options.sun = true;

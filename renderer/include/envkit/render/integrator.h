@@ -173,8 +173,9 @@ class Integrator {
   /// draws of every sample of a pixel are one stratified sequence (Sampler::point_2d), as are the light draws.
   static BsdfDraw bsdf_draw(const Sampler& sampler, std::uint32_t dimension, int k, int n);
   /// The split when the map has a sun and the material's lobes are wide enough to gain from it, else the whole map.
-  /// With product tables, the first part is the table of the material's lobe at this point's axis.
-  LightTechniques techniques(const ShadingPoint& x) const;
+  /// With product tables, the first part is the table of the material's lobe at this point's axis. The first part
+  /// is drawn `light_samples` times (the material's count, sample_counts()).
+  LightTechniques techniques(const ShadingPoint& x, int light_samples) const;
   /// The lobe the product tables use for a material: the clamped cosine for materials with a Lambertian part, the
   /// GGX reflection lobe of the material's alpha for rough conductors; none for pure delta materials.
   static std::optional<Lobe> product_lobe(const Material& material);
