@@ -202,26 +202,55 @@ TEST(RenderReference, SunSplitFromTheRestOfTheMap) {
 }
 
 // Counts the options leave unset follow the material's lobe; given counts hold for every material.
-TEST(RenderSampleCounts, ByLobeUnlessGiven) {
+TEST(RenderSampleCounts, ByLobeAndSunUnlessGiven) {
   const IntegratorOptions unset;
   const auto diffuse = make_diffuse(Vec3(0.5)), rough_plastic = make_plastic(Vec3(0.5), 0.3);
   const auto glossy_plastic = make_plastic(Vec3(0.5), 0.05);  // a wide base, a narrow coat
   const auto narrow = make_conductor(Vec3(0.0), Vec3(1.0), 0.05), wide = make_conductor(Vec3(0.0), Vec3(1.0), 0.3);
-  for (const Material* m : {diffuse.get(), rough_plastic.get(), wide.get()}) {
-    EXPECT_EQ(sample_counts(unset, *m).bsdf, 1) << m->name();
-    EXPECT_EQ(sample_counts(unset, *m).light, kWideLightSamples) << m->name();
-  }
-  for (const Material* m : {narrow.get(), glossy_plastic.get()}) {
-    EXPECT_EQ(sample_counts(unset, *m).bsdf, kNarrowBsdfSamples) << m->name();
-    EXPECT_EQ(sample_counts(unset, *m).light, 1) << m->name();
+  for (const double share : {0.0, 0.2, 0.9}) {
+    for (const Material* m : {diffuse.get(), rough_plastic.get(), wide.get()}) {
+      EXPECT_EQ(sample_counts(unset, *m, share).bsdf, 1) << m->name();
+      EXPECT_EQ(sample_counts(unset, *m, share).light, kWideLightSamples) << m->name();
+    }
+    const bool dominant = share >= kDominantSunShare;
+    for (const Material* m : {narrow.get(), glossy_plastic.get()}) {
+      EXPECT_EQ(sample_counts(unset, *m, share).bsdf, dominant ? kNarrowSunBsdfSamples : kNarrowBsdfSamples)
+          << m->name() << " " << share;
+      EXPECT_EQ(sample_counts(unset, *m, share).light, dominant ? 1 : kNarrowLightSamples) << m->name() << " " << share;
+    }
   }
   IntegratorOptions given;
   given.light_samples = 5;
-  EXPECT_EQ(sample_counts(given, *narrow).light, 5);
-  EXPECT_EQ(sample_counts(given, *narrow).bsdf, kNarrowBsdfSamples);
+  EXPECT_EQ(sample_counts(given, *narrow, 0.9).light, 5);
+  EXPECT_EQ(sample_counts(given, *narrow, 0.9).bsdf, kNarrowSunBsdfSamples);
   given.bsdf_samples = 0;
-  EXPECT_EQ(sample_counts(given, *diffuse).bsdf, 0);
-  EXPECT_EQ(sample_counts(given, *diffuse).light, 5);
+  EXPECT_EQ(sample_counts(given, *diffuse, 0.0).bsdf, 0);
+  EXPECT_EQ(sample_counts(given, *diffuse, 0.0).light, 5);
+}
+
+// The integrator takes the share from the sun it split off: a narrow lobe under a sun with 90% of the light takes
+// the sun's counts, under one with a tenth of it (or without a sun split) the others.
+TEST(RenderSampleCounts, TheIntegratorWeighsTheSunItSplitOff) {
+  const auto narrow = make_conductor(Vec3(0.0), Vec3(1.0), 0.05);
+  Scene empty;
+  empty.commit();
+  for (const double sun_radiance : {3e4, 3e3}) {
+    const probes::SunProbe sun(Vec3(0.3, 0.7, -0.2).normalized(), probes::radians(0.5), Vec3(sun_radiance),
+                               Vec3(sun_radiance > 1e4 ? 0.05 : 0.5));
+    const Environment env(sun, identity3(), 0, 256, 128);
+    IntegratorOptions options;
+    for (const int sun_samples : {1, 0}) {
+      options.sun_samples = sun_samples;
+      const Integrator integrator(empty, *env.light, options);
+      const SunSplit* split = integrator.sun_split();
+      ASSERT_EQ(split != nullptr, sun_samples > 0) << sun_radiance;
+      const double share = split ? split->sun().power_share : 0.0;
+      if (split) EXPECT_NEAR(share, sun_radiance > 1e4 ? 0.92 : 0.10, 0.04);
+      const bool dominant = share >= kDominantSunShare;
+      EXPECT_EQ(integrator.counts(*narrow).bsdf, dominant ? kNarrowSunBsdfSamples : kNarrowBsdfSamples) << share;
+      EXPECT_EQ(integrator.counts(*narrow).light, dominant ? 1 : kNarrowLightSamples) << share;
+    }
+  }
 }
 
 // The integrator draws those counts: light sampling of a diffuse point with the counts unset (3 light samples) has

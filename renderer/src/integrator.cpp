@@ -18,10 +18,12 @@ bool has_wide_lobe(const Material& material) { return material.widest_lobe_alpha
 
 }  // namespace
 
-SampleCounts sample_counts(const IntegratorOptions& options, const Material& material) {
-  const bool wide = material.narrowest_lobe_alpha() >= kWideLobeAlpha;  // every lobe of it wide
-  return {options.bsdf_samples.value_or(wide ? 1 : kNarrowBsdfSamples),
-          options.light_samples.value_or(wide ? kWideLightSamples : 1)};
+SampleCounts sample_counts(const IntegratorOptions& options, const Material& material, double sun_share) {
+  SampleCounts by_lobe{1, kWideLightSamples};
+  if (material.narrowest_lobe_alpha() < kWideLobeAlpha)  // a lobe of it narrow
+    by_lobe = sun_share >= kDominantSunShare ? SampleCounts{kNarrowSunBsdfSamples, 1}
+                                             : SampleCounts{kNarrowBsdfSamples, kNarrowLightSamples};
+  return {options.bsdf_samples.value_or(by_lobe.bsdf), options.light_samples.value_or(by_lobe.light)};
 }
 
 const char* strategy_name(Strategy s) {
@@ -205,7 +207,7 @@ Vec3 Integrator::delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const 
 }
 
 Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
-  const int N = sample_counts(options_, x.material).bsdf;
+  const int N = counts(x.material).bsdf;
   const std::uint32_t dimension = sampler.reserve(2);
   Vec3 sum(0, 0, 0);
   for (int i = 0; i < N; ++i) sum += bsdf_term(x, bsdf_draw(sampler, dimension, i, N)).value;
@@ -213,7 +215,7 @@ Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
-  const LightTechniques light = techniques(x, sample_counts(options_, x.material).light);
+  const LightTechniques light = techniques(x, counts(x.material).light);
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
@@ -228,9 +230,9 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
-  const SampleCounts counts = sample_counts(options_, x.material);
-  const int N = counts.bsdf;
-  const LightTechniques light = techniques(x, counts.light);
+  const SampleCounts n = counts(x.material);
+  const int N = n.bsdf;
+  const LightTechniques light = techniques(x, n.light);
   Vec3 sum(0, 0, 0);
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
   for (int k = 0; k < light.count; ++k) {
