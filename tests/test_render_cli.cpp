@@ -229,7 +229,8 @@ TEST_F(RenderCli, AStoredSunSplitRendersTheImageOfOneBuiltAtLoad) {
   EXPECT_TRUE(std::equal(built.pixels.begin(), built.pixels.end(), stored.pixels.begin()));
   // The hint names the tables the render samples.
   const auto baked = test::run_tool(
-      "envbake", {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q", "-f", "--tables", "cdf"}, dir_);
+      "envbake", {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q", "-f", "--tables", "cdf"},
+      dir_);
   ASSERT_EQ(baked.code, 0) << baked.err;
   const auto r = envrender({"--scene", file.string(), "-o", (dir_ / "cdf.exr").string(), "--spp", "1", "--strategy",
                             "mis", "--light-method", "cdf"});

@@ -244,7 +244,8 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   const std::size_t row_bytes = std::size_t(W) * (sizeof(std::size_t) + sizeof(double) * stride);
   const int rows_per_chunk =
       static_cast<int>(std::clamp<std::size_t>(kChunkBytes / std::max<std::size_t>(row_bytes, 1), 1, kMaxRowsPerChunk));
-  const std::size_t chunk_bytes = row_bytes * rows_per_chunk + (std::size_t(1) << kSlotBits) * (sizeof(std::size_t) + sizeof(double) * stride);
+  const std::size_t chunk_bytes =
+      row_bytes * rows_per_chunk + (std::size_t(1) << kSlotBits) * (sizeof(std::size_t) + sizeof(double) * stride);
   const std::size_t tokens =
       std::clamp<std::size_t>(kScratchBytes / chunk_bytes, 2,
                               std::max<std::size_t>(2, 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency())));

@@ -70,9 +70,8 @@ inline void write_seed_tables(const std::string& path) {
 /// A table file with a stored sun split (BakeOptions::sun): a 128 x 64 lat-long (the smallest whose texels are small
 /// enough for a sun) with one sun texel over a sky, the hierarchical table only, to keep each fuzz run cheap.
 inline void write_sun_seed_tables(const std::string& path) {
-  const EnvMap map = seed_map(128, 64, 40, 20, 5e4f, [](int x, int y, int c) {
-    return 0.1f + 0.005f * float(y + c) + 0.001f * float(x % 7);
-  });
+  const EnvMap map = seed_map(128, 64, 40, 20, 5e4f,
+                              [](int x, int y, int c) { return 0.1f + 0.005f * float(y + c) + 0.001f * float(x % 7); });
   BakeOptions options;
   options.cdf = options.alias = false;
   options.sun = true;
