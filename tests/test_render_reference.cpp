@@ -201,7 +201,7 @@ TEST(RenderReference, SunSplitFromTheRestOfTheMap) {
             5);
 }
 
-// Counts the options leave unset follow the material's lobe; given counts hold for every material.
+// Counts the options leave unset follow the material's lobe and the sun's share; given counts hold for every material.
 TEST(RenderSampleCounts, ByLobeAndSunUnlessGiven) {
   const IntegratorOptions unset;
   const auto diffuse = make_diffuse(Vec3(0.5)), rough_plastic = make_plastic(Vec3(0.5), 0.3);

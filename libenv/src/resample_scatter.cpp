@@ -79,28 +79,6 @@ inline int overlaps(double lo, double hi, double* fraction, int& count) {
   return first;
 }
 
-/// The output texels that resolve to themselves from an anchor texel (Parameterization::resolve): those of the
-/// anchor's tap_cell() block, or the whole image when tap_cell() is 0; none when every tap must be resolved. Kept
-/// from one anchor to the next while the anchor stays in the block, which spares resolve's divisions per tap.
-class AnchorBlock {
- public:
-  explicit AnchorBlock(const Parameterization& p) : cell_(p.tap_cell()), width_(p.width()), height_(p.height()) {
-    if (cell_ == 0) x1_ = width_, y1_ = height_;
-  }
-  void move_to(int i, int j) {
-    if (cell_ <= 0 || holds(i, j)) return;
-    x0_ = i / cell_ * cell_;
-    y0_ = j / cell_ * cell_;
-    x1_ = std::min(x0_ + cell_, width_);
-    y1_ = std::min(y0_ + cell_, height_);
-  }
-  bool holds(int i, int j) const { return i >= x0_ && i < x1_ && j >= y0_ && j < y1_; }
-
- private:
-  int cell_, width_, height_;
-  int x0_ = 0, y0_ = 0, x1_ = 0, y1_ = 0;
-};
-
 /// Slots of a chunk's accumulator (a power of two). A source row revisits the output texels the row above it
 /// reached, some thousands of them across four cube faces at 8k -> 1024: the slots hold about two rows' worth, so
 /// most contributions are summed in the slot (in cache) and each output texel leaves a chunk a few times at most.
@@ -181,7 +159,7 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   // square overlaps, summed per output texel in the chunk's slots and handed on as runs.
   const auto project = [&](Chunk& chunk) {
     double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
-    AnchorBlock block(dst);
+    Parameterization::TapBlock block;  // the anchor's, kept while the anchor stays in it
     for (int j = chunk.first_row; j < chunk.end_row; ++j) {
       // Hot texels (splatted exactly afterwards) still give their weight here, with zero colour.
       auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
@@ -208,7 +186,7 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
           width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
         }
         const float* px = img.pixels.data() + index * C;
-        block.move_to(ti, tj);
+        if (!block.holds(ti, tj)) block = dst.tap_block(ti, tj);
         const auto add = [&](int ci, int cj, double w) {
           if (!block.holds(ci, cj) && !dst.resolve(ti, tj, ci, cj)) return;
           double* run = chunk.sums_of(std::size_t(cj) * DW + ci, stride);

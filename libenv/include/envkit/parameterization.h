@@ -12,6 +12,7 @@
 /// octahedral.h, paraboloid.h, healpix.h, perspective.h, fisheye.h).
 #include <envkit/vec.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <memory>
 #include <string>
@@ -116,13 +117,24 @@ class Parameterization {
   /// resolves to itself (lat-long, octahedral, disks, whose blank texels are masked separately); -1: always ask.
   int tap_cell() const { return tap_cell_; }
 
+  /// The texels [x0, x1) x [y0, y1) that resolve to themselves for taps anchored in them (tap_cell()): the aligned
+  /// block of an anchor, the whole image when tap_cell() is 0, none when it is -1.
+  struct TapBlock {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    bool holds(int i, int j) const { return i >= x0 && i < x1 && j >= y0 && j < y1; }
+  };
+  /// The TapBlock of anchor texel (anchor_i, anchor_j), inside the image. A loop over many anchors can keep it while
+  /// the anchor stays in it, sparing the divisions.
+  TapBlock tap_block(int anchor_i, int anchor_j) const {
+    if (tap_cell_ == 0) return {0, 0, width_, height_};
+    if (tap_cell_ < 0) return {};
+    const int x0 = anchor_i / tap_cell_ * tap_cell_, y0 = anchor_j / tap_cell_ * tap_cell_;
+    return {x0, y0, std::min(x0 + tap_cell_, width_), std::min(y0 + tap_cell_, height_)};
+  }
+
   /// resolve_tap, without the virtual call for taps that tap_cell() says resolve to themselves.
   bool resolve(int anchor_i, int anchor_j, int& i, int& j) const {
-    const bool inside = i >= 0 && j >= 0 && i < width_ && j < height_;
-    if (inside && (tap_cell_ == 0 ||
-                   (tap_cell_ > 0 && i / tap_cell_ == anchor_i / tap_cell_ && j / tap_cell_ == anchor_j / tap_cell_)))
-      return true;
-    return resolve_tap(anchor_i, anchor_j, i, j);
+    return tap_block(anchor_i, anchor_j).holds(i, j) || resolve_tap(anchor_i, anchor_j, i, j);
   }
 
  protected:
