@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <array>
@@ -31,11 +32,24 @@ enum SlotState : int { kFree = 0, kBusy = 1, kLive = 2 };
 
 struct Slot {
   std::atomic<int> state{kFree};
+  std::atomic<pid_t> owner{0};  // the thread that registered the temp file and goes on to create it; 0: unknown
   char path[kMaxPath] = {};
 };
 // Constant-initialised (zeros in .bss): no start-up code touches its megabyte, only the slots in use are paged in.
 constinit std::array<Slot, kSlots> g_slots{};
 static_assert(std::atomic<int>::is_always_lock_free, "signal handler needs lock-free atomics");
+
+constexpr std::array<int, 3> kSignals = {SIGINT, SIGTERM, SIGHUP};
+
+/// False when this thread blocks one of kSignals (a worker a library started with every signal blocked): a signal
+/// handed on to it would never be taken.
+bool takes_signals() {
+  sigset_t mask;
+  if (::pthread_sigmask(SIG_BLOCK, nullptr, &mask) != 0) return false;
+  for (int sig : kSignals)
+    if (sigismember(&mask, sig)) return false;
+  return true;
+}
 
 int register_temp(const std::string& path) {
   if (path.size() >= kMaxPath) return -1;
@@ -44,6 +58,7 @@ int register_temp(const std::string& path) {
   for (int i = 0; i < kSlots; ++i) {
     int expected = kFree;
     if (g_slots[i].state.compare_exchange_strong(expected, kBusy)) {
+      g_slots[i].owner.store(takes_signals() ? ::gettid() : 0);
       std::memcpy(g_slots[i].path, path.c_str(), path.size() + 1);
       g_slots[i].state.store(kLive);
       return i;
@@ -58,7 +73,6 @@ void unregister_temp(int slot) {
   g_slots[slot].state.store(kFree);
 }
 
-constexpr std::array<int, 3> kSignals = {SIGINT, SIGTERM, SIGHUP};
 std::array<struct sigaction, kSignals.size()> g_previous{};
 
 std::atomic<int> g_pending{0};
@@ -81,8 +95,29 @@ void remove_live_temps_and_reraise(int sig) {
   ::raise(sig);
 }
 
+/// The thread that must handle the signal: the one that registered the first live temp file, if that is not this
+/// one. A library creates the temp file some time after it was registered; were the files removed from another
+/// thread, the owner could create its file in the microseconds before the process ends. Handled on the owner, the
+/// signal interrupts it between system calls: every file it created is registered and removed. Deterministic (the
+/// first slot in order), so two threads never hand the signal back and forth; 0 when this thread is the one.
+pid_t thread_to_handle(pid_t self) {
+  for (const auto& slot : g_slots) {
+    const int state = slot.state.load();
+    if (state == kFree) continue;
+    const pid_t owner = slot.owner.load();
+    return owner == self ? 0 : owner;  // 0 (an owner that blocks the signals): handled here
+  }
+  return 0;
+}
+
 extern "C" void cleanup_on_signal(int sig) {
   const int saved_errno = errno;
+  const pid_t self = ::gettid();
+  if (const pid_t owner = thread_to_handle(self);
+      owner != 0 && g_phase.load() != kDying && ::syscall(SYS_tgkill, ::getpid(), owner, sig) == 0) {
+    errno = saved_errno;
+    return;  // pending on the owner until it unblocks the signal, if it has it blocked right now
+  }
   for (;;) {
     int expected = kIdle;
     if (g_phase.compare_exchange_strong(expected, kDying)) {

@@ -19,7 +19,8 @@
 /// rename() is atomic; same extension, so extension-based format detection still picks the right writer).
 ///
 /// Signals: the first AtomicOutput installs handlers (install_temp_cleanup_on_signal()) for SIGINT, SIGTERM and
-/// SIGHUP that remove every live temp file and re-raise the signal, and one for SIGXFSZ (file size limit,
+/// SIGHUP that remove every live temp file and re-raise the signal (on the thread that registered the first live temp
+/// file, so that it cannot create its file after the removal), and one for SIGXFSZ (file size limit,
 /// `ulimit -f`) that lets the write fail with EFBIG instead of killing the process; a temp file written while
 /// SIGXFSZ arrived is never committed. A signal that arrives while an OutputGroup renames its files is held until
 /// the group has committed (or rolled back), so a group is never left half-committed. SIGKILL cannot be caught:
