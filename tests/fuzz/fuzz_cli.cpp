@@ -264,6 +264,7 @@ bool envprobe_too_costly(const std::vector<std::string>& args) {
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  envkit::fuzz::run_on_one_thread();
   const fs::path& dir = envkit::fuzz::scratch_dir(ENVKIT_FUZZ_TOOL);
   fs::current_path(dir);
   ::unsetenv("OCIO");

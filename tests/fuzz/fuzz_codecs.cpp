@@ -14,6 +14,8 @@
 #include <span>
 #include <string>
 
+#include "fuzz_support.h"
+
 namespace {
 
 [[noreturn]] void finding(const std::string& what) {
@@ -27,6 +29,11 @@ void check_error(const envkit::Error& e, const char* name) {
 }
 
 }  // namespace
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  envkit::fuzz::run_on_one_thread();
+  return 0;
+}
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::span<const unsigned char> bytes(data, size);

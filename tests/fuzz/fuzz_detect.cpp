@@ -66,6 +66,7 @@ void exercise(const envkit::EnvMap& map, envkit::Filter filter) {
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  envkit::fuzz::run_on_one_thread();
   ::unsetenv("OCIO");
   ::unsetenv("ENVKIT_OCIO_CONFIG");
   envkit::fuzz::scratch_dir("detect");

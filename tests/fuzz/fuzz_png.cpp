@@ -34,6 +34,7 @@ void expect_clean_error(const envkit::Error& e, const std::string& path) {
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  envkit::fuzz::run_on_one_thread();
   ::unsetenv("OCIO");
   ::unsetenv("ENVKIT_OCIO_CONFIG");
   envkit::fuzz::scratch_dir("png");

@@ -1,8 +1,9 @@
 #pragma once
 /// @file fuzz_support.h
-/// What the libFuzzer targets in tests/fuzz share: a private scratch directory (created once per process,
-/// removed at exit) and a way to silence std::cout / std::cerr while a tool runs (sanitizer reports go to
+/// What the libFuzzer targets in tests/fuzz share: one thread, a private scratch directory (created once per
+/// process, removed at exit) and a way to silence std::cout / std::cerr while a tool runs (sanitizer reports go to
 /// file descriptor 2 directly, so they are never silenced).
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -13,6 +14,15 @@
 #include <string>
 
 namespace envkit::fuzz {
+
+/// Limits oneTBB to the calling thread for the rest of the process (every target calls it from
+/// LLVMFuzzerInitialize). libFuzzer runs one small input at a time: worker threads only add their start-up and the
+/// TLB shootdowns of every munmap of memory they touched on another core (a table file mapped and unmapped per
+/// input), and make what an input covers depend on scheduling. A tool's --threads N then runs on one thread too
+/// (oneTBB takes the smallest active limit); its parsing and validation are unchanged.
+inline void run_on_one_thread() {
+  static const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+}
 
 /// The scratch directory's path, removed with the directory when the process exits. (The removal is this object's
 /// destructor: an atexit handler registered while the path was being built would run after the path's destructor

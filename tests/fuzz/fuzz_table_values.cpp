@@ -110,6 +110,7 @@ void check_tables(const envkit::EnvTables& tables) {
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  envkit::fuzz::run_on_one_thread();
   envkit::fuzz::scratch_dir("table_values");
   g_seeds[0] = bake_seed(envkit::fuzz::write_seed_tables);
   g_seeds[1] = bake_seed(envkit::fuzz::write_sun_seed_tables);

@@ -21,6 +21,7 @@
 #include <string>
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  envkit::fuzz::run_on_one_thread();
   if (const char* seed = std::getenv("ENVKIT_FUZZ_WRITE_SEED")) {
     envkit::fuzz::write_seed_tables(seed);
     std::exit(0);
