@@ -580,6 +580,43 @@ TEST(EnvTablesFile, BadFilesAreClearErrors) {
   std::filesystem::remove(path);
 }
 
+// Files of 1 MiB or more are memory-mapped, smaller ones read into memory: both give the baked tables, and a
+// truncated large file is the same clear error as a small one.
+TEST(EnvTablesFile, LargeAndSmallFilesLoadTheBakedTables) {
+  for (const auto& [W, H] : std::vector<std::pair<int, int>>{{16, 8}, {512, 256}}) {
+    SphereMap m = make("size" + std::to_string(W), Kind::LatLong, W, H, 1.0f);
+    m.radiance[std::size_t(W) * std::size_t(H / 3) + std::size_t(W / 5)] = 500.0f;
+    const EnvTables baked = bake(m, /*compensated=*/true);
+    const std::string path = (std::filesystem::temp_directory_path() / "envkit_sized_tables.envtbl").string();
+    baked.save(path);
+    const std::vector<char> good = read_all(path);
+    SCOPED_TRACE(std::to_string(good.size()) + " bytes");
+    EXPECT_EQ(good.size() >= (std::size_t(1) << 20), W == 512) << "the two files lie on both sides of 1 MiB";
+    {
+      const EnvTables loaded = EnvTables::load(path, baked.source_hash());
+      EXPECT_TRUE(std::ranges::equal(loaded.importance(), baked.importance()));
+      for (bool compensated : {false, true})
+        for (SamplingMethod method : kMethods) {
+          const SphericalDistribution* a = baked.distribution(method, compensated);
+          const SphericalDistribution* b = loaded.distribution(method, compensated);
+          ASSERT_TRUE(a && b);
+          std::mt19937_64 rng(seed_of(m.name, 21));
+          for (int n = 0; n < 500; ++n) {
+            const Vec2 u = random_u(rng);
+            const DirectionSample sa = a->sample(u), sb = b->sample(u);
+            ASSERT_EQ(std::memcmp(&sa.direction, &sb.direction, sizeof(Vec3)), 0);
+            ASSERT_EQ(sa.pdf, sb.pdf);
+          }
+        }
+    }
+    std::vector<char> bytes = good;
+    bytes.resize(bytes.size() - 64);
+    write_all(path, bytes);
+    EXPECT_NE(load_error(path).find("truncated"), std::string::npos) << load_error(path);
+    std::filesystem::remove(path);
+  }
+}
+
 // texel_of on lat-long grids guesses with a polynomial arctangent and settles the texel against exact edges: it
 // must name the texel that the angle formulas name (except within rounding of an edge), and the texel a direction
 // was placed in, on grids whose longitude table has one step per column and on grids with several.

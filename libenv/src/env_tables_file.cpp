@@ -18,6 +18,10 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #define XXH_INLINE_ALL
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <xxhash.h>
 
 #include <algorithm>
@@ -26,12 +30,10 @@
 #include <cmath>
 #include <cstring>
 #include <deque>
-#include <utility>
-#include <fcntl.h>
 #include <fstream>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
+#include <memory>
+#include <new>
+#include <utility>
 
 namespace envkit {
 
@@ -104,41 +106,68 @@ struct Section {
   BlobWriter blob;
 };
 
-/// A read-only memory map of a whole file (or nothing for an empty file).
-class MappedFile {
+/// The bytes of a whole file, read-only. Files of kMapFrom bytes or more are memory-mapped (read in one pass,
+/// pages shared with the page cache); smaller ones are read into a buffer: a mapping costs a VMA and, when it goes,
+/// a TLB flush on every core that ran the process, more than reading a few pages (a session or a batch that loads
+/// many small table files).
+class FileBytes {
  public:
-  explicit MappedFile(const std::string& path) {
+  static constexpr std::size_t kMapFrom = std::size_t(1) << 20;
+  static constexpr std::align_val_t kAlignment{64};  // sections start at multiples of 64 bytes of the file
+
+  explicit FileBytes(const std::string& path) {
     if (std::filesystem::exists(path)) require_regular_file(path);  // open() would block on a FIFO
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) throw Error(path + ": cannot open: " + std::strerror(errno));
-    struct stat st {};
-    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    try {
+      struct stat st {};
+      if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
+      size_ = static_cast<std::size_t>(st.st_size);
+      if (size_ >= kMapFrom)
+        map(fd, path);
+      else if (size_ > 0)
+        read_all(fd, path);
+    } catch (...) {
       ::close(fd);
-      throw Error(path + ": not a regular file");
-    }
-    size_ = static_cast<std::size_t>(st.st_size);
-    if (size_ > 0) {
-      // MAP_POPULATE reads the pages in up front (one pass, no page fault per 4 KiB later).
-      void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
-      if (p == MAP_FAILED) {
-        ::close(fd);
-        throw Error(path + ": cannot map: " + std::strerror(errno));
-      }
-      data_ = static_cast<const std::byte*>(p);
+      throw;
     }
     ::close(fd);
   }
-  ~MappedFile() {
-    if (data_) ::munmap(const_cast<std::byte*>(data_), size_);
+  ~FileBytes() {
+    if (mapped_) ::munmap(const_cast<std::byte*>(data_), size_);
   }
-  MappedFile(const MappedFile&) = delete;
-  MappedFile& operator=(const MappedFile&) = delete;
+  FileBytes(const FileBytes&) = delete;
+  FileBytes& operator=(const FileBytes&) = delete;
   const std::byte* data() const { return data_; }
   std::size_t size() const { return size_; }
 
  private:
+  void map(int fd, const std::string& path) {
+    // MAP_POPULATE reads the pages in up front (one pass, no page fault per 4 KiB later).
+    void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+    if (p == MAP_FAILED) throw Error(path + ": cannot map: " + std::strerror(errno));
+    data_ = static_cast<const std::byte*>(p);
+    mapped_ = true;
+  }
+  void read_all(int fd, const std::string& path) {
+    buffer_.reset(static_cast<std::byte*>(::operator new(size_, kAlignment)));
+    data_ = buffer_.get();
+    for (std::size_t done = 0; done < size_;) {
+      const ssize_t n = ::read(fd, buffer_.get() + done, size_ - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) throw Error(path + ": cannot read: " + std::strerror(errno));
+      if (n == 0) throw Error(path + ": cannot read: the file shrank while being read");
+      done += static_cast<std::size_t>(n);
+    }
+  }
+
+  struct AlignedDelete {
+    void operator()(std::byte* p) const { ::operator delete(p, kAlignment); }
+  };
+  std::unique_ptr<std::byte, AlignedDelete> buffer_;  // a read file (freed also when the constructor throws)
   const std::byte* data_ = nullptr;
   std::size_t size_ = 0;
+  bool mapped_ = false;
 };
 
 std::string section_name(int method, int set) {
@@ -227,7 +256,7 @@ void EnvTables::save(const std::string& path) const {
 }
 
 EnvTables EnvTables::load(const std::string& path, const std::string& expected_source_hash) {
-  const auto file = std::make_shared<const MappedFile>(path);  // kept alive by the tables that view it
+  const auto file = std::make_shared<const FileBytes>(path);  // kept alive by the tables that view it
   const std::byte* data = file->data();
   const std::size_t size = file->size();
   const auto fail_with = [&](const std::string& problem) { return Error(path + ": " + problem); };
