@@ -238,10 +238,10 @@ bool envrender_too_costly(std::vector<std::string>& args) {
   return false;
 }
 
-/// envprobe: true when --size or --cells ask for more than a few thousand texels or cells. envprobe integrates
-/// each texel over its exact solid angle, so a 512x512 map costs about a second under ASan and reaches no other
-/// code than a 16x8 map does. Values that are not plain sizes ("0x0", "-4", "abc", "512x") reach envprobe's own
-/// checks.
+/// envprobe: true when --size or --cells ask for more than a few thousand texels or cells, or --size is empty
+/// (envprobe's default, 1024x512). envprobe integrates each texel over its exact solid angle, so a 512x512 map
+/// costs about a second under ASan and reaches no other code than a 16x8 map does. Values that are not plain
+/// sizes ("0x0", "-4", "abc", "512x") reach envprobe's own checks.
 bool envprobe_too_costly(const std::vector<std::string>& args) {
   constexpr long kMaxTexels = 4096;
   const auto plain = [](const std::string& v) {
@@ -255,7 +255,7 @@ bool envprobe_too_costly(const std::vector<std::string>& args) {
   };
   bool present = false;
   for (const std::string& v : option_values(args, "--size", present))
-    if (product(v, 'x', 6) > kMaxTexels) return true;  // N: six cube faces of N x N at most
+    if (v.empty() || product(v, 'x', 6) > kMaxTexels) return true;  // N: six cube faces of N x N at most
   for (const std::string& v : option_values(args, "--cells", present))
     if (product(v, ',', 1) > kMaxTexels) return true;
   return false;
