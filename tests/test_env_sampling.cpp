@@ -132,6 +132,25 @@ Vec2 random_u(std::mt19937_64& rng) {
   return Vec2(U(rng), U(rng));
 }
 
+// Every distribution of `baked` and `loaded` draws bit-identical samples (direction, pdf, pdf(direction)) for the
+// same n random points.
+void expect_same_samples(const EnvTables& baked, const EnvTables& loaded, std::uint64_t seed, int n) {
+  for (bool compensated : {false, true})
+    for (SamplingMethod method : kMethods) {
+      const SphericalDistribution* a = baked.distribution(method, compensated);
+      const SphericalDistribution* b = loaded.distribution(method, compensated);
+      ASSERT_TRUE(a && b);
+      std::mt19937_64 rng(seed);
+      for (int i = 0; i < n; ++i) {
+        const Vec2 u = random_u(rng);
+        const DirectionSample sa = a->sample(u), sb = b->sample(u);
+        ASSERT_EQ(std::memcmp(&sa.direction, &sb.direction, sizeof(Vec3)), 0);
+        ASSERT_EQ(sa.pdf, sb.pdf);
+        ASSERT_EQ(a->pdf(sa.direction), b->pdf(sa.direction));
+      }
+    }
+}
+
 }  // namespace
 
 class EnvSampling : public ::testing::TestWithParam<SphereMap> {};
@@ -261,20 +280,7 @@ TEST_P(EnvSampling, LoadedTablesSampleBitIdentically) {
   ASSERT_TRUE(baked.source_to_world().has_value());
   EXPECT_EQ(loaded.source_to_world(), baked.source_to_world());  // the frame the directions are in
   EXPECT_EQ(loaded.total_importance(), baked.total_importance());
-  for (bool compensated : {false, true})
-    for (SamplingMethod method : kMethods) {
-      const SphericalDistribution* a = baked.distribution(method, compensated);
-      const SphericalDistribution* b = loaded.distribution(method, compensated);
-      ASSERT_TRUE(a && b);
-      std::mt19937_64 rng(seed_of(m.name, 20));
-      for (int n = 0; n < 2000; ++n) {
-        const Vec2 u = random_u(rng);
-        const DirectionSample sa = a->sample(u), sb = b->sample(u);
-        ASSERT_EQ(std::memcmp(&sa.direction, &sb.direction, sizeof(Vec3)), 0);
-        ASSERT_EQ(sa.pdf, sb.pdf);
-        ASSERT_EQ(a->pdf(sa.direction), b->pdf(sa.direction));
-      }
-    }
+  expect_same_samples(baked, loaded, seed_of(m.name, 20), 2000);
 }
 
 INSTANTIATE_TEST_SUITE_P(Catalogue, EnvSampling, ::testing::ValuesIn(catalogue()),
@@ -595,19 +601,7 @@ TEST(EnvTablesFile, LargeAndSmallFilesLoadTheBakedTables) {
     {
       const EnvTables loaded = EnvTables::load(path, baked.source_hash());
       EXPECT_TRUE(std::ranges::equal(loaded.importance(), baked.importance()));
-      for (bool compensated : {false, true})
-        for (SamplingMethod method : kMethods) {
-          const SphericalDistribution* a = baked.distribution(method, compensated);
-          const SphericalDistribution* b = loaded.distribution(method, compensated);
-          ASSERT_TRUE(a && b);
-          std::mt19937_64 rng(seed_of(m.name, 21));
-          for (int n = 0; n < 500; ++n) {
-            const Vec2 u = random_u(rng);
-            const DirectionSample sa = a->sample(u), sb = b->sample(u);
-            ASSERT_EQ(std::memcmp(&sa.direction, &sb.direction, sizeof(Vec3)), 0);
-            ASSERT_EQ(sa.pdf, sb.pdf);
-          }
-        }
+      expect_same_samples(baked, loaded, seed_of(m.name, 21), 500);
     }
     std::vector<char> bytes = good;
     bytes.resize(bytes.size() - 64);
