@@ -76,8 +76,8 @@ for t in $targets; do
   t_start=$(date +%s)
   set +e
   # -entropic_scale_per_exec_time: inputs that run longer get less of the mutation budget. A CLI input that
-  # rasterizes envprobe's default sky costs about 100 times one that stops in parsing, and reaches little code
-  # the cheap ones do not (the rates with and without: BENCHMARKS.md).
+  # rasterizes envprobe's default sky costs far more than one that stops in parsing, and reaches little code the
+  # cheap ones do not (the rates with and without: BENCHMARKS.md).
   (cd "$work" && "$bin/$t" "$corpus" "${seeds[@]}" "${dict[@]}" "${limit[@]}" -timeout=30 \
      -rss_limit_mb=3072 -max_len=4096 -entropic_scale_per_exec_time=1 -print_final_stats=1 \
      -artifact_prefix="$artifacts/" >"$log" 2>&1)
