@@ -9,8 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <memory>
-#include <mutex>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -130,21 +128,6 @@ SphericalDistribution::SphericalDistribution(const SphericalDistribution& same_g
 
 std::shared_ptr<const SphericalDistribution::Geometry> SphericalDistribution::make_geometry(Kind grid, int width,
                                                                                             int height) {
-  // The geometry depends on the grid alone: the distributions a table file holds (every method, the compensated
-  // twins, the sun's residuals) are built one after another over one grid and share the latest geometry while it
-  // is alive, instead of each computing its rows and its thousands of longitudes again.
-  struct Latest {
-    Kind grid;
-    int width = 0, height = 0;
-    std::weak_ptr<const Geometry> geometry;
-  };
-  static std::mutex mutex;
-  static Latest latest{Kind::LatLong, 0, 0, {}};
-  {
-    const std::lock_guard<std::mutex> lock(mutex);
-    if (latest.grid == grid && latest.width == width && latest.height == height)
-      if (auto shared = latest.geometry.lock()) return shared;
-  }
   auto geometry = std::make_shared<Geometry>();
   Geometry& G = *geometry;
   const double W = width, H = height;
@@ -179,8 +162,6 @@ std::shared_ptr<const SphericalDistribution::Geometry> SphericalDistribution::ma
     G.row_edge_cos.front() = 1.0;
     G.row_edge_cos.back() = -1.0;
   }
-  const std::lock_guard<std::mutex> lock(mutex);
-  latest = {grid, width, height, geometry};
   return geometry;
 }
 

@@ -342,14 +342,17 @@ void EnvTables::build_distributions(const BakeOptions& options) {
   };
 
   const bool wanted[3] = {options.cdf, options.alias, options.hierarchical};
+  const SphericalDistribution* first = nullptr;  // every table lies on one grid: the others share its geometry
   const auto build_set = [&](const FloatBuffer& weights, int set) {
     for (int m = 0; m < 3; ++m) {
       if (!wanted[m]) continue;
       if (options.progress)
         options.progress(0.3 + 0.35 * set + 0.1 * m,
                          m == 0 ? "cdf tables" : m == 1 ? "alias tables" : "sum pyramid");
-      distributions_[set][m] =
-          std::make_unique<SphericalDistribution>(grid_, make_distribution_2d(SamplingMethod(m), weights.data(), W, H));
+      std::shared_ptr<const Distribution2D> d = make_distribution_2d(SamplingMethod(m), weights.data(), W, H);
+      distributions_[set][m] = first ? std::make_unique<SphericalDistribution>(*first, std::move(d))
+                                     : std::make_unique<SphericalDistribution>(grid_, std::move(d));
+      if (!first) first = distributions_[set][m].get();
     }
   };
 
@@ -386,7 +389,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
       for (int m = 0; m < 3; ++m)
         if (distributions_[0][m])
           distributions_[1][m] =
-              std::make_unique<SphericalDistribution>(grid_, distributions_[0][m]->distribution_ptr());
+              std::make_unique<SphericalDistribution>(*distributions_[0][m], distributions_[0][m]->distribution_ptr());
     }
   }
 }

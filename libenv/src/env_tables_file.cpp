@@ -350,16 +350,23 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
   }
   if (!(t.total_importance_ >= 0.0 && std::isfinite(t.total_importance_)))
     throw fail_with("corrupt descriptor (total importance)");
+  // Every distribution of the file lies on one grid: the first computes its geometry, the others share it.
+  const SphericalDistribution* first = nullptr;
+  const auto restore_on_grid = [&](int m, BlobReader& in, const std::string& name) {
+    std::shared_ptr<const Distribution2D> d = restore_distribution(m, in);
+    if (d->width() != t.width_ || d->height() != t.height_)
+      throw fail_with("section " + name + " does not match the descriptor's size");
+    return first ? std::make_unique<SphericalDistribution>(*first, std::move(d))
+                 : std::make_unique<SphericalDistribution>(t.grid_, std::move(d));
+  };
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m) {
       const std::string name = section_name(m, set);
       const auto it = sections.find(name);
       if (it == sections.end()) continue;
       BlobReader in(it->second.first, it->second.second, path + ": section " + name, file);
-      std::shared_ptr<const Distribution2D> d = restore_distribution(m, in);
-      if (d->width() != t.width_ || d->height() != t.height_)
-        throw fail_with("section " + name + " does not match the descriptor's size");
-      t.distributions_[set][m] = std::make_unique<SphericalDistribution>(t.grid_, std::move(d));
+      t.distributions_[set][m] = restore_on_grid(m, in, name);
+      if (!first) first = t.distributions_[set][m].get();
     }
   if (const auto sun = sections.find("sun"); sun != sections.end()) {
     // The flag, then (when set) the sun, read again for each residual table that shares it.
@@ -379,7 +386,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
         if (it == sections.end()) continue;
         if (!t.distributions_[set][m]) throw fail_with("section " + name + " splits a table the file does not hold");
         BlobReader residual_in(it->second.first, it->second.second, path + ": section " + name, file);
-        auto residual = std::make_shared<SphericalDistribution>(t.grid_, restore_distribution(m, residual_in));
+        std::shared_ptr<const SphericalDistribution> residual = restore_on_grid(m, residual_in, name);
         BlobReader sun_in = sun_blob();
         sun_in.scalar<std::uint64_t>();
         t.sun_splits_[set][m] =

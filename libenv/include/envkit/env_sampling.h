@@ -166,7 +166,6 @@ class SphericalDistribution {
     /// that texel_of() locates every sample in the texel it was drawn from (pdf and radiance agree with the sample).
     double healpix_margin = 0.0;
   };
-  /// The geometry of a grid; a call for the grid of the previous call shares its geometry while that is alive.
   static std::shared_ptr<const Geometry> make_geometry(Kind grid, int width, int height);
   /// Sets sample_ for the grid and the distribution's class.
   void choose_sampler();
