@@ -1,16 +1,18 @@
 // Tests for image_io.h: round trips per format with stated bounds, colour decoding, non-finite policies,
 // error messages, size guards, atomic writes and the OpenEXR envmap attribute.
 // Special input files (NaN, 7 channels, chromaticities, multi-part) are crafted with OIIO directly or by hand.
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfEnvmapAttribute.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfRgbaFile.h>
+#include <OpenImageIO/imageio.h>
 #include <envkit/error.h>
 #include <envkit/image.h>
 #include <envkit/image_io.h>
-
-#include <OpenEXR/ImfEnvmapAttribute.h>
-#include <OpenEXR/ImfHeader.h>
-#include <OpenEXR/ImfInputFile.h>
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -565,6 +567,100 @@ TEST_F(ImageIoTest, ReadsSubimageZeroOfMultiPartFiles) {
   EXPECT_EQ(img.width, 4);
   EXPECT_EQ(img.height, 2);
   for (float v : img.pixels) EXPECT_EQ(v, 1.5f);
+}
+
+TEST_F(ImageIoTest, LuminanceChromaExrIsReadAsRgb) {
+  // What OpenEXR's RGBA interface writes to save space: Y at full resolution, RY and BY at half resolution in x and
+  // y. exrenvmap reads such files; OIIO refuses them. A data window offset from the origin, alpha, a smooth image
+  // (chroma subsampling loses only what varies from texel to texel).
+  const int w = 64, h = 32;
+  const Imath::Box2i display(Imath::V2i(0, 0), Imath::V2i(w - 1, h - 1));
+  const Imath::Box2i data(Imath::V2i(4, 2), Imath::V2i(4 + w - 1, 2 + h - 1));  // multiples of the subsampling
+  const auto colour = [&](int x, int y, int c) {
+    const double s = double(x) / w, t = double(y) / h;
+    return c == 0 ? 0.2 + 2.0 * s : c == 1 ? 0.5 + 0.8 * t * t : c == 2 ? 1.5 - s * t : 0.25 + 0.5 * s;
+  };
+  std::vector<Imf::Rgba> rgba(std::size_t(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      rgba[std::size_t(y) * w + x] =
+          Imf::Rgba(float(colour(x, y, 0)), float(colour(x, y, 1)), float(colour(x, y, 2)), float(colour(x, y, 3)));
+  const std::string file = path("yc.exr");
+  {
+    Imf::RgbaOutputFile out(file.c_str(), Imf::Header(display, data), Imf::WRITE_YCA);
+    out.setFrameBuffer(rgba.data() - data.min.x - std::ptrdiff_t(data.min.y) * w, 1, w);
+    out.writePixels(h);
+  }
+  {
+    Imf::InputFile raw(file.c_str());  // the file really is luminance/chroma, subsampled
+    const Imf::Channel* by = raw.header().channels().findChannel("BY");
+    ASSERT_NE(by, nullptr);
+    EXPECT_EQ(by->xSampling, 2);
+    EXPECT_EQ(raw.header().channels().findChannel("R"), nullptr);
+  }
+  ReadReport report;
+  const Image img = envkit::read_image(file, {}, &report);
+  ASSERT_EQ(img.width, w);
+  ASSERT_EQ(img.height, h);
+  ASSERT_EQ(img.channels, 4);
+  EXPECT_EQ(img.channel_names, (std::vector<std::string>{"R", "G", "B", "A"}));
+  EXPECT_EQ(img.alpha_channel, 3);
+  EXPECT_EQ(report.pixel_type, "half");
+  // The texels OpenEXR's RGBA interface decodes, bit for bit, in envkit's channel order.
+  std::vector<Imf::Rgba> decoded(rgba.size());
+  {
+    Imf::RgbaInputFile in(file.c_str());
+    in.setFrameBuffer(decoded.data() - data.min.x - std::ptrdiff_t(data.min.y) * w, 1, w);
+    in.readPixels(data.min.y, data.max.y);
+  }
+  double worst_colour = 0.0, worst_alpha = 0.0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Imf::Rgba& d = decoded[std::size_t(y) * w + x];
+      const float* px = img.at(x, y);
+      ASSERT_EQ(px[0], float(d.r));
+      ASSERT_EQ(px[1], float(d.g));
+      ASSERT_EQ(px[2], float(d.b));
+      ASSERT_EQ(px[3], float(d.a));
+      // And close to what was written: the writer rounds luminance to 7 and chroma to 5 significand bits and
+      // filters chroma to half resolution, so a dim channel beside bright ones comes back within a few percent of
+      // the texel's brightest; alpha, stored whole, to half precision.
+      const double brightest = std::max({colour(x, y, 0), colour(x, y, 1), colour(x, y, 2)});
+      for (int c = 0; c < 3; ++c) worst_colour = std::max(worst_colour, std::abs(px[c] - colour(x, y, c)) / brightest);
+      worst_alpha = std::max(worst_alpha, std::abs(px[3] - colour(x, y, 3)) / colour(x, y, 3));
+    }
+  EXPECT_LT(worst_colour, 0.04);
+  EXPECT_LT(worst_alpha, 1e-3);
+  // envinfo names the channels it shows; the file's Y, RY, BY never reach the user.
+  const std::string info = run(std::string(ENVKIT_BIN_DIR) + "/envinfo '" + file + "' 2>&1");
+  EXPECT_NE(info.find("channels (R, G, B, A)"), std::string::npos) << info;
+}
+
+TEST_F(ImageIoTest, OtherSubsampledChannelsAreOneClearError) {
+  // R, G, B whole and a depth channel at half resolution: neither envkit nor OIIO reads it.
+  const int w = 8, h = 4;
+  Imf::Header header(w, h);
+  header.channels().insert("R", Imf::Channel(Imf::FLOAT));
+  header.channels().insert("G", Imf::Channel(Imf::FLOAT));
+  header.channels().insert("B", Imf::Channel(Imf::FLOAT));
+  header.channels().insert("Z", Imf::Channel(Imf::FLOAT, 2, 2));
+  std::vector<float> rgb(std::size_t(w) * h * 3, 1.0f), z(std::size_t(w / 2) * (h / 2), 2.0f);
+  Imf::FrameBuffer frame;
+  for (int c = 0; c < 3; ++c)
+    frame.insert(std::string(1, "RGB"[c]), Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(rgb.data() + c),
+                                                      3 * sizeof(float), 3 * sizeof(float) * w));
+  frame.insert("Z",
+               Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(z.data()), sizeof(float), sizeof(float) * (w / 2), 2, 2));
+  const std::string file = path("z.exr");
+  {
+    Imf::OutputFile out(file.c_str(), header);
+    out.setFrameBuffer(frame);
+    out.writePixels(h);
+  }
+  const std::string message = error_of([&] { envkit::read_image(file); });
+  EXPECT_TRUE(starts_with(message, file + ": ")) << message;
+  EXPECT_NE(message.find("subsampled"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
 }
 
 // ---- metadata and the OpenEXR envmap attribute ---------------------------------------------------------------

@@ -116,7 +116,7 @@ class Backend final : public ImageBackend {
 }  // namespace
 }  // namespace envkit::detail
 
-extern "C" __attribute__((visibility("default"))) envkit::detail::ImageBackend* envkit_oiio_backend_v1() {
+extern "C" __attribute__((visibility("default"))) envkit::detail::ImageBackend* envkit_oiio_backend_v2() {
   // envkit parallelises with oneTBB; OIIO's own thread pool would only add idle threads that outlive the work (and
   // that LeakSanitizer's exit-time stop-the-world trips over in sanitizer builds).
   static const bool single_threaded = OIIO::attribute("threads", 1);

@@ -23,6 +23,9 @@ struct FileSpec {
   int format_bytes = 4;     ///< bytes per channel value
   bool deep = false;
   bool subsampled = false;  ///< some channel has fewer samples than pixels (OpenEXR chroma)
+  /// OpenEXR luminance/chroma (Y, RY, BY[, A]), described as the R, G, B[, A] half pixels that OpenEXR's RGBA
+  /// interface reconstructs from it
+  bool luminance_chroma = false;
   int depth = 1;
   int width = 0, height = 0, nchannels = 0;
   int x = 0, y = 0, full_x = 0, full_y = 0, full_width = 0, full_height = 0;
@@ -74,8 +77,8 @@ class ImageBackend {
   virtual std::string write(const std::string& file, const WriteSpec& spec, const float* pixels) = 0;
 };
 
-/// The module's entry point: extern "C" ImageBackend* envkit_oiio_backend_v1().
-inline constexpr const char* kOiioEntryPoint = "envkit_oiio_backend_v1";
+/// The module's entry point: extern "C" ImageBackend* envkit_oiio_backend_v2().
+inline constexpr const char* kOiioEntryPoint = "envkit_oiio_backend_v2";
 
 /// The OIIO module, loaded on first call (dlopen). Throws Error("<path>: <why the module is unavailable>").
 ImageBackend& oiio_backend(const std::string& path);

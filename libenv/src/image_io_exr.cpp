@@ -9,10 +9,12 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfIntAttribute.h>
 #include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfRgbaFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfThreading.h>
 #include <OpenEXR/openexr.h>
 #include <envkit/error.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cctype>
@@ -54,6 +56,15 @@ void check_exr_header(const std::string& path) {
   if (rc != EXR_ERR_SUCCESS || !message.text.empty())
     fail(path, "corrupt OpenEXR header: " +
                    (message.text.empty() ? std::string(exr_get_default_error_message(rc)) : message.text));
+}
+
+/// Whether the channels are luminance and subsampled chroma (Y, RY, BY, maybe A, nothing else): what OpenEXR's RGBA
+/// interface writes to save space, and reads back as R, G, B.
+bool is_luminance_chroma(const Imf::ChannelList& list) {
+  if (!list.findChannel("Y") || !list.findChannel("RY") || !list.findChannel("BY")) return false;
+  for (auto it = list.begin(); it != list.end(); ++it)
+    if (const std::string name = it.name(); name != "Y" && name != "RY" && name != "BY" && name != "A") return false;
+  return true;
 }
 
 std::string lower(std::string s) {
@@ -159,6 +170,20 @@ std::optional<FileSpec> read_exr_spec(const std::string& path) {
     f.pixel_type = any_float ? "float" : any_half ? "half" : "uint";
     f.format_bytes = any_float ? 4 : any_half ? 2 : 4;
     f.subsampled = !all_sampled;
+    if (is_luminance_chroma(h.channels())) {
+      f.luminance_chroma = true;
+      f.subsampled = false;
+      f.channel_names = {"R", "G", "B"};
+      f.alpha_channel = -1;
+      if (h.channels().findChannel("A")) {
+        f.channel_names.push_back("A");
+        f.alpha_channel = 3;
+      }
+      f.nchannels = static_cast<int>(f.channel_names.size());
+      f.floating_point = true;
+      f.pixel_type = "half";
+      f.format_bytes = 2;
+    }
     f.colorspace_tag = "Linear";
     for (auto it = h.begin(); it != h.end(); ++it) {
       const std::string name = it.name();
@@ -187,5 +212,25 @@ std::optional<FileSpec> read_exr_spec(const std::string& path) {
 }
 
 bool exr_layout_supported(const FileSpec& spec) { return !spec.deep && !spec.subsampled; }
+
+void read_exr_luminance_chroma(const std::string& path, const FileSpec& spec, float* pixels) {
+  Imf::RgbaInputFile in(path.c_str(), Imf::globalThreadCount());
+  const Imath::Box2i dw = in.dataWindow();
+  const std::size_t width = static_cast<std::size_t>(spec.width), channels = static_cast<std::size_t>(spec.nchannels);
+  std::vector<Imf::Rgba> rgba(width * static_cast<std::size_t>(spec.height));
+  in.setFrameBuffer(rgba.data() - dw.min.x - static_cast<std::ptrdiff_t>(dw.min.y) * static_cast<std::ptrdiff_t>(width),
+                    1, width);
+  in.readPixels(dw.min.y, dw.max.y);
+  tbb::parallel_for(0, spec.height, [&](int y) {
+    const Imf::Rgba* from = rgba.data() + static_cast<std::size_t>(y) * width;
+    float* to = pixels + static_cast<std::size_t>(y) * width * channels;
+    for (std::size_t x = 0; x < width; ++x, to += channels) {
+      to[0] = from[x].r;
+      to[1] = from[x].g;
+      to[2] = from[x].b;
+      if (channels == 4) to[3] = from[x].a;
+    }
+  });
+}
 
 }  // namespace envkit::detail
