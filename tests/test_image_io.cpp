@@ -569,6 +569,32 @@ TEST_F(ImageIoTest, ReadsSubimageZeroOfMultiPartFiles) {
   for (float v : img.pixels) EXPECT_EQ(v, 1.5f);
 }
 
+TEST_F(ImageIoTest, LayeredExrChannelsComeInOiiosOrder) {
+  // OpenEXR stores channels sorted by name, so a layer's colours come as diffuse.B, diffuse.G, diffuse.R: read in
+  // that order they would swap red and blue. envkit must order them as OIIO does (R, G, B, A within each layer).
+  const int w = 4, h = 2;
+  for (const std::vector<std::string>& names :
+       {std::vector<std::string>{"diffuse.R", "diffuse.G", "diffuse.B"},
+        std::vector<std::string>{"beauty.red", "beauty.green", "beauty.blue", "beauty.alpha"},
+        std::vector<std::string>{"R", "G", "B", "depth.Z"}, std::vector<std::string>{"a.b.Y", "a.b.A"}}) {
+    std::vector<float> pixels(std::size_t(w) * h * names.size());
+    for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = 0.25f * float(i % names.size() + 1) + 0.01f * float(i);
+    const std::string file = path("layered.exr");
+    write_with_oiio(file, w, h, names, pixels);
+    auto in = OIIO::ImageInput::open(file);
+    ASSERT_TRUE(in) << OIIO::geterror();
+    const OIIO::ImageSpec& spec = in->spec();
+    std::vector<float> oiio(std::size_t(w) * h * spec.nchannels);
+    ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, oiio.data()));
+    const Image img = envkit::read_image(file);
+    EXPECT_EQ(img.channel_names, spec.channelnames) << names[0];
+    if (spec.alpha_channel >= 0) EXPECT_EQ(img.alpha_channel, spec.alpha_channel) << names[0];
+    const std::vector<float> read(img.pixels.begin(), img.pixels.end());
+    EXPECT_EQ(read, oiio) << names[0];
+    EXPECT_EQ(read, pixels) << names[0] << ": written in OIIO's order, read back unchanged";
+  }
+}
+
 TEST_F(ImageIoTest, LuminanceChromaExrIsReadAsRgb) {
   // What OpenEXR's RGBA interface writes to save space: Y at full resolution, RY and BY at half resolution in x and
   // y. exrenvmap reads such files; OIIO refuses them. A data window offset from the origin, alpha, a smooth image

@@ -72,13 +72,25 @@ std::string lower(std::string s) {
   return s;
 }
 
-/// OIIO's channel order: R, G, B, A (any case, also red/green/blue/alpha) first, then the file's order.
-int channel_rank(const std::string& name) {
+/// Where a channel goes in OIIO's order: grouped by layer ("diffuse" in "diffuse.R", "" for "R", first), and within
+/// a layer R, G, B, A (any case, also red/green/blue/alpha) first, then the others in the file's order.
+struct ChannelKey {
+  std::string layer;
+  int rank = 4;
+  bool operator<(const ChannelKey& other) const {
+    return layer != other.layer ? layer < other.layer : rank < other.rank;
+  }
+};
+
+ChannelKey channel_key(const std::string& name) {
   static const char* const first[][2] = {{"r", "red"}, {"g", "green"}, {"b", "blue"}, {"a", "alpha"}};
-  const std::string n = lower(name);
+  const std::size_t dot = name.rfind('.');
+  ChannelKey key;
+  if (dot != std::string::npos) key.layer = name.substr(0, dot);
+  const std::string suffix = lower(dot == std::string::npos ? name : name.substr(dot + 1));
   for (int i = 0; i < 4; ++i)
-    if (n == first[i][0] || n == first[i][1]) return i;
-  return 4;
+    if (suffix == first[i][0] || suffix == first[i][1]) key.rank = i;
+  return key;
 }
 
 const char* compression_name(Imf::Compression c) {
@@ -155,14 +167,14 @@ std::optional<FileSpec> read_exr_spec(const std::string& path) {
     for (auto it = h.channels().begin(); it != h.channels().end(); ++it)
       channels.push_back({it.name(), it.channel().type, it.channel().xSampling == 1 && it.channel().ySampling == 1});
     std::stable_sort(channels.begin(), channels.end(),
-                     [](const Channel& a, const Channel& b) { return channel_rank(a.name) < channel_rank(b.name); });
+                     [](const Channel& a, const Channel& b) { return channel_key(a.name) < channel_key(b.name); });
     bool any_float = false, any_half = false, all_sampled = true;
     for (const Channel& c : channels) {
       f.channel_names.push_back(c.name);
       any_float = any_float || c.type == Imf::FLOAT;
       any_half = any_half || c.type == Imf::HALF;
       all_sampled = all_sampled && c.sampled;
-      if (channel_rank(c.name) == 3 && f.alpha_channel < 0)
+      if (channel_key(c.name).rank == 3 && f.alpha_channel < 0)
         f.alpha_channel = static_cast<int>(f.channel_names.size()) - 1;
     }
     f.nchannels = static_cast<int>(channels.size());

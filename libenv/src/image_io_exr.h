@@ -7,12 +7,13 @@
 
 namespace envkit::detail {
 
-/// The header of part 0 of `path` as OIIO would describe it (channel order R, G, B, A first, then the others
-/// alphabetically; "compression", "PixelAspectRatio", "ImageDescription" for "comments", ... as metadata;
-/// oiio:ColorSpace "Linear" unless the file says otherwise; a luminance/chroma file as the R, G, B[, A] half pixels
-/// OpenEXR's RGBA interface reconstructs, where OIIO refuses it). std::nullopt when the file is not an OpenEXR file or
-/// OpenEXR cannot read its header (the OIIO module then reports the problem in its words). Throws Error naming the
-/// path when a header attribute claims more bytes than the file holds (OpenEXR would allocate that much first).
+/// The header of part 0 of `path` as OIIO would describe it (channels grouped by layer, "diffuse" of "diffuse.R",
+/// and within a layer R, G, B, A first, then the others alphabetically; "compression", "PixelAspectRatio",
+/// "ImageDescription" for "comments", ... as metadata; oiio:ColorSpace "Linear" unless the file says otherwise; a
+/// luminance/chroma file as the R, G, B[, A] half pixels OpenEXR's RGBA interface reconstructs, where OIIO refuses it).
+/// std::nullopt when the file is not an OpenEXR file or OpenEXR cannot read its header (the OIIO module then reports
+/// the problem in its words). Throws Error naming the path when a header attribute claims more bytes than the file
+/// holds (OpenEXR would allocate that much first).
 std::optional<FileSpec> read_exr_spec(const std::string& path);
 
 /// True when read_exr_spec's file can be read by OpenEXR into envkit's interleaved float buffer: not deep, one sample
