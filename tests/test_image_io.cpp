@@ -1,6 +1,10 @@
 // Tests for image_io.h: round trips per format with stated bounds, colour decoding, non-finite policies,
 // error messages, size guards, atomic writes and the OpenEXR envmap attribute.
 // Special input files (NaN, 7 channels, chromaticities, multi-part) are crafted with OIIO directly or by hand.
+#include <envkit/error.h>
+#include <envkit/image.h>
+#include <envkit/image_io.h>
+
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfEnvmapAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -9,10 +13,8 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfRgbaFile.h>
 #include <OpenImageIO/imageio.h>
-#include <envkit/error.h>
-#include <envkit/image.h>
-#include <envkit/image_io.h>
 #include <gtest/gtest.h>
+
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>

@@ -630,16 +630,16 @@ bool read_exr_pixels(const std::string& path, const detail::FileSpec& spec, Imag
   if (spec.deep) return false;
   use_exr_threads();
   try {
+    if (spec.luminance_chroma) {
+      detail::read_exr_luminance_chroma(path, spec, image.pixels.data());
+      return true;
+    }
     Imf::MultiPartInputFile file(path.c_str());
     Imf::InputPart part(file, 0);
     const Imath::Box2i dw = part.header().dataWindow();
     if (dw.min.x != spec.x || dw.min.y != spec.y || dw.max.x - dw.min.x + 1 != spec.width ||
         dw.max.y - dw.min.y + 1 != spec.height)
       return false;
-    if (spec.luminance_chroma) {
-      detail::read_exr_luminance_chroma(path, spec, image.pixels.data());
-      return true;
-    }
     const Imf::ChannelList& list = part.header().channels();
     const std::size_t nc = static_cast<std::size_t>(image.channels);
     const std::size_t xstride = sizeof(float) * nc, ystride = xstride * static_cast<std::size_t>(image.width);

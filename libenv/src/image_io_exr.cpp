@@ -23,6 +23,8 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <stdexcept>
+#include <vector>
 
 namespace envkit::detail {
 namespace {
@@ -228,6 +230,10 @@ bool exr_layout_supported(const FileSpec& spec) { return !spec.deep && !spec.sub
 void read_exr_luminance_chroma(const std::string& path, const FileSpec& spec, float* pixels) {
   Imf::RgbaInputFile in(path.c_str(), Imf::globalThreadCount());
   const Imath::Box2i dw = in.dataWindow();
+  // The buffer is sized from the spec: a file changed since its header was read must not write past it.
+  if (dw.min.x != spec.x || dw.min.y != spec.y || dw.max.x - dw.min.x + 1 != spec.width ||
+      dw.max.y - dw.min.y + 1 != spec.height)
+    throw std::runtime_error("the data window changed while the file was read");
   const std::size_t width = static_cast<std::size_t>(spec.width), channels = static_cast<std::size_t>(spec.nchannels);
   std::vector<Imf::Rgba> rgba(width * static_cast<std::size_t>(spec.height));
   in.setFrameBuffer(rgba.data() - dw.min.x - static_cast<std::ptrdiff_t>(dw.min.y) * static_cast<std::ptrdiff_t>(width),
