@@ -287,3 +287,45 @@ TEST(ColorConfigSelection, OcioVariableIsHonouredAndBrokenConfigsAreReported) {
   }
   fs::remove_all(dir);
 }
+
+// color.cpp answers the questions of every float read and write from a table of the shipped config, without loading
+// OpenColorIO; naming the same file through ENVKIT_OCIO_CONFIG makes OpenColorIO answer. Both must agree, row by row.
+TEST_F(ColorTest, ShippedTableAnswersAsOpenColorIODoes) {
+  const std::vector<std::string> rows = {"lin_rec709", "scene_linear", "srgb", "rec709", "raw", "data"};
+  struct Answers {
+    std::string working;
+    std::vector<std::string> canonical;
+    std::vector<bool> data;
+    envkit::Vec3 luma;
+  };
+  const auto ask = [&rows] {
+    Answers a{envkit::working_space(), {}, {}, envkit::luminance_weights("scene_linear")};
+    for (const std::string& name : rows) {
+      a.canonical.push_back(envkit::canonical_colorspace(name));
+      a.data.push_back(envkit::is_data_colorspace(name));
+    }
+    return a;
+  };
+  const Answers table = ask();
+  Answers ocio;
+  {
+    EnvGuard own("ENVKIT_OCIO_CONFIG", kShippedConfig);
+    ocio = ask();
+  }
+  EXPECT_EQ(table.working, ocio.working);
+  EXPECT_EQ(table.canonical, ocio.canonical);
+  EXPECT_EQ(table.data, ocio.data);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(table.luma[k], ocio.luma[k]) << k;
+  EXPECT_EQ(envkit::luminance_weights("lin_rec709"), table.luma);
+
+  // Converting between two of the table's names for one space leaves the pixels alone; between two spaces it
+  // converts (through OpenColorIO).
+  Image same = rgb(0.5f, 0.25f, 2.0f);
+  envkit::convert_colorspace(same, "scene_linear", "lin_rec709");
+  EXPECT_EQ(same.pixels[0], 0.5f);
+  EXPECT_EQ(same.pixels[1], 0.25f);
+  EXPECT_EQ(same.pixels[2], 2.0f);
+  Image encoded = rgb(0.5f, 0.5f, 0.5f);
+  envkit::convert_colorspace(encoded, "lin_rec709", "srgb");
+  EXPECT_NEAR(encoded.pixels[0], srgb_oetf(0.5), 1e-5);
+}

@@ -738,6 +738,23 @@ TEST_F(HdrIoTest, ExrHdrPfmAndPngRunsNeverLoadOpenImageIO) {
   EXPECT_TRUE(fs::exists(path("g.tif")));
 }
 
+// OpenColorIO and parsing its config cost every run about 9 ms: float files in the working space never load it.
+TEST_F(HdrIoTest, OnlyColourConversionsLoadOpenColorIO) {
+  envkit::write_image(path("a.exr"), exact_picture(16, 8));
+  auto loads_ocio = [&](const std::vector<std::string>& args) {
+    return envconvert_loads("libOpenColorIO", args, dir_);
+  };
+  EXPECT_FALSE(loads_ocio({path("a.exr"), "-o", path("b.exr"), "--to", "cube", "--from", "latlong", "-q"}));
+  EXPECT_FALSE(loads_ocio({path("b.exr"), "-o", path("c.hdr"), "--to", "latlong", "-q"}));
+  EXPECT_FALSE(loads_ocio({path("c.hdr"), "-o", path("d.pfm"), "--to", "latlong", "--from", "latlong", "-q"}));
+  // An 8-bit PNG holds sRGB-encoded values: encoding them needs OpenColorIO, and the file is written.
+  EXPECT_TRUE(loads_ocio({path("a.exr"), "-o", path("e.png"), "--to", "latlong", "--from", "latlong", "-q"}));
+  EXPECT_TRUE(fs::exists(path("e.png")));
+  // A space the table does not hold goes to OpenColorIO too.
+  EXPECT_TRUE(loads_ocio({path("a.exr"), "-o", path("f.exr"), "--to", "latlong", "--from", "latlong", "--colorspace",
+                          "acescg", "-q"}));
+}
+
 // libhealpix-cxx brings cfitsio, curl and GnuTLS, whose start-up every run would pay: only HEALPix maps load it.
 TEST_F(HdrIoTest, OnlyHealpixRunsLoadLibhealpix) {
   envkit::write_image(path("a.exr"), exact_picture(16, 8));

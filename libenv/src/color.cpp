@@ -1,341 +1,118 @@
+// envkit's colour functions (envkit/color.h). OpenColorIO lives in a module (color_backend.h); what every float file
+// read and write asks (the working space, whether a file's space is it, the working space's luminance) is answered
+// here from a table of the shipped config while that config is the active one, without loading the module.
 #include <envkit/color.h>
 #include <envkit/error.h>
 
-#include <OpenColorIO/OpenColorIO.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
-#include <algorithm>
-#include <cctype>
-#include <cfloat>
-#include <cmath>
 #include <cstdlib>
-#include <filesystem>
-#include <map>
-#include <memory>
-#include <mutex>
+#include <cstring>
+#include <string>
 
-namespace OCIO = OCIO_NAMESPACE;
+#include "color_backend.h"
+#include "module_loader.h"
 
 namespace envkit {
+namespace detail {
 namespace {
 
-std::string env_value(const char* name) {
-  const char* value = std::getenv(name);
-  return value ? value : "";
-}
-
-/// OCIO messages may span lines; envkit errors are one line.
-std::string one_line(std::string text) {
-  std::replace(text.begin(), text.end(), '\n', ' ');
-  std::replace(text.begin(), text.end(), '\r', ' ');
-  while (!text.empty() && text.back() == ' ') text.pop_back();
-  return text;
-}
-
-std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return s;
-}
-
-std::string join(const std::vector<std::string>& items) {
-  std::string out;
-  for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
-  return out;
-}
-
-// ---- the active config ---------------------------------------------------------------------------------
-
-struct ActiveConfig {
-  OCIO::ConstConfigRcPtr config;
-  std::string source;  // for messages
-  std::string key;     // the environment it was loaded for
+struct Loaded {
+  const ColorBackend* backend = nullptr;
+  std::string error;
 };
 
-std::string shipped_config_path() {
-  std::error_code ec;
-#ifdef ENVKIT_OCIO_INSTALL_CONFIG
-  if (std::filesystem::exists(ENVKIT_OCIO_INSTALL_CONFIG, ec)) return ENVKIT_OCIO_INSTALL_CONFIG;
-#endif
-#ifdef ENVKIT_OCIO_BUILD_CONFIG
-  if (std::filesystem::exists(ENVKIT_OCIO_BUILD_CONFIG, ec)) return ENVKIT_OCIO_BUILD_CONFIG;
-#endif
-  return "";
-}
-
-OCIO::ConstConfigRcPtr load_config(const std::string& path, const std::string& shown, const std::string& hint) {
-  try {
-    return OCIO::Config::CreateFromFile(path.c_str());
-  } catch (const OCIO::Exception& e) {
-    throw Error(shown + ": " + one_line(e.what()) + hint);
-  }
-}
-
-std::shared_ptr<const ActiveConfig> load_active(const std::string& key) {
-  auto active = std::make_shared<ActiveConfig>();
-  active->key = key;
-  if (const std::string ocio = env_value("OCIO"); !ocio.empty()) {
-    active->source = "$OCIO=" + ocio;
-    active->config = load_config(ocio, active->source, "; unset OCIO to use envkit's built-in config");
-  } else if (const std::string own = env_value("ENVKIT_OCIO_CONFIG"); !own.empty()) {
-    active->source = own;
-    active->config = load_config(own, "$ENVKIT_OCIO_CONFIG=" + own, "");
-  } else {
-    const std::string shipped = shipped_config_path();
-    if (shipped.empty()) {
-      std::string looked;
-#ifdef ENVKIT_OCIO_INSTALL_CONFIG
-      looked += std::string(ENVKIT_OCIO_INSTALL_CONFIG) + " ";
-#endif
-#ifdef ENVKIT_OCIO_BUILD_CONFIG
-      looked += std::string(ENVKIT_OCIO_BUILD_CONFIG) + " ";
-#endif
-      throw Error("envkit's OCIO config not found (looked for " + one_line(looked) +
-                  "); set OCIO or ENVKIT_OCIO_CONFIG to an OCIO config file");
-    }
-    active->source = shipped;
-    active->config = load_config(shipped, shipped, "");
-  }
-  return active;
-}
-
-/// The config for the current environment; reloaded when $OCIO or $ENVKIT_OCIO_CONFIG change.
-std::shared_ptr<const ActiveConfig> active_config() {
-  static std::mutex mutex;
-  static std::shared_ptr<const ActiveConfig> current;
-  const std::string key = env_value("OCIO") + '\n' + env_value("ENVKIT_OCIO_CONFIG");
-  std::lock_guard lock(mutex);
-  if (!current || current->key != key) current = load_active(key);
-  return current;
-}
-
-// ---- names -----------------------------------------------------------------------------------------------
-
-/// Spellings of envkit's standard spaces in other common configs (ACES studio/cg configs, OCIO's own).
-const std::map<std::string, std::vector<std::string>>& synonyms() {
-  static const std::map<std::string, std::vector<std::string>> table = {
-      {"lin_rec709", {"Linear Rec.709 (sRGB)", "Utility - Linear - sRGB", "Utility - Linear - Rec.709", "lin_srgb"}},
-      {"srgb", {"sRGB - Texture", "sRGB Encoded Rec.709 (sRGB)", "Utility - sRGB - Texture", "srgb_tx",
-                "Input - Generic - sRGB - Texture", "srgb_texture"}},
-      {"rec709", {"Camera Rec.709", "Utility - Rec.709 - Camera", "rec709_camera"}},
-      {"acescg", {"ACES - ACEScg", "lin_ap1"}},
-      {"aces2065-1", {"ACES - ACES2065-1", "lin_ap0", "aces_interchange"}},
-      {"raw", {"Utility - Raw", "data"}},
-      {"cie_xyz_d65", {"CIE-XYZ-D65", "cie_xyz_d65_interchange"}},
-      {"lin_p3d65", {"Linear P3-D65", "Utility - Linear - P3-D65"}},
-      {"lin_rec2020", {"Linear Rec.2020", "Utility - Linear - Rec.2020"}},
-  };
-  return table;
-}
-
-/// Canonical colour-space name, or "" when the config does not know it.
-std::string find_colorspace(const OCIO::Config& config, const std::string& name) {
-  const auto lookup = [&config](const std::string& n) -> std::string {
-    const char* canonical = config.getCanonicalName(n.c_str());
-    if (canonical && *canonical && config.getColorSpace(canonical)) return canonical;
-    return "";
-  };
-  if (std::string found = lookup(name); !found.empty()) return found;
-  if (auto it = synonyms().find(lower(name)); it != synonyms().end())
-    for (const std::string& alt : it->second)
-      if (std::string found = lookup(alt); !found.empty()) return found;
-  return "";
-}
-
-std::vector<std::string> active_names(const OCIO::Config& config) {
-  std::vector<std::string> names;
-  const int n = config.getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ACTIVE);
-  for (int i = 0; i < n; ++i)
-    names.emplace_back(config.getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ACTIVE, i));
-  return names;
-}
-
-std::string require_colorspace(const ActiveConfig& active, const std::string& name) {
-  std::string found = find_colorspace(*active.config, name);
-  if (found.empty())
-    throw Error("unknown colour space '" + name + "' in OCIO config " + active.source +
-                "; valid colour spaces: " + join(active_names(*active.config)));
-  return found;
-}
-
-std::string require_working_space(const ActiveConfig& active) {
-  std::string found = find_colorspace(*active.config, OCIO::ROLE_SCENE_LINEAR);
-  if (found.empty()) throw Error("OCIO config " + active.source + " has no scene_linear role");
-  return found;
-}
-
-// ---- pixel processing ------------------------------------------------------------------------------------
-
-OCIO::ConstCPUProcessorRcPtr cpu_of(const OCIO::ConstProcessorRcPtr& processor) {
-  return processor->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32, OCIO::OPTIMIZATION_DEFAULT);
-}
-
-/// Finite output for finite input: overflow to +/-inf is clamped, NaN becomes 0.
-inline float sanitize(float v) {
-  if (std::isnan(v)) return 0.0f;
-  return std::clamp(v, -FLT_MAX, FLT_MAX);
-}
-
-std::vector<int> colour_channel_indices(const Image& image) {
-  std::vector<int> idx;
-  for (int c = 0; c < image.channels; ++c)
-    if (c != image.alpha_channel) idx.push_back(c);
-  if (idx.size() != 1 && idx.size() != 3)
-    throw Error("colour conversion needs 1 (Y) or 3 (RGB) colour channels, the image has " +
-                std::to_string(idx.size()));
-  return idx;
-}
-
-/// Runs `cpu` over the colour channels of `image` (alpha untouched), then `post` on each RGB triple.
-/// Colour channels are gathered into packed RGB blocks of whole rows, processed in parallel.
-template <class Post>
-void apply_to_colour(Image& image, const OCIO::CPUProcessor& cpu, const double luma[3], Post post) {
-  if (image.empty()) return;
-  if (image.pixels.size() != image.texel_count() * static_cast<std::size_t>(image.channels))
-    throw Error("colour conversion: pixel buffer size does not match the image dimensions");
-  const std::vector<int> idx = colour_channel_indices(image);
-  const bool grey = idx.size() == 1;
-  const int width = image.width;
-  const int rows_per_block = std::max(1, 16384 / std::max(1, width));
-  tbb::parallel_for(tbb::blocked_range<int>(0, image.height, rows_per_block), [&](const tbb::blocked_range<int>& r) {
-    const std::size_t texels = static_cast<std::size_t>(width) * static_cast<std::size_t>(r.size());
-    std::vector<float> rgb(texels * 3);
-    float* base = image.at(0, r.begin());
-    const auto nc = static_cast<std::size_t>(image.channels);
-    for (std::size_t t = 0; t < texels; ++t)
-      for (int k = 0; k < 3; ++k) rgb[3 * t + k] = base[t * nc + static_cast<std::size_t>(grey ? idx[0] : idx[k])];
-    OCIO::PackedImageDesc desc(rgb.data(), width, static_cast<long>(r.size()), 3);
-    cpu.apply(desc);
-    for (std::size_t t = 0; t < texels; ++t) {
-      float* v = &rgb[3 * t];
-      post(v);
-      if (grey) {
-        base[t * nc + static_cast<std::size_t>(idx[0])] =
-            sanitize(static_cast<float>(luma[0] * v[0] + luma[1] * v[1] + luma[2] * v[2]));
-      } else {
-        for (int k = 0; k < 3; ++k) base[t * nc + static_cast<std::size_t>(idx[k])] = sanitize(v[k]);
-      }
-    }
-  });
-}
-
-void luma_of(const OCIO::Config& config, double luma[3]) {
-  config.getDefaultLumaCoefs(luma);
-  const double sum = luma[0] + luma[1] + luma[2];
-  if (!(sum > 0.0) || !std::isfinite(sum)) {
-    luma[0] = luma[1] = luma[2] = 1.0 / 3.0;
-  } else {
-    for (int k = 0; k < 3; ++k) luma[k] /= sum;
-  }
-}
-
-std::vector<std::string> views_of(const OCIO::Config& config, const std::string& display) {
-  std::vector<std::string> views;
-  const int n = config.getNumViews(display.c_str());
-  for (int i = 0; i < n; ++i) views.emplace_back(config.getView(display.c_str(), i));
-  return views;
-}
-
-std::vector<std::string> displays_of(const OCIO::Config& config) {
-  std::vector<std::string> displays;
-  for (int i = 0; i < config.getNumDisplays(); ++i) displays.emplace_back(config.getDisplay(i));
-  return displays;
+Loaded load() {
+  const ModuleSpec spec{"OpenColorIO", "ENVKIT_OCIO_MODULE", ENVKIT_OCIO_MODULE_INSTALL, ENVKIT_OCIO_MODULE_BUILD,
+                        kColorEntryPoint};
+  Loaded r;
+  if (void* entry = load_module_entry(spec, r.error)) r.backend = reinterpret_cast<const ColorBackend* (*)()>(entry)();
+  return r;
 }
 
 }  // namespace
 
-std::string working_space() { return require_working_space(*active_config()); }
+const ColorBackend& color_backend() {
+  static const Loaded loaded = load();  // thread-safe, once
+  if (!loaded.backend) throw Error("colour management needs " + loaded.error);
+  return *loaded.backend;
+}
 
-std::string color_config_source() { return active_config()->source; }
+}  // namespace detail
 
-std::vector<std::string> colorspace_names() { return active_names(*active_config()->config); }
+namespace {
 
-std::string canonical_colorspace(const std::string& name) { return require_colorspace(*active_config(), name); }
+/// A name of libenv/data/ocio/config.ocio as OCIO resolves it. Exact spellings only: anything else (other cases,
+/// aliases, the other spaces) goes to OCIO. The test ColorTest.ShippedTableAnswersAsOpenColorIODoes holds each row
+/// to OCIO's answer from that file.
+struct ShippedName {
+  const char* name;
+  const char* canonical;
+  bool data;
+};
+constexpr ShippedName kShippedNames[] = {{"lin_rec709", "lin_rec709", false},
+                                         {"scene_linear", "lin_rec709", false},
+                                         {"srgb", "srgb", false},
+                                         {"rec709", "rec709", false},
+                                         {"raw", "raw", true},
+                                         {"data", "raw", true}};
+constexpr const char* kShippedWorkingSpace = "lin_rec709";
+/// The shipped config's `luma`: the working space's luminance weights.
+constexpr Vec3 kShippedLuma{0.2126, 0.7152, 0.0722};
+
+bool shipped_config_active() {
+  const char* ocio = std::getenv("OCIO");
+  const char* own = std::getenv("ENVKIT_OCIO_CONFIG");
+  return (!ocio || !*ocio) && (!own || !*own);
+}
+
+/// The row for `name`, or nullptr when another config is active or the table does not hold the name.
+const ShippedName* shipped(const std::string& name) {
+  if (!shipped_config_active()) return nullptr;
+  for (const ShippedName& row : kShippedNames)
+    if (name == row.name) return &row;
+  return nullptr;
+}
+
+}  // namespace
+
+std::string working_space() {
+  return shipped_config_active() ? kShippedWorkingSpace : detail::color_backend().working_space();
+}
+
+std::string color_config_source() { return detail::color_backend().config_source(); }
+
+std::vector<std::string> colorspace_names() { return detail::color_backend().colorspace_names(); }
+
+std::string canonical_colorspace(const std::string& name) {
+  if (const ShippedName* row = shipped(name)) return row->canonical;
+  return detail::color_backend().canonical_colorspace(name);
+}
 
 bool is_data_colorspace(const std::string& name) {
-  const auto active = active_config();
-  return active->config->getColorSpace(require_colorspace(*active, name).c_str())->isData();
+  if (const ShippedName* row = shipped(name)) return row->data;
+  return detail::color_backend().is_data_colorspace(name);
 }
 
 void convert_colorspace(Image& image, const std::string& from, const std::string& to) {
-  const auto active = active_config();
-  const std::string src = require_colorspace(*active, from);
-  const std::string dst = require_colorspace(*active, to);
-  if (src == dst || image.empty()) return;
-  OCIO::ConstProcessorRcPtr processor;
-  try {
-    processor = active->config->getProcessor(src.c_str(), dst.c_str());
-  } catch (const OCIO::Exception& e) {
-    throw Error("cannot convert colour from '" + src + "' to '" + dst + "': " + one_line(e.what()));
-  }
-  if (processor->isNoOp()) return;
-  double luma[3];
-  luma_of(*active->config, luma);
-  apply_to_colour(image, *cpu_of(processor), luma, [](float*) {});
+  const ShippedName* src = shipped(from);
+  const ShippedName* dst = shipped(to);
+  if (src && dst && std::strcmp(src->canonical, dst->canonical) == 0) return;  // the same space: nothing to do
+  detail::color_backend().convert_colorspace(image, from, to);
 }
 
-void decode_gamma(Image& image, double gamma) {
-  if (!(gamma > 0.0) || !std::isfinite(gamma)) throw Error("decode_gamma: gamma must be positive, got " + std::to_string(gamma));
-  if (gamma == 1.0 || image.empty()) return;
-  const auto active = active_config();
-  auto exponent = OCIO::ExponentTransform::Create();
-  const double value[4] = {gamma, gamma, gamma, 1.0};
-  exponent->setValue(value);
-  exponent->setNegativeStyle(OCIO::NEGATIVE_CLAMP);
-  double luma[3];
-  luma_of(*active->config, luma);
-  apply_to_colour(image, *cpu_of(active->config->getProcessor(exponent)), luma, [](float*) {});
-}
+void decode_gamma(Image& image, double gamma) { detail::color_backend().decode_gamma(image, gamma); }
 
 Vec3 luminance_weights(const std::string& colorspace) {
-  const auto active = active_config();
-  const std::string src = require_colorspace(*active, colorspace);
-  if (active->config->getColorSpace(src.c_str())->isData())
-    throw Error("colour space '" + src + "' holds data, not colour: it has no luminance");
-  const std::string dst = require_working_space(*active);
-  double luma[3];
-  active->config->getDefaultLumaCoefs(luma);
-  // The three primaries as seen in the working space; their luminance is luma . primary.
-  float primaries[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  const auto cpu = cpu_of(active->config->getProcessor(src.c_str(), dst.c_str()));
-  OCIO::PackedImageDesc desc(primaries, 3, 1, 3);
-  cpu->apply(desc);
-  Vec3 w;
-  for (int p = 0; p < 3; ++p) {
-    const double y = luma[0] * primaries[3 * p] + luma[1] * primaries[3 * p + 1] + luma[2] * primaries[3 * p + 2];
-    w[p] = std::isfinite(y) ? y : 0.0;
-  }
-  return w;
+  if (const ShippedName* row = shipped(colorspace); row && std::strcmp(row->canonical, kShippedWorkingSpace) == 0)
+    return kShippedLuma;
+  return detail::color_backend().luminance_weights(colorspace);
 }
 
-std::vector<std::string> display_names() { return displays_of(*active_config()->config); }
+std::vector<std::string> display_names() { return detail::color_backend().display_names(); }
 
-std::vector<std::string> view_names(const std::string& display) {
-  const auto active = active_config();
-  const std::vector<std::string> displays = displays_of(*active->config);
-  if (std::find(displays.begin(), displays.end(), display) == displays.end())
-    throw Error("unknown display '" + display + "' in OCIO config " + active->source + "; valid displays: " + join(displays));
-  return views_of(*active->config, display);
-}
+std::vector<std::string> view_names(const std::string& display) { return detail::color_backend().view_names(display); }
 
 void encode_for_display(Image& image, const std::string& display, const std::string& view) {
-  const auto active = active_config();
-  const std::vector<std::string> views = view_names(display);
-  if (std::find(views.begin(), views.end(), view) == views.end())
-    throw Error("unknown view '" + view + "' for display '" + display + "' in OCIO config " + active->source +
-                "; valid views: " + join(views));
-  const std::string src = require_working_space(*active);
-  OCIO::ConstProcessorRcPtr processor;
-  try {
-    processor = active->config->getProcessor(src.c_str(), display.c_str(), view.c_str(), OCIO::TRANSFORM_DIR_FORWARD);
-  } catch (const OCIO::Exception& e) {
-    throw Error("cannot encode for display '" + display + "' view '" + view + "': " + one_line(e.what()));
-  }
-  double luma[3];
-  luma_of(*active->config, luma);
-  apply_to_colour(image, *cpu_of(processor), luma, [](float* v) {
-    for (int k = 0; k < 3; ++k) v[k] = std::isnan(v[k]) ? 0.0f : std::clamp(v[k], 0.0f, 1.0f);
-  });
+  detail::color_backend().encode_for_display(image, display, view);
 }
 
 }  // namespace envkit
