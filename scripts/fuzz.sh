@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# fuzz.sh [--seconds N] [--runs N] [--targets "a b"] [--no-build]
+# fuzz.sh [--seconds N] [--runs N] [--processes P] [--targets "a b"] [--no-build]
 #
 # Builds the libFuzzer targets (tests/fuzz, clang, ASan + UBSan + libFuzzer) into ${ENVKIT_FUZZ_BUILD_DIR:-build-fuzz},
 # replays the seed corpora and every past crash (CTest, label fuzz), then runs every target for N seconds
 # (default 60; CI passes 20 through scripts/test-sanitize.sh) on one core, and prints executions, coverage and
 # findings per target. --runs N runs each target for N executions instead, with no time limit (the long runs of
-# BENCHMARKS.md: scripts/fuzz.sh --runs 10000000 --targets "fuzz_codecs fuzz_scene"). The growing corpora live in
+# BENCHMARKS.md: scripts/fuzz.sh --runs 10000000 --targets "fuzz_codecs fuzz_scene"); --processes P splits that
+# budget (or runs for the seconds) across P libFuzzer processes sharing one corpus, one per core (the long runs of
+# the slower targets; logs <target>.log.1 .. .P). The growing corpora live in
 # <build>/fuzz/corpus/<target> (seeded from tests/fuzz/corpus/<target>); crashes, leaks, timeouts and OOMs are
 # written to <build>/fuzz/artifacts/<target>/. A finding: copy the artifact into tests/fuzz/regressions/<target>/
 # (it is then replayed by CTest), fix the bug. Slow units (over 10 s, not a failure) are reported, not counted.
@@ -18,17 +20,20 @@ seconds=60
 runs=""
 targets=""
 do_build=1
+procs=1
 while [ $# -gt 0 ]; do
   case "$1" in
     --seconds) seconds="$2"; shift ;;
     --runs) runs="$2"; shift ;;
     --targets) targets="$2"; shift ;;
     --no-build) do_build=0 ;;
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --processes) procs="$2"; shift ;;
+    -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "fuzz.sh: unknown argument '$1'" >&2; exit 2 ;;
   esac
   shift
 done
+case "$procs" in ''|*[!0-9]*|0) echo "fuzz.sh: --processes needs a positive whole number, not '$procs'" >&2; exit 2 ;; esac
 
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1${ENVKIT_ASAN_EXTRA:+:$ENVKIT_ASAN_EXTRA}"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
@@ -71,21 +76,30 @@ for t in $targets; do
   before=$(find "$artifacts" -type f ! -name 'slow-unit-*' | wc -l)
   log="$work/$t.log"
   touch "$log.start"
-  if [ -n "$runs" ]; then limit=(-runs="$runs"); echo "== $t: $runs runs"; else
-    limit=(-max_total_time="$seconds"); echo "== $t: ${seconds} s"; fi
+  if [ -n "$runs" ]; then limit=(-runs="$(((runs + procs - 1) / procs))"); echo "== $t: $runs runs in $procs process(es)"
+  else limit=(-max_total_time="$seconds"); echo "== $t: ${seconds} s in $procs process(es)"; fi
+  logs=("$log"); [ "$procs" = 1 ] || logs=($(for i in $(seq 1 "$procs"); do echo "$log.$i"; done))
   t_start=$(date +%s)
-  set +e
   # -entropic_scale_per_exec_time: inputs that run longer get less of the mutation budget. A CLI input that
   # rasterizes envprobe's default sky costs far more than one that stops in parsing, and reaches little code the
   # cheap ones do not (the rates with and without: BENCHMARKS.md).
-  (cd "$work" && "$bin/$t" "$corpus" "${seeds[@]}" "${dict[@]}" "${limit[@]}" -timeout=30 \
-     -rss_limit_mb=3072 -max_len=4096 -entropic_scale_per_exec_time=1 -print_final_stats=1 \
-     -artifact_prefix="$artifacts/" >"$log" 2>&1)
-  rc=$?
-  set -e
-  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
-  speed=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
-  cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*')
+  pids=()
+  for plog in "${logs[@]}"; do
+    (cd "$work" && exec "$bin/$t" "$corpus" "${seeds[@]}" "${dict[@]}" "${limit[@]}" -timeout=30 \
+       -rss_limit_mb=3072 -max_len=4096 -entropic_scale_per_exec_time=1 -print_final_stats=1 \
+       -artifact_prefix="$artifacts/" >"$plog" 2>&1) &
+    pids+=($!)
+  done
+  rc=0
+  for p in "${pids[@]}"; do wait "$p" || rc=$?; done
+  # Totals over the processes: executions and exec/s add up, coverage is the best any process reached.
+  last_stat() { grep -o "$1: *[0-9]*" "$2" | tail -1 | grep -o '[0-9]*$' || true; }
+  execs=0; speed=0; cov=0
+  for plog in "${logs[@]}"; do
+    e=$(last_stat stat::number_of_executed_units "$plog"); execs=$((execs + ${e:-0}))
+    v=$(last_stat stat::average_exec_per_sec "$plog"); speed=$((speed + ${v:-0}))
+    c=$(last_stat cov "$plog"); [ "${c:-0}" -le "$cov" ] || cov=$c
+  done
   # libFuzzer writes slow-unit-* for any unit over 10 s of wall time without failing: on a shared 2-core machine
   # under ASan that measures the machine's load as much as the code, so they are reported and kept, not counted.
   # A unit over -timeout (30 s) is a timeout-* artifact and a finding.
@@ -96,7 +110,7 @@ for t in $targets; do
   if [ "$rc" != 0 ] || [ "$found" -gt 0 ]; then
     status=1
     echo "   FINDING in $t (exit $rc): $(ls -t "$artifacts" | grep -v '^slow-unit-' | head -1)"
-    grep -E 'ERROR: |FINDING|runtime error|SUMMARY' "$log" | head -5 | sed 's/^/   /'
+    cat "${logs[@]}" | grep -E 'ERROR: |FINDING|runtime error|SUMMARY' | head -5 | sed 's/^/   /'
   fi
   line="$(printf '%-22s %10s execs %7s exec/s %6s s  cov %6s  corpus %5s  findings %s' "$t" "${execs:-?}" \
            "${speed:-?}" "$(($(date +%s) - t_start))" "${cov:-?}" "$(ls "$corpus" | wc -l)" "$found")"
