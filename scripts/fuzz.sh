@@ -11,7 +11,8 @@
 # <build>/fuzz/corpus/<target> (seeded from tests/fuzz/corpus/<target>); crashes, leaks, timeouts and OOMs are
 # written to <build>/fuzz/artifacts/<target>/. A finding: copy the artifact into tests/fuzz/regressions/<target>/
 # (it is then replayed by CTest), fix the bug. Slow units (over 10 s, not a failure) are reported, not counted.
-# Exit status: 0 when no target found anything, 1 otherwise (every target runs either way).
+# Exit status: 0 when no target found anything, 1 otherwise (every target runs either way). Beside other work: start it
+# with setsid nice -n 19, then echo 19 > /proc/PID/autogroup (Linux shares the CPU between sessions before nice counts).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${ENVKIT_FUZZ_BUILD_DIR:-$root/build-fuzz}"
