@@ -70,9 +70,12 @@ EnvironmentLight::EnvironmentLight(const EnvMap& map, std::shared_ptr<const EnvT
   });
 }
 
-Vec3 EnvironmentLight::radiance(const Vec3& d) const {
+std::size_t EnvironmentLight::texel_index(int x, int y) const {
+  return std::size_t(std::clamp(y, 0, height_ - 1)) * std::size_t(width_) + std::size_t(std::clamp(x, 0, width_ - 1));
+}
+
+std::size_t EnvironmentLight::texel_index(const Vec3& table_dir) const {
   int x = 0, y = 0;
-  const Vec3 table_dir = apply(inverse_rotation_, d);
   if (radiance_grid_) {
     const Vec2 p = radiance_grid_->to_image(table_dir);
     x = std::isfinite(p.x) ? int(std::floor(p.x)) : 0;
@@ -80,10 +83,10 @@ Vec3 EnvironmentLight::radiance(const Vec3& d) const {
   } else {
     lookup_->texel_of(table_dir, x, y);
   }
-  x = std::clamp(x, 0, width_ - 1);
-  y = std::clamp(y, 0, height_ - 1);
-  return texels_[std::size_t(y) * width_ + x].rgb();
+  return texel_index(x, y);
 }
+
+Vec3 EnvironmentLight::radiance(const Vec3& d) const { return texels_[texel_index(apply(inverse_rotation_, d))].rgb(); }
 
 const SphericalDistribution& EnvironmentLight::distribution(SamplingMethod method, bool compensated) const {
   const SphericalDistribution* d = tables_->distribution(method, compensated);
@@ -100,12 +103,10 @@ LightSample EnvironmentLight::sample(const SphericalDistribution& distribution, 
   LightSample s;
   s.direction = apply(rotation_, ds.direction);
   s.pdf = ds.pdf;
-  if (radiance_grid_) {
-    s.radiance = radiance(s.direction);  // the distribution's texel holds several radiance texels
-  } else {
-    const int x = std::clamp(ds.x, 0, width_ - 1), y = std::clamp(ds.y, 0, height_ - 1);
-    s.radiance = texels_[std::size_t(y) * width_ + x].rgb();
-  }
+  // With a coarser distribution (radiance_grid_) its texel holds several radiance texels: search by direction.
+  s.texel = radiance_grid_ ? texel_index(ds.direction) : texel_index(ds.x, ds.y);
+  // On maps larger than the caches this read is a miss; radiance(s) comes after the caller's shadow ray.
+  __builtin_prefetch(texels_.data() + s.texel);
   return s;
 }
 
@@ -113,13 +114,29 @@ double EnvironmentLight::pdf(const SphericalDistribution& distribution, const Ve
   return distribution.pdf(apply(inverse_rotation_, d));
 }
 
-EnvironmentLight::Lookup EnvironmentLight::lookup(const SphericalDistribution& distribution, const Vec3& d) const {
+LightSample EnvironmentLight::lookup(const SphericalDistribution& distribution, const Vec3& d) const {
   if (radiance_grid_ || distribution.width() != width_ || distribution.height() != height_ ||
-      distribution.grid() != lookup_->grid())
-    return {radiance(d), pdf(distribution, d)};
+      distribution.grid() != lookup_->grid()) {
+    LightSample s = lookup(d);
+    s.pdf = pdf(distribution, d);
+    return s;
+  }
   int x = 0, y = 0;
   distribution.texel_of(apply(inverse_rotation_, d), x, y);
-  return {texels_[std::size_t(y) * width_ + x].rgb(), distribution.texel_pdf(x, y)};
+  LightSample s;
+  s.direction = d;
+  s.texel = texel_index(x, y);
+  __builtin_prefetch(texels_.data() + s.texel);
+  s.pdf = distribution.texel_pdf(x, y);
+  return s;
+}
+
+LightSample EnvironmentLight::lookup(const Vec3& d) const {
+  LightSample s;
+  s.direction = d;
+  s.texel = texel_index(apply(inverse_rotation_, d));
+  __builtin_prefetch(texels_.data() + s.texel);
+  return s;
 }
 
 Vec3 EnvironmentLight::mean_radiance() const {

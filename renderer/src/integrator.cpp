@@ -174,16 +174,14 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw,
   if ((t.wi_world ^ x.ng) <= 0.0) return t;  // the shading normal let it through the geometric surface
   t.pdf = bs.pdf;
   t.is_delta = bs.is_delta;
+  // Looked up before the shadow ray, read after it: the texel arrives from memory while the ray is traced.
+  const LightSample l = light ? light_.lookup(*light->parts[0].distribution, t.wi_world) : light_.lookup(t.wi_world);
   if (scene_.occluded(Ray{x.origin, t.wi_world})) return t;
-  if (light) {
-    const LightTechnique& table = light->parts[0];
-    const EnvironmentLight::Lookup l = light_.lookup(*table.distribution, t.wi_world);
-    t.value = mul(bs.f_cos, l.radiance) / bs.pdf;
-    // The parts' supports are disjoint (the sun's texels, the rest): at most one term is not 0.
-    t.light_density = table.count * l.pdf + (light->count > 1 ? light->parts[1].count * sun_pdf(t.wi_world) : 0.0);
-  } else {
-    t.value = mul(bs.f_cos, light_.radiance(t.wi_world)) / bs.pdf;
-  }
+  t.value = mul(bs.f_cos, light_.radiance(l)) / bs.pdf;
+  // The parts' supports are disjoint (the sun's texels, the rest): at most one density is not 0.
+  if (light)
+    t.light_density =
+        light->parts[0].count * l.pdf + (light->count > 1 ? light->parts[1].count * sun_pdf(t.wi_world) : 0.0);
   return t;
 }
 
@@ -192,11 +190,11 @@ Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const Spheri
   LightTerm t;
   const LightSample ls = light_.sample(distribution, u);
   t.pdf = ls.pdf;
-  if (!(ls.pdf > 0.0) || (ls.direction ^ x.ng) <= 0.0 || is_black(ls.radiance)) return t;
+  if (!(ls.pdf > 0.0) || (ls.direction ^ x.ng) <= 0.0) return t;
   t.wi_local = x.frame.to_local(ls.direction);
   const Vec3 f_cos = x.material.eval(x.wo, t.wi_local);
   if (is_black(f_cos) || scene_.occluded(Ray{x.origin, ls.direction})) return t;
-  t.value = mul(f_cos, ls.radiance);
+  t.value = mul(f_cos, light_.radiance(ls));  // read after the shadow ray: sample() prefetched it
   return t;
 }
 

@@ -176,6 +176,10 @@ class PyramidDistribution2D final : public Distribution2D {
     return nodes_.data() + levels_[k].offset + (std::size_t(j) * levels_[k].blocks_per_row + std::size_t(i)) * 4;
   }
   float leaf(int x, int y) const { return children(0, x >> 1, y >> 1)[(y & 1) * 2 + (x & 1)]; }
+  /// The descent of pick() and pick_below(): from node (i, j) of level k >= 1 down to a leaf, one pyramid_step per
+  /// level (i, j become the leaf's texel, ux, uy the position left inside it); returns the leaf's stored value.
+  /// Prefetches each next level's candidate blocks while reading levels 1..prefetch_top_.
+  double descend(int k, std::size_t& i, std::size_t& j, double& ux, double& uy) const;
 
   TableArray<float> nodes_;   // levels 0 .. top-1, each blocked by parent
   std::vector<Level> levels_;  // levels 0 .. top (top is 1 x 1, its value is the root sum)
@@ -185,29 +189,36 @@ class PyramidDistribution2D final : public Distribution2D {
   int prefetch_top_ = 0;       // sample() prefetches the next level's blocks while reading levels 1..prefetch_top_
 };
 
+[[gnu::always_inline]] inline double PyramidDistribution2D::descend(int k, std::size_t& i, std::size_t& j, double& ux,
+                                                                    double& uy) const {
+  const float* nodes = nodes_.data();
+  const Level* level = levels_.data();
+  double leaf = 0.0;
+  int m = k - 1;
+  // Small top levels: cached, no prefetch.
+  for (; m > prefetch_top_; --m)
+    leaf = detail::pyramid_step(nodes + level[m].offset + (j * level[m].blocks_per_row + i) * 4, ux, uy, i, j);
+  // Large levels: the next block is one of the four children's blocks, two 32-byte pairs in rows 2j and 2j + 1 of
+  // level m - 1; fetching both now hides the miss behind this level's arithmetic.
+  // (The second address is formed as an integer: on the last row it lies past the level, which a prefetch may
+  // name without faulting but a pointer may not.)
+  for (; m >= 0; --m) {
+    if (m > 0) {
+      const Level& next = level[m - 1];
+      const std::uintptr_t pair =
+          reinterpret_cast<std::uintptr_t>(nodes + next.offset + (2 * j * next.blocks_per_row + 2 * i) * 4);
+      __builtin_prefetch(reinterpret_cast<const void*>(pair));
+      __builtin_prefetch(reinterpret_cast<const void*>(pair + next.blocks_per_row * 4 * sizeof(float)));
+    }
+    leaf = detail::pyramid_step(nodes + level[m].offset + (j * level[m].blocks_per_row + i) * 4, ux, uy, i, j);
+  }
+  return leaf;
+}
+
 [[gnu::always_inline]] inline TexelSample PyramidDistribution2D::pick(Vec2 u) const {
   double ux = sampling::clamp_decision(u.x), uy = sampling::clamp_decision(u.y);
   std::size_t i = 0, j = 0;
-  const float* nodes = nodes_.data();
-  const Level* level = levels_.data();
-  int k = top_level_ - 1;
-  // Small top levels: cached, no prefetch.
-  for (; k > prefetch_top_; --k)
-    detail::pyramid_step(nodes + level[k].offset + (j * level[k].blocks_per_row + i) * 4, ux, uy, i, j);
-  // Large levels: the next block is one of the four children's blocks, two 32-byte pairs in rows 2j and 2j + 1 of
-  // level k - 1; fetching both now hides the miss behind this level's arithmetic.
-  // (The second address is formed as an integer: on the last row it lies past the level, which a prefetch may
-  // name without faulting but a pointer may not.)
-  for (; k > 0; --k) {
-    const Level& next = level[k - 1];
-    const std::uintptr_t pair =
-        reinterpret_cast<std::uintptr_t>(nodes + next.offset + (2 * j * next.blocks_per_row + 2 * i) * 4);
-    __builtin_prefetch(reinterpret_cast<const void*>(pair));
-    __builtin_prefetch(reinterpret_cast<const void*>(pair + next.blocks_per_row * 4 * sizeof(float)));
-    detail::pyramid_step(nodes + level[k].offset + (j * level[k].blocks_per_row + i) * 4, ux, uy, i, j);
-  }
-  const double leaf =
-      detail::pyramid_step(nodes + level[0].offset + (j * level[0].blocks_per_row + i) * 4, ux, uy, i, j);
+  const double leaf = descend(top_level_, i, j, ux, uy);
   TexelSample t;
   t.fx = std::min(kTexelOffsetMax, ux);  // = clamp_offset: ux is in [0, kOneMinusEpsilon]
   t.fy = std::min(kTexelOffsetMax, uy);
@@ -221,11 +232,7 @@ inline TexelSample PyramidDistribution2D::pick_below(int k, int i, int j, Vec2 u
   double ux = sampling::clamp_decision(u.x), uy = sampling::clamp_decision(u.y);
   std::size_t ii = std::size_t(i), jj = std::size_t(j);
   const double top = node(k, i, j);
-  double leaf = top;
-  for (int m = k - 1; m >= 0; --m) {
-    const Level& level = levels_[std::size_t(m)];
-    leaf = detail::pyramid_step(nodes_.data() + level.offset + (jj * level.blocks_per_row + ii) * 4, ux, uy, ii, jj);
-  }
+  const double leaf = k > 0 ? descend(k, ii, jj, ux, uy) : top;
   TexelSample t;
   t.fx = std::min(kTexelOffsetMax, ux);
   t.fy = std::min(kTexelOffsetMax, uy);

@@ -25,10 +25,12 @@
 
 namespace envkit::render {
 
+/// A direction drawn by EnvironmentLight::sample(). Its radiance is EnvironmentLight::radiance(sample): a separate
+/// read, so that a caller can trace the shadow ray while the texel, prefetched by sample(), arrives from memory.
 struct LightSample {
-  Vec3 direction;  ///< unit, scene world frame
-  Vec3 radiance;   ///< RGB, intensity applied
-  double pdf = 0;  ///< per steradian
+  Vec3 direction;         ///< unit, scene world frame
+  double pdf = 0;         ///< per steradian
+  std::size_t texel = 0;  ///< the radiance texel the direction lies in (row-major index into the radiance grid)
 };
 
 class EnvironmentLight {
@@ -41,16 +43,18 @@ class EnvironmentLight {
   Vec3 radiance(const Vec3& d) const;
   /// The distribution of a method (compensated twin when `compensated`); throws Error naming what is missing.
   const SphericalDistribution& distribution(SamplingMethod method, bool compensated) const;
-  /// Draws a direction from `distribution` (which must be one of this light's).
+  /// Draws a direction from `distribution` (which must be one of this light's) and prefetches its radiance texel.
   LightSample sample(const SphericalDistribution& distribution, Vec2 u) const;
+  /// Radiance of a sample's texel (RGB, intensity applied): radiance(s.direction), without the search.
+  Vec3 radiance(const LightSample& s) const { return texels_[s.texel].rgb(); }
   /// Density per steradian of world direction d under `distribution`.
   double pdf(const SphericalDistribution& distribution, const Vec3& d) const;
-  struct Lookup {
-    Vec3 radiance;
-    double pdf = 0;
-  };
-  /// radiance(d) and pdf(distribution, d) together: one texel search where the distribution is the radiance grid.
-  Lookup lookup(const SphericalDistribution& distribution, const Vec3& d) const;
+  /// The sample of world direction d (unit) as sample() would return it had it drawn d: its texel, prefetched, and
+  /// pdf(distribution, d), with one texel search where the distribution is the radiance grid. A BSDF sample looks
+  /// its direction up before its shadow ray and reads radiance() after it.
+  LightSample lookup(const SphericalDistribution& distribution, const Vec3& d) const;
+  /// lookup() without a distribution: the texel of d, prefetched; pdf 0.
+  LightSample lookup(const Vec3& d) const;
 
   const EnvTables& tables() const { return *tables_; }
   const Mat3& rotation() const { return rotation_; }
@@ -75,6 +79,9 @@ class EnvironmentLight {
     Vec3 rgb() const { return Vec3(r, g, b); }
   };
   std::vector<Texel, HugePageAllocator<Texel>> texels_;  // the radiance grid, row-major (huge pages: fewer faults)
+  /// Index into texels_ of texel (x, y), clamped to the grid; of the texel holding a direction of the tables' frame.
+  std::size_t texel_index(int x, int y) const;
+  std::size_t texel_index(const Vec3& table_dir) const;
 };
 
 /// Loads `tables_path` and checks it against `map` (stale or missing tables are errors naming the file, with
