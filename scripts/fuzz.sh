@@ -11,7 +11,8 @@
 # <build>/fuzz/corpus/<target> (seeded from tests/fuzz/corpus/<target>); crashes, leaks, timeouts and OOMs are
 # written to <build>/fuzz/artifacts/<target>/. A finding: copy the artifact into tests/fuzz/regressions/<target>/
 # (it is then replayed by CTest), fix the bug. Slow units (over 10 s, not a failure) are reported, not counted.
-# Exit status: 0 when no target found anything, 1 otherwise (every target runs either way). Beside other work: start it
+# Exit status: 0 when no target found anything, 1 otherwise (every target runs either way), 130 when a signal
+# stopped a target's fuzzers short of their budget without a finding. Beside other work: start it
 # with setsid nice -n 19, then echo 19 > /proc/PID/autogroup (Linux shares the CPU between sessions before nice counts).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -29,7 +30,7 @@ while [ $# -gt 0 ]; do
     --targets) targets="$2"; shift ;;
     --no-build) do_build=0 ;;
     --processes) procs="$2"; shift ;;
-    -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "fuzz.sh: unknown argument '$1'" >&2; exit 2 ;;
   esac
   shift
@@ -108,10 +109,15 @@ for t in $targets; do
   [ "$slow" = 0 ] || echo "   note: $slow slow unit(s) (> 10 s) in $artifacts (not counted as findings)"
   after=$(find "$artifacts" -type f ! -name 'slow-unit-*' | wc -l)
   found=$((after - before))
-  if [ "$rc" != 0 ] || [ "$found" -gt 0 ]; then
+  if [ "$found" -gt 0 ] || { [ "$rc" != 0 ] && [ "$rc" != 72 ]; }; then
     status=1
-    echo "   FINDING in $t (exit $rc): $(ls -t "$artifacts" | grep -v '^slow-unit-' | head -1)"
-    cat "${logs[@]}" | grep -E 'ERROR: |FINDING|runtime error|SUMMARY' | head -5 | sed 's/^/   /'
+    echo "   FINDING in $t (exit $rc): $(ls -t "$artifacts" | grep -v '^slow-unit-' | head -1 || true)"
+    cat "${logs[@]}" | grep -E 'ERROR: |FINDING|runtime error|SUMMARY' | head -5 | sed 's/^/   /' || true
+  elif [ "$rc" = 72 ]; then
+    # 72 is libFuzzer's exit status when a signal (SIGINT, SIGTERM) stops it: a run cut short, not a finding. The
+    # figures below are those of the executions done; the exit status says the budget was not spent.
+    [ "$status" = 1 ] || status=130
+    echo "   interrupted: $t stopped before its budget was spent"
   fi
   line="$(printf '%-22s %10s execs %7s exec/s %6s s  cov %6s  corpus %5s  findings %s' "$t" "${execs:-?}" \
            "${speed:-?}" "$(($(date +%s) - t_start))" "${cov:-?}" "$(ls "$corpus" | wc -l)" "$found")"
