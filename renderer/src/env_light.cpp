@@ -104,10 +104,7 @@ LightSample EnvironmentLight::sample(const SphericalDistribution& distribution, 
   s.direction = apply(rotation_, ds.direction);
   s.pdf = ds.pdf;
   // With a coarser distribution (radiance_grid_) its texel holds several radiance texels: search by direction.
-  s.texel = radiance_grid_ ? texel_index(ds.direction) : texel_index(ds.x, ds.y);
-  // On maps larger than the caches this read is a miss; radiance(s) comes after the caller's shadow ray.
-  __builtin_prefetch(texels_.data() + s.texel);
-  return s;
+  return prefetched(s, radiance_grid_ ? texel_index(ds.direction) : texel_index(ds.x, ds.y));
 }
 
 double EnvironmentLight::pdf(const SphericalDistribution& distribution, const Vec3& d) const {
@@ -125,17 +122,20 @@ LightSample EnvironmentLight::lookup(const SphericalDistribution& distribution, 
   distribution.texel_of(apply(inverse_rotation_, d), x, y);
   LightSample s;
   s.direction = d;
-  s.texel = texel_index(x, y);
-  __builtin_prefetch(texels_.data() + s.texel);
   s.pdf = distribution.texel_pdf(x, y);
-  return s;
+  return prefetched(s, texel_index(x, y));
 }
 
 LightSample EnvironmentLight::lookup(const Vec3& d) const {
   LightSample s;
   s.direction = d;
-  s.texel = texel_index(apply(inverse_rotation_, d));
-  __builtin_prefetch(texels_.data() + s.texel);
+  return prefetched(s, texel_index(apply(inverse_rotation_, d)));
+}
+
+LightSample EnvironmentLight::prefetched(LightSample s, std::size_t texel) const {
+  // On maps larger than the caches this read is a miss; radiance(s) comes after the caller's shadow ray.
+  s.texel = texel;
+  __builtin_prefetch(texels_.data() + texel);
   return s;
 }
 

@@ -82,6 +82,8 @@ class EnvironmentLight {
   /// Index into texels_ of texel (x, y), clamped to the grid; of the texel holding a direction of the tables' frame.
   std::size_t texel_index(int x, int y) const;
   std::size_t texel_index(const Vec3& table_dir) const;
+  /// s with its texel set to `texel`, which is prefetched: what sample() and lookup() return.
+  LightSample prefetched(LightSample s, std::size_t texel) const;
 };
 
 /// Loads `tables_path` and checks it against `map` (stale or missing tables are errors naming the file, with
