@@ -256,6 +256,34 @@ TEST(LobeProductTables, SamplesFollowTheLobeAroundTheAxis) {
   }
 }
 
+// mean_importance() is the sky a lobe sees: the map's radiance for every lobe and axis under a constant map; under a
+// sky that brightens upwards (L = 0.1 + 10 max(y, 0)), the radiance at a narrow lobe's axis and the upper
+// hemisphere's mean weighted by the cosine's (widened) lobe.
+TEST(LobeProductTables, MeanImportanceIsTheSkyALobeSees) {
+  const EnvTables constant =
+      bake(probes::ConstantProbe(Vec3(2.0)), std::make_unique<LatLongMap>(128, 64), Kind::LatLong);
+  const LobeProductTables flat(*constant.distribution(SamplingMethod::Hierarchical), kLobes);
+  // The importance of a grey 2.0 (its luminance), within the float rounding of the pyramid's sums.
+  for (int l = 0; l < int(kLobes.size()); ++l)
+    for (const Vec3& axis : test_axes()) EXPECT_NEAR(flat.mean_importance(l, axis), 2.0, 1e-6);
+
+  const EnvTables sky =
+      bake(probes::GradientProbe(Vec3(0.1), Vec3(10.0)), std::make_unique<LatLongMap>(128, 64), Kind::LatLong);
+  const LobeProductTables product(*sky.distribution(SamplingMethod::Hierarchical), kLobes);
+  const Vec3 up(0, 1, 0), down(0, -1, 0);
+  const double cosine_up = product.mean_importance(0, up), cosine_down = product.mean_importance(0, down);
+  const double narrow_up = product.mean_importance(1, up), narrow_down = product.mean_importance(1, down);
+  // The narrow lobe: the zenith's and the nadir's radiance, within 5% (its table's lobe is widened over the bin).
+  EXPECT_NEAR(narrow_up, 10.1, 0.05 * 10.1);
+  EXPECT_NEAR(narrow_down, 0.1, 0.05 * 0.1);
+  // The cosine up: between the uniform upper hemisphere's mean (0.1 + 10 x 1/2) and the cosine-weighted one's
+  // (0.1 + 10 x 2/3), its widened lobe being flatter than the cosine; down, it sees a little of the upper sky.
+  EXPECT_GT(cosine_up, 5.1);
+  EXPECT_LT(cosine_up, 0.1 + 10.0 * 2.0 / 3.0);
+  EXPECT_GT(cosine_down, 0.1);
+  EXPECT_LT(cosine_down, 0.25);
+}
+
 TEST(LobeProductTables, LobeValues) {
   // The GGX reflection lobe is the density of directions reflected by visible normals at normal incidence: it
   // integrates to 1 over the sphere; the cosine lobe integrates to pi.

@@ -1,6 +1,7 @@
 // The environment light's combined look-up (radiance and density in one texel search, what MIS's BSDF samples
 // use) gives exactly what radiance() and pdf() give separately, for every distribution, rotated environments,
 // octahedral and HEALPix grids and importance coarser than the radiance grid.
+#include <envkit/error.h>
 #include <envkit/healpix.h>
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
@@ -59,13 +60,18 @@ void expect_lookup_matches(const EnvMap& map, const BakeOptions& bake, const Mat
   EXPECT_EQ(checked, 6 * 4000);
 }
 
-}  // namespace
-
-TEST(EnvironmentLight, LookupIsRadianceAndPdfTogether) {
+/// The default probe on a 128 x 64 lat-long grid.
+EnvMap default_probe_latlong() {
   LatLongMap grid(128, 64);
   LoadOptions load;
   load.kind = Kind::LatLong;
-  const EnvMap map = make_envmap(probes::rasterize(*probes::make_default_probe(), grid), "default", load);
+  return make_envmap(probes::rasterize(*probes::make_default_probe(), grid), "default", load);
+}
+
+}  // namespace
+
+TEST(EnvironmentLight, LookupIsRadianceAndPdfTogether) {
+  const EnvMap map = default_probe_latlong();
   BakeOptions bake;
   bake.compensated = true;
   expect_lookup_matches(map, bake, identity3(), "lat-long");
@@ -112,4 +118,49 @@ TEST(EnvironmentLight, NativeHealpixTablesUseTheMapsTexels) {
       ASSERT_EQ(s.pdf, light.pdf(dist, s.direction)) << method_name(m) << " k " << k;
     }
   }
+}
+
+// A mixture of two tables over one grid (a plastic's base and coat): each sample carries the mixture's density,
+// which lookup() and pdf() give too; shares 0 and 1 are the tables alone; L / pdf integrates to the map's flux;
+// tables over different grids are refused.
+TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
+  const EnvMap map = default_probe_latlong();
+  BakeOptions bake;
+  bake.compensated = true;
+  const auto tables = std::make_shared<EnvTables>(EnvTables::bake(map, bake));
+  const EnvironmentLight light(map, tables, rotation_from_euler_degrees(35.0, 10.0, 0.0), 1.0);
+  // The compensated table is 0 on every texel below the mean: the plain one covers them.
+  const SphericalDistribution& plain = light.distribution(SamplingMethod::Hierarchical, false);
+  const SphericalDistribution& compensated = light.distribution(SamplingMethod::Hierarchical, true);
+  for (const double share : {0.0, 0.3, 1.0}) {
+    const LightTable mixture(plain, compensated, share);
+    const int n = 1 << 16;
+    double flux = 0.0;
+    for (int k = 0; k < n; ++k) {
+      // A stratified set: k / n in x, a golden-ratio sequence in y.
+      const Vec2 u((k + 0.5) / n, std::fmod(0.5 + k * 0.6180339887498949, 1.0));
+      const LightSample s = light.sample(mixture, u);
+      ASSERT_GT(s.pdf, 0.0) << share << " k " << k;
+      const double expected =
+          (1.0 - share) * light.pdf(plain, s.direction) + share * light.pdf(compensated, s.direction);
+      ASSERT_NEAR(s.pdf, expected, 1e-12 * expected) << share << " k " << k;
+      ASSERT_NEAR(light.lookup(mixture, s.direction).pdf, s.pdf, 1e-12 * s.pdf) << share << " k " << k;
+      ASSERT_EQ(light.pdf(mixture, s.direction), light.lookup(mixture, s.direction).pdf) << share << " k " << k;
+      if (share == 0.0) ASSERT_EQ(s.direction.x, light.sample(plain, u).direction.x) << " k " << k;
+      if (share == 1.0) ASSERT_EQ(s.direction.x, light.sample(compensated, u).direction.x) << " k " << k;
+      flux += light.radiance(s).y / s.pdf;
+    }
+    // The compensated table alone misses the texels below the mean: only a mixture with the plain one sees all.
+    const double expected_flux = 4.0 * kPi * light.mean_radiance().y;
+    if (share < 1.0) EXPECT_NEAR(flux / n, expected_flux, 2e-3 * expected_flux) << "share " << share;
+    if (share == 1.0) EXPECT_LT(flux / n, 0.99 * expected_flux);
+  }
+  BakeOptions coarse = bake;
+  coarse.importance_width = 32;
+  coarse.importance_height = 16;
+  const auto coarse_tables = std::make_shared<EnvTables>(EnvTables::bake(map, coarse));
+  const EnvironmentLight coarse_light(map, coarse_tables, identity3(), 1.0);
+  const LightTable mixed_grids(plain, coarse_light.distribution(SamplingMethod::Hierarchical, false), 0.5);
+  EXPECT_THROW(light.sample(mixed_grids, Vec2(0.5, 0.5)), Error);
+  EXPECT_THROW(light.lookup(mixed_grids, Vec3(0, 1, 0)), Error);
 }

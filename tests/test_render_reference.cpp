@@ -194,6 +194,10 @@ TEST(RenderReference, SunSplitFromTheRestOfTheMap) {
   EXPECT_GE(check_point(sun, rotation_from_euler_degrees(25, 0, 0), make_diffuse(Vec3(0.8, 0.6, 0.4)), 2e-3, 0, 256, 3),
             5);
   EXPECT_GE(check_point(sun, identity3(), make_conductor(Vec3(0.0), Vec3(1.0), 0.3), 3e-3, 0, 256, 3), 5);
+  // A plastic: the product strategies draw from the mixture of its base's and its coat's tables beside the sun.
+  EXPECT_GE(
+      check_point(sun, rotation_from_euler_degrees(-40, 0, 0), make_plastic(Vec3(0.5, 0.4, 0.3), 0.1), 3e-3, 0, 256, 3),
+      5);
   // A narrow lobe keeps the whole map's table at its shading points (integrator.cpp): the same integral too.
   // The sun turned below the shading point's horizon: BSDF sampling alone cannot find a sun in view.
   EXPECT_GE(check_point(sun, rotation_from_euler_degrees(0, 120, 0), make_conductor(Vec3(0.0), Vec3(1.0), 0.1), 3e-3, 0,

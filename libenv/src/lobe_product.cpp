@@ -104,6 +104,7 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
     Vec3 centre;
     double cos_radius, sin_radius;
     double env;
+    double solid_angle;
   };
   std::vector<std::vector<SubNode>> by_cell(std::size_t(cw) * std::size_t(ch));
   for (int j = 0; j < sh; ++j)
@@ -112,8 +113,13 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
       if (!(e > 0.0)) continue;
       const int shift = level - sub;
       const Cone cone = node_cone(env, sub, i, j);
+      // Every grid's texel solid angle depends on its row alone (lat-long; octahedral and HEALPix are equal-area).
+      const int x0 = i << sub, x1 = std::min((i + 1) << sub, env.width());
+      double omega = 0.0;
+      for (int y = j << sub; y < std::min((j + 1) << sub, env.height()); ++y)
+        omega += (x1 - x0) * env.texel_solid_angle(x0, y);
       by_cell[std::size_t(j >> shift) * std::size_t(cw) + std::size_t(i >> shift)].push_back(
-          {cone.centre, std::cos(cone.radius), std::sin(cone.radius), e});
+          {cone.centre, std::cos(cone.radius), std::sin(cone.radius), e, omega});
     }
   std::vector<double> cell_env(by_cell.size());
   double env_total = 0.0;
@@ -129,6 +135,7 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
     count += std::size_t(B) * std::size_t(B);
   }
   std::vector<std::shared_ptr<const Distribution2D>> built(count);
+  mean_.assign(count, 0.0);
   tbb::parallel_for(std::size_t(0), count, [&](std::size_t t) {
     const std::size_t l = std::size_t(std::upper_bound(first_.begin(), first_.end(), t) - first_.begin()) - 1;
     const int B = bins_[l];
@@ -145,17 +152,20 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
             bin_radius, angle_between(axis, OctahedralMap::direction_from_unit(Vec2((bx + fx) / B, (by + fy) / B))));
     const double cos_bin = std::cos(bin_radius), sin_bin = std::sin(bin_radius);
     std::vector<double> w(by_cell.size(), 0.0);
-    double lobe_total = 0.0;
+    double lobe_total = 0.0, lobe_solid_angle = 0.0;
     for (std::size_t c = 0; c < by_cell.size(); ++c) {
       double s = 0.0;
       for (const SubNode& n : by_cell[c]) {
         double cos_delta, sin_delta;
         add_angles(cos_bin, sin_bin, n.cos_radius, n.sin_radius, cos_delta, sin_delta);
-        s += n.env * lobes_[l].value(widened_cosine(axis ^ n.centre, cos_delta, sin_delta));
+        const double v = lobes_[l].value(widened_cosine(axis ^ n.centre, cos_delta, sin_delta));
+        s += n.env * v;
+        lobe_solid_angle += n.solid_angle * v;
       }
       w[c] = s;
       lobe_total += s;
     }
+    mean_[t] = lobe_solid_angle > 0.0 ? lobe_total / lobe_solid_angle : 0.0;
     // Normalised before rounding to float: env sums times a narrow lobe's peak may exceed the float range.
     const double floor_per_env = kFloorFraction * (lobe_total > 0.0 ? lobe_total / env_total : 1.0);
     const double scale = 1.0 / (lobe_total + floor_per_env * env_total);
@@ -170,15 +180,21 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
   for (auto& d : built) tables_.emplace_back(env, std::move(d));
 }
 
-const SphericalDistribution& LobeProductTables::distribution(int lobe, const Vec3& axis) const {
+std::size_t LobeProductTables::table_index(int lobe, const Vec3& axis) const {
   if (lobe < 0 || lobe >= int(lobes_.size()))
     throw Error("product tables: lobe " + std::to_string(lobe) + " of " + std::to_string(lobes_.size()));
   const int B = bins_[std::size_t(lobe)];
   const Vec2 p = OctahedralMap::unit_from_direction(axis);
   const auto bin = [B](double t) { return t > 0.0 ? std::min(int(t * B), B - 1) : 0; };  // NaN -> 0
   const int bx = bin(p.x), by = bin(p.y);
-  return tables_[first_[std::size_t(lobe)] + std::size_t(by) * std::size_t(B) + std::size_t(bx)];
+  return first_[std::size_t(lobe)] + std::size_t(by) * std::size_t(B) + std::size_t(bx);
 }
+
+const SphericalDistribution& LobeProductTables::distribution(int lobe, const Vec3& axis) const {
+  return tables_[table_index(lobe, axis)];
+}
+
+double LobeProductTables::mean_importance(int lobe, const Vec3& axis) const { return mean_[table_index(lobe, axis)]; }
 
 int LobeProductTables::find(const Lobe& lobe) const {
   const auto it = std::find(lobes_.begin(), lobes_.end(), lobe);

@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <chrono>
 #include <cmath>
@@ -98,31 +99,65 @@ const SphericalDistribution& EnvironmentLight::distribution(SamplingMethod metho
   return *d;
 }
 
-LightSample EnvironmentLight::sample(const SphericalDistribution& distribution, Vec2 u) const {
-  const DirectionSample ds = distribution.sample(u);
+namespace {
+
+bool same_grid(const SphericalDistribution& a, const SphericalDistribution& b) {
+  return a.grid() == b.grid() && a.width() == b.width() && a.height() == b.height();
+}
+
+/// u.x split at `share` in (0, 1]: below it, u.x / share for the second distribution; above, the rest re-uniformised
+/// for the first. (Values outside [0, 1], NaN included, are clamped; the distributions clamp to [0, 1) themselves.)
+Vec2 split_for_second(Vec2 u, double share, bool& second) {
+  const double ux = u.x > 0.0 ? std::min(u.x, 1.0) : 0.0;
+  second = ux < share || share >= 1.0;
+  const double t = second ? ux / share : (ux - share) / (1.0 - share);
+  return Vec2(std::min(t, 1.0), u.y);
+}
+
+}  // namespace
+
+double EnvironmentLight::second_share(const LightTable& table) {
+  if (!table.second) return 0.0;
+  if (!same_grid(*table.first, *table.second))
+    throw Error("environment: a mixture of light tables over different grids");
+  return table.second_share > 0.0 ? std::min(table.second_share, 1.0) : 0.0;  // NaN: 0
+}
+
+LightSample EnvironmentLight::sample(const LightTable& table, Vec2 u) const {
+  const double share = second_share(table);
+  bool from_second = false;
+  if (share > 0.0) u = split_for_second(u, share, from_second);
+  const DirectionSample ds = (from_second ? table.second : table.first)->sample(u);
   LightSample s;
   s.direction = apply(rotation_, ds.direction);
-  s.pdf = ds.pdf;
+  s.pdf = share > 0.0 ? (1.0 - share) * table.first->texel_pdf(ds.x, ds.y) + share * table.second->texel_pdf(ds.x, ds.y)
+                      : ds.pdf;
   // With a coarser distribution (radiance_grid_) its texel holds several radiance texels: search by direction.
   return prefetched(s, radiance_grid_ ? texel_index(ds.direction) : texel_index(ds.x, ds.y));
 }
 
-double EnvironmentLight::pdf(const SphericalDistribution& distribution, const Vec3& d) const {
-  return distribution.pdf(apply(inverse_rotation_, d));
+double EnvironmentLight::pdf(const LightTable& table, const Vec3& d) const {
+  const Vec3 table_dir = apply(inverse_rotation_, d);
+  const double share = second_share(table);
+  const double first = share < 1.0 ? table.first->pdf(table_dir) : 0.0;
+  return share > 0.0 ? (1.0 - share) * first + share * table.second->pdf(table_dir) : first;
 }
 
-LightSample EnvironmentLight::lookup(const SphericalDistribution& distribution, const Vec3& d) const {
+LightSample EnvironmentLight::lookup(const LightTable& table, const Vec3& d) const {
+  const SphericalDistribution& distribution = *table.first;
   if (radiance_grid_ || distribution.width() != width_ || distribution.height() != height_ ||
       distribution.grid() != lookup_->grid()) {
     LightSample s = lookup(d);
-    s.pdf = pdf(distribution, d);
+    s.pdf = pdf(table, d);
     return s;
   }
+  const double share = second_share(table);
   int x = 0, y = 0;
   distribution.texel_of(apply(inverse_rotation_, d), x, y);
   LightSample s;
   s.direction = d;
-  s.pdf = distribution.texel_pdf(x, y);
+  s.pdf = share > 0.0 ? (1.0 - share) * distribution.texel_pdf(x, y) + share * table.second->texel_pdf(x, y)
+                      : distribution.texel_pdf(x, y);
   return prefetched(s, texel_index(x, y));
 }
 

@@ -76,7 +76,7 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (s != Strategy::Bsdf) {
     const bool compensated = s == Strategy::MisCompensated;
     // The light counts are the shading point's (techniques()).
-    whole_ = {{LightTechnique{&light_.distribution(options_.light_method, compensated), 0}}, 1};
+    whole_ = {{LightTechnique{light_.distribution(options_.light_method, compensated), 0}}, 1};
     if (options_.sun_samples > 0) {
       // A table file may hold the split (envbake --tables ...,sun); else it is built here.
       if (auto stored = light_.tables().stored_sun_split(options_.light_method, compensated))
@@ -84,8 +84,8 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
       else if (std::optional<SunSplit> made = SunSplit::make(light_.tables(), options_.light_method, compensated))
         sun_ = std::make_shared<const SunSplit>(std::move(*made));
       if (sun_) {
-        split_ = {
-            {LightTechnique{&sun_->residual(), 0}, LightTechnique{&sun_->sun_distribution(), options_.sun_samples}}, 2};
+        split_ = {{LightTechnique{sun_->residual(), 0}, LightTechnique{sun_->sun_distribution(), options_.sun_samples}},
+                  2};
         sun_axis_ = apply(light_.rotation(), sun_->sun().direction);
       }
     }
@@ -96,10 +96,20 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (product) build_product_tables();
 }
 
-std::optional<Lobe> Integrator::product_lobe(const Material& material) {
-  const double alpha = material.widest_lobe_alpha();
-  if (material.is_pure_delta() || !(alpha > 0.0)) return std::nullopt;
-  return alpha >= 1.0 ? Lobe{Lobe::Shape::Cosine, 1.0} : Lobe{Lobe::Shape::Ggx, std::max(alpha, 1e-3)};
+std::array<std::optional<Lobe>, 2> Integrator::product_lobes(const Material& material) {
+  const auto lobe = [](double alpha) -> std::optional<Lobe> {
+    if (!(alpha > 0.0)) return std::nullopt;
+    return alpha >= 1.0 ? Lobe{Lobe::Shape::Cosine, 1.0} : Lobe{Lobe::Shape::Ggx, std::max(alpha, 1e-3)};
+  };
+  if (material.is_pure_delta()) return {};
+  const std::optional<Lobe> widest = lobe(material.widest_lobe_alpha());
+  const std::optional<Lobe> narrowest = lobe(material.narrowest_lobe_alpha());
+  if (!widest || narrowest == widest) return {widest, std::nullopt};
+  return {widest, narrowest};
+}
+
+Vec3 Integrator::lobe_axis(const Lobe& lobe, const ShadingPoint& x) {
+  return lobe.shape == Lobe::Shape::Cosine ? x.frame.n : x.frame.to_world(Vec3(-x.wo.x, -x.wo.y, x.wo.z));
 }
 
 void Integrator::build_product_tables() {
@@ -108,13 +118,12 @@ void Integrator::build_product_tables() {
   std::vector<Lobe> whole, split;
   for (int m = 0; m < scene_.material_count(); ++m) {
     const Material& material = scene_.material(m);
-    const std::optional<Lobe> lobe = product_lobe(material);
-    if (!lobe) continue;
     std::vector<Lobe>& set = sun_ && has_wide_lobe(material) ? split : whole;
-    if (std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
+    for (const std::optional<Lobe>& lobe : product_lobes(material))
+      if (lobe && std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
   }
-  if (!whole.empty()) product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].distribution, whole);
-  if (!split.empty()) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].distribution, split);
+  if (!whole.empty()) product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].table.first, whole);
+  if (!split.empty()) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].table.first, split);
 }
 
 Integrator::~Integrator() = default;
@@ -148,11 +157,20 @@ Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int li
   if (!tables) return t;
   // By lobe, not by material: a material outside the scene (direct() is public) with a lobe of the scene's gets
   // its table too; one without keeps the plain table.
-  const std::optional<Lobe> lobe = product_lobe(x.material);
-  const int index = lobe ? tables->find(*lobe) : -1;
-  if (index < 0) return t;
-  const Vec3 axis = lobe->shape == Lobe::Shape::Cosine ? x.frame.n : x.frame.to_world(Vec3(-x.wo.x, -x.wo.y, x.wo.z));
-  t.parts[0].distribution = &tables->distribution(index, light_.to_table(axis));
+  const std::array<std::optional<Lobe>, 2> lobes = product_lobes(x.material);
+  const int widest = lobes[0] ? tables->find(*lobes[0]) : -1;
+  if (widest < 0) return t;
+  const Vec3 widest_axis = light_.to_table(lobe_axis(*lobes[0], x));
+  t.parts[0].table = tables->distribution(widest, widest_axis);
+  const int narrowest = lobes[1] ? tables->find(*lobes[1]) : -1;
+  if (narrowest < 0) return t;
+  // Two lobes: each lobe's expected share of the light, its albedo (the BSDF's own choice) times the sky it sees.
+  const Vec3 narrowest_axis = light_.to_table(lobe_axis(*lobes[1], x));
+  const double a = x.material.narrowest_lobe_probability(x.wo);
+  const double sky_n = a * tables->mean_importance(narrowest, narrowest_axis);
+  const double sky_w = (1.0 - a) * tables->mean_importance(widest, widest_axis);
+  t.parts[0].table = LightTable(*t.parts[0].table.first, tables->distribution(narrowest, narrowest_axis),
+                                sky_n + sky_w > 0.0 ? sky_n / (sky_n + sky_w) : a);
   return t;
 }
 
@@ -175,7 +193,7 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw,
   t.pdf = bs.pdf;
   t.is_delta = bs.is_delta;
   // Looked up before the shadow ray, read after it: the texel arrives from memory while the ray is traced.
-  const LightSample l = light ? light_.lookup(*light->parts[0].distribution, t.wi_world) : light_.lookup(t.wi_world);
+  const LightSample l = light ? light_.lookup(light->parts[0].table, t.wi_world) : light_.lookup(t.wi_world);
   if (scene_.occluded(Ray{x.origin, t.wi_world})) return t;
   t.value = mul(bs.f_cos, light_.radiance(l)) / bs.pdf;
   // The parts' supports are disjoint (the sun's texels, the rest): at most one density is not 0.
@@ -185,10 +203,9 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw,
   return t;
 }
 
-Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const SphericalDistribution& distribution,
-                                             Vec2 u) const {
+Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const LightTable& table, Vec2 u) const {
   LightTerm t;
-  const LightSample ls = light_.sample(distribution, u);
+  const LightSample ls = light_.sample(table, u);
   t.pdf = ls.pdf;
   if (!(ls.pdf > 0.0) || (ls.direction ^ x.ng) <= 0.0) return t;
   t.wi_local = x.frame.to_local(ls.direction);
@@ -219,8 +236,7 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
     const LightTechnique& t = light.parts[std::size_t(k)];
     const std::uint32_t dimension = sampler.reserve(1);
     for (int j = 0; j < t.count; ++j) {
-      const LightTerm l =
-          light_term(x, *t.distribution, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
+      const LightTerm l = light_term(x, t.table, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
       if (!is_black(l.value)) sum += l.value / (l.pdf * t.count);
     }
   }
@@ -237,8 +253,7 @@ Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
     const LightTechnique& t = light.parts[std::size_t(k)];
     const std::uint32_t dimension = sampler.reserve(1);
     for (int j = 0; j < t.count; ++j) {
-      const LightTerm l =
-          light_term(x, *t.distribution, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
+      const LightTerm l = light_term(x, t.table, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
       if (is_black(l.value)) continue;
       const double p_b = x.material.pdf(x.wo, l.wi_local);
       sum += l.value * (mis_weight(t.count * l.pdf, N * p_b) / (t.count * l.pdf));

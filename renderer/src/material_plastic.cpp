@@ -35,6 +35,9 @@ class PlasticMaterial final : public Material {
   const char* name() const override { return "plastic"; }
   double widest_lobe_alpha() const override { return 1.0; }
   double narrowest_lobe_alpha() const override { return alpha_; }
+  double narrowest_lobe_probability(const Vec3& wo) const override {
+    return detail::above(wo) ? specular_probability(wo.z) : 0.0;
+  }
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
     Vec3 h;

@@ -33,6 +33,20 @@ struct LightSample {
   std::size_t texel = 0;  ///< the radiance texel the direction lies in (row-major index into the radiance grid)
 };
 
+/// What a light sample is drawn from: one of the light's distributions, or a mixture of two over the same grid (a
+/// shading point whose BSDF has two lobes, each with its own product table): with probability `second_share` from
+/// `second`, else from `first`; the density is the mixture's, (1 - s) p_first + s p_second. Implicit from one
+/// distribution.
+struct LightTable {
+  LightTable() = default;
+  LightTable(const SphericalDistribution& distribution) : first(&distribution) {}  // NOLINT: implicit by design
+  LightTable(const SphericalDistribution& a, const SphericalDistribution& b, double share_of_b)
+      : first(&a), second(&b), second_share(share_of_b) {}
+  const SphericalDistribution* first = nullptr;
+  const SphericalDistribution* second = nullptr;  ///< nullptr: `first` alone
+  double second_share = 0.0;                      ///< in [0, 1] (clamped; NaN draws from `first` alone)
+};
+
 class EnvironmentLight {
  public:
   /// `tables` must have been baked from `map` (checked by the caller through the source hash).
@@ -43,16 +57,18 @@ class EnvironmentLight {
   Vec3 radiance(const Vec3& d) const;
   /// The distribution of a method (compensated twin when `compensated`); throws Error naming what is missing.
   const SphericalDistribution& distribution(SamplingMethod method, bool compensated) const;
-  /// Draws a direction from `distribution` (which must be one of this light's) and prefetches its radiance texel.
-  LightSample sample(const SphericalDistribution& distribution, Vec2 u) const;
+  /// Draws a direction from `table` (this light's distributions; a mixture's two over one grid, else Error) and
+  /// prefetches its radiance texel. A mixture spends u.x on the choice, re-uniformised, so that stratified u stay
+  /// stratified within each distribution.
+  LightSample sample(const LightTable& table, Vec2 u) const;
   /// Radiance of a sample's texel (RGB, intensity applied): radiance(s.direction), without the search.
   Vec3 radiance(const LightSample& s) const { return texels_[s.texel].rgb(); }
-  /// Density per steradian of world direction d under `distribution`.
-  double pdf(const SphericalDistribution& distribution, const Vec3& d) const;
+  /// Density per steradian of world direction d under `table`.
+  double pdf(const LightTable& table, const Vec3& d) const;
   /// The sample of world direction d (unit) as sample() would return it had it drawn d: its texel, prefetched, and
-  /// pdf(distribution, d), with one texel search where the distribution is the radiance grid. A BSDF sample looks
+  /// pdf(table, d), with one texel search where the distributions are on the radiance grid. A BSDF sample looks
   /// its direction up before its shadow ray and reads radiance() after it.
-  LightSample lookup(const SphericalDistribution& distribution, const Vec3& d) const;
+  LightSample lookup(const LightTable& table, const Vec3& d) const;
   /// lookup() without a distribution: the texel of d, prefetched; pdf 0.
   LightSample lookup(const Vec3& d) const;
 
@@ -82,6 +98,8 @@ class EnvironmentLight {
   /// Index into texels_ of texel (x, y), clamped to the grid; of the texel holding a direction of the tables' frame.
   std::size_t texel_index(int x, int y) const;
   std::size_t texel_index(const Vec3& table_dir) const;
+  /// The share of `second` in a mixture, in [0, 1]: 0 for a single distribution (and NaN).
+  static double second_share(const LightTable& table);
   /// s with its texel set to `texel`, which is prefetched: what sample() and lookup() return.
   LightSample prefetched(LightSample s, std::size_t texel) const;
 };

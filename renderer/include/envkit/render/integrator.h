@@ -30,8 +30,10 @@
 ///           beside the sun) replaced by the product table of the point's lobe (lobe_product.h): built once when
 ///           the integrator starts, for every lobe the scene's materials have (the clamped cosine around the normal
 ///           for Lambertian and plastic, the GGX reflection lobe of the material's alpha around the mirror
-///           direction for rough conductors) and a grid of axes; a shading point draws from the table of its
-///           lobe's axis. The table's pdf enters the weights as any light table's. Uses the hierarchical table.
+///           direction for rough conductors and for a plastic's coat) and a grid of axes; a shading point draws
+///           from the table of its lobe's axis, a plastic's from the mixture of its base's and its coat's tables in
+///           the proportion in which its BSDF samples them. The table's (mixture's) pdf enters the weights as any
+///           light table's. Uses the hierarchical table.
 /// Random numbers: the M samples of a light technique (and the N BSDF samples) at a shading point draw points k =
 /// 0 .. M - 1 of one dimension pair at index sample x M + k (Sampler::point_2d), so that over a pixel's samples
 /// they are one stratified sequence of spp x M points.
@@ -154,9 +156,9 @@ class Integrator {
     double light_density = 0.0;
     bool is_delta = false;
   };
-  /// A light table drawn `count` times per shading point.
+  /// A light table (or mixture of two) drawn `count` times per shading point.
   struct LightTechnique {
-    const SphericalDistribution* distribution = nullptr;
+    LightTable table;
     int count = 0;
   };
   /// The light techniques of a shading point: the whole map's table, or the rest of the map and the sun (their
@@ -185,16 +187,20 @@ class Integrator {
   /// draws of every sample of a pixel are one stratified sequence (Sampler::point_2d), as are the light draws.
   static BsdfDraw bsdf_draw(const Sampler& sampler, std::uint32_t dimension, int k, int n);
   /// The split when the map has a sun and the material's lobes are wide enough to gain from it, else the whole map.
-  /// With product tables, the first part is the table of the material's lobe at this point's axis. The first part
-  /// is drawn `light_samples` times (the material's count, sample_counts()).
+  /// With product tables, the first part is the table of the material's lobe at this point's axis, or for two lobes
+  /// (a plastic) the mixture of their tables in the proportion in which the BSDF samples them. The first part is
+  /// drawn `light_samples` times (the material's count, sample_counts()).
   LightTechniques techniques(const ShadingPoint& x, int light_samples) const;
-  /// The lobe the product tables use for a material: the clamped cosine for materials with a Lambertian part, the
-  /// GGX reflection lobe of the material's alpha for rough conductors; none for pure delta materials.
-  static std::optional<Lobe> product_lobe(const Material& material);
+  /// The lobes the product tables use for a material: [0] its widest (the clamped cosine for materials with a
+  /// Lambertian part, the GGX reflection lobe of the material's alpha for rough conductors), [1] its narrowest where
+  /// that is another (a plastic's coat); none for pure delta materials.
+  static std::array<std::optional<Lobe>, 2> product_lobes(const Material& material);
+  /// A lobe's axis at a shading point, world frame: the normal for the cosine, the mirror direction for GGX.
+  static Vec3 lobe_axis(const Lobe& lobe, const ShadingPoint& x);
   void build_product_tables();
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;
-  LightTerm light_term(const ShadingPoint& x, const SphericalDistribution& distribution, Vec2 u) const;
+  LightTerm light_term(const ShadingPoint& x, const LightTable& table, Vec2 u) const;
   /// A material's delta lobe (one BSDF sample kept only when it picked that lobe), for strategies whose other
   /// samples cannot reach it; 0 for materials without one (no sample drawn).
   Vec3 delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const;

@@ -66,6 +66,12 @@ class Material {
   /// GGX alpha of the material's narrowest non-delta lobe (1 for Lambertian, 0 for a pure delta material): a plastic's
   /// coat. The same as widest_lobe_alpha() for single-lobe materials.
   virtual double narrowest_lobe_alpha() const { return widest_lobe_alpha(); }
+  /// The probability that sample() draws the narrowest lobe for wo (a plastic's coat: see its model above), in
+  /// [0, 1]; 1 for single-lobe materials. Light techniques that follow the BSDF's lobes share samples by it.
+  virtual double narrowest_lobe_probability(const Vec3& wo) const {
+    (void)wo;
+    return 1.0;
+  }
 };
 
 std::unique_ptr<Material> make_diffuse(const Vec3& albedo);
