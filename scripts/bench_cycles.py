@@ -23,6 +23,7 @@ import datetime
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -129,15 +130,26 @@ def spec_for_json(spec):
     return out
 
 
-def envrender_scene(spec, hdri, size):
+def cycles_shadowing(blender):
+    """The masking-shadowing of the peer's GGX: Cycles uses the separable G1(wo) G1(wi) up to Blender 3.x (Debian
+    12 ships 3.4.1), the height-correlated G2 from Blender 4.0 on."""
+    text = subprocess.run([blender, "--version"], check=True, capture_output=True, text=True).stdout
+    m = re.search(r"Blender (\d+)\.", text)
+    return "separable" if m and int(m.group(1)) < 4 else "height-correlated"
+
+
+def envrender_scene(spec, hdri, size, shadowing="height-correlated"):
     """The scene in envrender's JSON format. A Fresnel-less GGX reflector is envrender's conductor with
-    eta = 0, k = 1: its conductor Fresnel is then exactly 1 at every angle (material_microfacet.h)."""
+    eta = 0, k = 1: its conductor Fresnel is then exactly 1 at every angle (material_microfacet.h). Its masking-
+    shadowing is the peer's (cycles_shadowing()): with Blender 3.x's separable G1(wo) G1(wi), envrender's default
+    height-correlated G2 is up to 1% brighter on the GGX 0.4 sphere (BENCHMARKS.md, "Cycles' masking-shadowing")."""
     mats = {}
     for name, m in spec["materials"].items():
         if m["type"] == "diffuse":
             mats[name] = {"type": "diffuse", "albedo": m["albedo"]}
         else:
-            mats[name] = {"type": "conductor", "eta": 0.0, "k": 1.0, "roughness": m["roughness"]}
+            mats[name] = {"type": "conductor", "eta": 0.0, "k": 1.0, "roughness": m["roughness"],
+                          "shadowing": shadowing}
     s = spec["ground"]["half_size"]
     cam = dict(spec["camera"])
     cam["resolution"] = list(size)
@@ -335,11 +347,13 @@ def main():
     regions = args.spec["regions"]
     mask = masks(args.spec, size)
     np.save(os.path.join(out, "regions.npy"), mask)
+    shadowing = cycles_shadowing(args.blender)
     results = {"date_utc": start.strftime("%Y-%m-%d %H:%M"), "size": list(size), "spp": spps, "ref_spp": args.ref_spp,
                "repeats": args.repeats, "threads": args.threads, "eps": EPS, "regions": regions,
                "region_pixels": {r: int((mask == i).sum()) for i, r in enumerate(regions)},
                "background_pixels": int((mask == -1).sum()), "scene": spec_for_json(args.spec),
-               "envrender_strategy": "default: product-mis, power heuristic, 1 BSDF + 1 product-table sample (+ 1 sun sample under a sun)",
+               "envrender_strategy": "default: product-mis, power heuristic, sample counts by lobe (+ 1 sun sample "
+                                     "under a sun), conductors with " + shadowing + " masking-shadowing",
                "hdris": {}}
     for hdri_name in hdris:
         hdri = os.path.join(HDRI_DIR, hdri_name + ".exr")
@@ -347,7 +361,7 @@ def main():
         os.makedirs(d, exist_ok=True)
         scene_path = os.path.join(d, "scene.json")
         with open(scene_path, "w") as fh:
-            json.dump(envrender_scene(args.spec, hdri, size), fh, indent=1)
+            json.dump(envrender_scene(args.spec, hdri, size, shadowing), fh, indent=1)
         R = {"envrender": {"runs": []}, "cycles": {"runs": []}}
         # Converged references, each renderer its own, seeds disjoint from the measured runs.
         t0 = time.time()

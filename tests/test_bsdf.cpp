@@ -117,11 +117,14 @@ std::vector<MaterialCase> non_delta_cases() {
     cases.push_back({"ConductorR" + tag, [r] { return make_conductor(kGoldEta, kGoldK, r); }});
     cases.push_back({"PlasticR" + tag, [r] { return make_plastic(Vec3(0.6, 0.3, 0.1), r, 1.5); }});
   }
+  for (double r : {0.2, 0.5})
+    cases.push_back({"ConductorSeparableR" + std::to_string(int(std::lround(r * 100))),
+                     [r] { return make_conductor(kGoldEta, kGoldK, r, Shadowing::Separable); }});
   return cases;
 }
 
 constexpr double kWoAngles[] = {0.0, 30.0, 60.0, 85.0};
-constexpr int kChi2Tests = 11 * 4;  // cases x wo angles, for the Sidak correction
+constexpr int kChi2Tests = 13 * 4;  // cases x wo angles, for the Sidak correction
 
 class BsdfChi2 : public ::testing::TestWithParam<MaterialCase> {};
 
@@ -304,6 +307,35 @@ TEST(BsdfEnergy, WhiteConductorAlbedo) {
       }
     }
   }
+}
+
+// The separable masking-shadowing G1(wo) G1(wi) is never above the height-correlated G2 (a product of two factors
+// 1 / (1 + Lambda) against 1 / (1 + Lambda_o + Lambda_i)), equals it where either direction is the normal
+// (Lambda = 0), and at wo = wi, both at 60 degrees from the normal with alpha = 0.5, has its closed form:
+// G1 = 2 cos / (cos + sqrt(alpha^2 + (1 - alpha^2) cos^2)), so separable / height-correlated = G1^2 (1 + 2 Lambda).
+TEST(BsdfEnergy, SeparableShadowingIsNeverBrighter) {
+  for (double r : {0.05, 0.3, 1.0}) {
+    const auto correlated = make_conductor(kGoldEta, kGoldK, r);
+    const auto separable = make_conductor(kGoldEta, kGoldK, r, Shadowing::Separable);
+    std::mt19937_64 rng(7);
+    for (int k = 0; k < 2000; ++k) {
+      const Vec3 wo = direction_zphi(uniform53(rng), kTwoPi * uniform53(rng));  // uniform on the upper hemisphere
+      const Vec3 wi = direction_zphi(uniform53(rng), kTwoPi * uniform53(rng));
+      const Vec3 a = separable->eval(wo, wi), b = correlated->eval(wo, wi);
+      ASSERT_LE(a.x, b.x * (1.0 + 1e-12)) << r << " " << k;
+      ASSERT_EQ(separable->pdf(wo, wi), correlated->pdf(wo, wi)) << r << " " << k;  // the same sampling
+    }
+    const Vec3 n(0, 0, 1), w = wo_at(50.0);
+    EXPECT_NEAR(separable->eval(n, w).y, correlated->eval(n, w).y, 1e-12 * correlated->eval(n, w).y);
+  }
+  const double alpha = 0.5, c = 0.5;  // cos 60 degrees
+  const double root = std::sqrt(alpha * alpha + (1.0 - alpha * alpha) * c * c);
+  const double g1 = 2.0 * c / (c + root), lambda = 0.5 * (root / c - 1.0);
+  const Vec3 wo = wo_at(60.0), wi(-wo.x, -wo.y, wo.z);  // the mirror direction: h = n
+  const double ratio = make_conductor(kGoldEta, kGoldK, alpha, Shadowing::Separable)->eval(wo, wi).y /
+                       make_conductor(kGoldEta, kGoldK, alpha)->eval(wo, wi).y;
+  EXPECT_NEAR(ratio, g1 * g1 * (1.0 + 2.0 * lambda), 1e-12);  // 0.981
+  EXPECT_LT(ratio, 0.99);
 }
 
 // Plastic with a white base: coat + base never reflect more than comes in (up to the small excess of the rough

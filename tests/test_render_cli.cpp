@@ -301,6 +301,13 @@ TEST_F(RenderCli, UnknownMaterialTypeIsAnError) {
   expect_error(file, {"type.json:6:", "materials.glass.type", "unknown material type 'dielectric'"});
 }
 
+TEST_F(RenderCli, UnknownShadowingIsAnError) {
+  const auto file = write("shadowing.json", scene("", R"(,
+    "steel": {"type": "conductor", "roughness": 0.3, "shadowing": "smith"})"));
+  expect_error(file, {"shadowing.json:6:", "materials.steel.shadowing", "unknown value 'smith'",
+                      "height-correlated, separable"});
+}
+
 TEST_F(RenderCli, MissingMeshIsAnError) {
   const auto file = write("mesh.json", scene(R"(,
     {"type": "mesh", "file": "nowhere.obj", "material": "white"})"));

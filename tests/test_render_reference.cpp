@@ -160,6 +160,8 @@ TEST(RenderReference, GlossyConductorUnderASkyGradient) {
   const probes::GradientProbe sky(Vec3(0.2, 0.25, 0.3), Vec3(1.0, 1.5, 2.5));
   check_point(sky, rotation_from_euler_degrees(30, 10, 0),
               make_conductor(Vec3(0.2, 0.9, 1.1), Vec3(3.9, 2.4, 2.1), 0.2), 2e-3);
+  check_point(sky, rotation_from_euler_degrees(-60, 20, 0),
+              make_conductor(Vec3(0.2, 0.9, 1.1), Vec3(3.9, 2.4, 2.1), 0.4, Shadowing::Separable), 2e-3);
 }
 
 TEST(RenderReference, RoughPlasticUnderACheckerboard) {

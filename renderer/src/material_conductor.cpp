@@ -1,5 +1,5 @@
-/// Rough conductor: GGX, Smith height-correlated G2, complex conductor Fresnel, visible-normal sampling
-/// (see material.h).
+/// Rough conductor: GGX, Smith height-correlated (or separable) masking-shadowing, complex conductor Fresnel,
+/// visible-normal sampling (see material.h).
 #include <envkit/render/material.h>
 
 #include "material_microfacet.h"
@@ -10,8 +10,8 @@ namespace {
 
 class ConductorMaterial final : public Material {
  public:
-  ConductorMaterial(const Vec3& eta, const Vec3& k, double roughness)
-      : eta_(clean(eta)), k_(clean(k)), alpha_(detail::clamp_alpha(roughness)) {}
+  ConductorMaterial(const Vec3& eta, const Vec3& k, double roughness, Shadowing shadowing)
+      : eta_(clean(eta)), k_(clean(k)), alpha_(detail::clamp_alpha(roughness)), shadowing_(shadowing) {}
 
   const char* name() const override { return "conductor"; }
   double widest_lobe_alpha() const override { return alpha_; }
@@ -19,7 +19,9 @@ class ConductorMaterial final : public Material {
   Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
     Vec3 h;
     if (!detail::above(wo) || !detail::above(wi) || !detail::half_vector(wo, wi, h)) return Vec3(0.0);
-    const double scalar = detail::ggx_d(alpha_, h) * detail::smith_g2_cos_over_4cos(alpha_, wo.z, wi.z);
+    const double g = shadowing_ == Shadowing::Separable ? detail::smith_g1g1_cos_over_4cos(alpha_, wo.z, wi.z)
+                                                        : detail::smith_g2_cos_over_4cos(alpha_, wo.z, wi.z);
+    const double scalar = detail::ggx_d(alpha_, h) * g;
     return fresnel(wo ^ h) * scalar;
   }
 
@@ -53,12 +55,15 @@ class ConductorMaterial final : public Material {
 
   Vec3 eta_, k_;
   double alpha_;
+  Shadowing shadowing_;
 };
 
 }  // namespace
 
-std::unique_ptr<Material> make_conductor(const Vec3& eta, const Vec3& k, double roughness) {
-  return std::make_unique<ConductorMaterial>(eta, k, roughness);
+std::unique_ptr<Material> make_conductor(const Vec3& eta, const Vec3& k, double roughness, Shadowing shadowing) {
+  return std::make_unique<ConductorMaterial>(eta, k, roughness, shadowing);
 }
+
+const char* shadowing_name(Shadowing s) { return s == Shadowing::Separable ? "separable" : "height-correlated"; }
 
 }  // namespace envkit::render

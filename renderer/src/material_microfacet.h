@@ -42,6 +42,15 @@ inline double smith_g2_cos_over_4cos(double alpha, double cos_o, double cos_i) {
   return denom > 0.0 && std::isfinite(denom) ? 0.5 / denom : 0.0;
 }
 
+/// Separable Smith masking-shadowing G1(wo) G1(wi) (Cycles before Blender 4.0, OSL's microfacet closures) times
+/// cos_i over the microfacet denominator: G1(o) G1(i) / (4 cos_o) = cos_i / ((cos_o + root_o) (cos_i + root_i)),
+/// with G1(w) = 2 cos / (cos + root). Never above the height-correlated form (it counts the heights that mask and
+/// shadow at once twice). Both cosines > 0.
+inline double smith_g1g1_cos_over_4cos(double alpha, double cos_o, double cos_i) {
+  const double denom = (cos_o + smith_root(alpha, cos_o)) * (cos_i + smith_root(alpha, cos_i));
+  return denom > 0.0 && std::isfinite(denom) ? cos_i / denom : 0.0;
+}
+
 /// Density of wi = reflect(wo, h) under visible-normal sampling: G1(wo) D(h) / (4 cos_o)
 /// = D(h) / (2 (cos_o + root_o)). cos_o > 0.
 inline double vndf_reflection_pdf(double alpha, double cos_o, const Vec3& h) {

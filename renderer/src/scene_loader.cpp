@@ -127,12 +127,20 @@ std::unique_ptr<Material> parse_material(const Reader& r, const json& m, const s
     return make_diffuse(r.colour(m, path, "albedo", Vec3(0.5), 1.0));
   }
   if (type == "conductor") {
-    r.check_keys(m, path, {"type", "eta", "k", "roughness"});
+    r.check_keys(m, path, {"type", "eta", "k", "roughness", "shadowing"});
     const double roughness = r.number(m, path, "roughness", 0.1);
     if (!(roughness > 0.0 && roughness <= 1.0)) r.fail(Reader::join(path, "roughness"), "must be in (0, 1]");
+    Shadowing shadowing = Shadowing::HeightCorrelated;
+    if (m.contains("shadowing")) {
+      const std::string name = r.string(m["shadowing"], Reader::join(path, "shadowing"));
+      if (name == shadowing_name(Shadowing::Separable))
+        shadowing = Shadowing::Separable;
+      else if (name != shadowing_name(Shadowing::HeightCorrelated))
+        r.fail(Reader::join(path, "shadowing"), "unknown value '" + name + "' (valid: height-correlated, separable)");
+    }
     // Default: gold (eta, k at ~630/532/465 nm).
     return make_conductor(r.colour(m, path, "eta", Vec3(0.143, 0.374, 1.442)),
-                          r.colour(m, path, "k", Vec3(3.983, 2.386, 1.603)), roughness);
+                          r.colour(m, path, "k", Vec3(3.983, 2.386, 1.603)), roughness, shadowing);
   }
   if (type == "plastic") {
     r.check_keys(m, path, {"type", "diffuse", "roughness", "ior"});

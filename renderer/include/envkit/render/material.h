@@ -22,7 +22,8 @@
 /// ----------------------------------
 /// - diffuse: f = albedo / pi; cosine-weighted hemisphere sampling (Shirley-Chiu concentric disk, Malley).
 /// - conductor: GGX (Trowbridge-Reitz) microfacet reflection, isotropic, alpha = roughness (clamped to
-///   [1e-3, 1]); Smith HEIGHT-CORRELATED masking-shadowing G2 = 1 / (1 + Lambda(wo) + Lambda(wi)); exact conductor
+///   [1e-3, 1]); Smith HEIGHT-CORRELATED masking-shadowing G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (or, on request,
+///   the separable G1(wo) G1(wi) of renderers that use it: Shadowing below); exact conductor
 ///   Fresnel for the complex index eta + i k per RGB channel (outside medium index 1); sampling: the distribution
 ///   of visible normals (Heitz 2018, "Sampling the GGX Distribution of Visible Normals"), pdf(wi) =
 ///   G1(wo) D(h) / (4 cos theta_o). eta = 0 with any k > 0 gives F = 1 exactly (a white conductor).
@@ -75,7 +76,17 @@ class Material {
 };
 
 std::unique_ptr<Material> make_diffuse(const Vec3& albedo);
-std::unique_ptr<Material> make_conductor(const Vec3& eta, const Vec3& k, double roughness);  // GGX alpha = roughness
+/// The Smith masking-shadowing term of a GGX conductor: HeightCorrelated G2 = 1 / (1 + Lambda(wo) + Lambda(wi))
+/// (Heitz 2014; pbrt-v4, Mitsuba 3, Blender 4 and later), or Separable G1(wo) G1(wi) (Cycles in Blender 3.x and
+/// earlier, OSL's microfacet closures), which is never brighter: up to a few percent darker on rough lobes at
+/// grazing angles. The sampling (visible normals) is the same for both.
+enum class Shadowing { HeightCorrelated, Separable };
+/// "height-correlated", "separable" (the names of the scene format's "shadowing").
+const char* shadowing_name(Shadowing s);
+
+/// GGX alpha = roughness.
+std::unique_ptr<Material> make_conductor(const Vec3& eta, const Vec3& k, double roughness,
+                                         Shadowing shadowing = Shadowing::HeightCorrelated);
 std::unique_ptr<Material> make_plastic(const Vec3& diffuse, double roughness, double ior = 1.5);
 std::unique_ptr<Material> make_mirror(const Vec3& reflectance);
 
