@@ -269,6 +269,8 @@ def rel_mse(img, ref, mask):
 def run_envrender(args, scene_path, spp, seed, out):
     cmd = [args.envrender, "--scene", scene_path, "--spp", str(spp), "--seed", str(seed), "--bake",
            "--threads", str(args.threads), "-q", "-f", "-o", out]
+    if args.crop:
+        cmd += ["--crop", ",".join(str(v) for v in args.crop)]
     if not (args.reuse and os.path.exists(out)):
         subprocess.run(cmd, check=True)
     return float(exr_attr(out, "envkit:seconds"))
@@ -282,6 +284,8 @@ def run_cycles(args, hdri, size, renders, timings_path, job_path):
             return t
     spec = spec_for_json(args.spec)
     spec["camera"] = dict(spec["camera"], resolution=list(size))
+    if args.crop:
+        spec["crop"] = list(args.crop)
     job = {"scene": spec, "hdri": hdri, "threads": args.threads, "renders": renders, "timings": timings_path}
     with open(job_path, "w") as fh:
         json.dump(job, fh, indent=1)
@@ -314,6 +318,9 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=2048, help="spp of both converged references")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--crop", default=None,
+                    help="x0,y0,x1,y1: render only this window of the frame in both renderers (pixels, row 0 on top, "
+                         "x1 and y1 exclusive), e.g. one sphere at a high --ref-spp to see its references converge")
     ap.add_argument("--quick", action="store_true", help="debug run: sunrise only, 64x36, 4/16 spp, ref 256")
     ap.add_argument("--out", default=None, help="default out/bench_cycles (spheres) or out/bench_cycles_mesh")
     ap.add_argument("--build", default="build")
@@ -335,6 +342,11 @@ def main():
     hdris = args.hdris.split(",")
     spps = [int(s) for s in args.spp.split(",")]
     size = tuple(int(v) for v in args.size.lower().split("x"))
+    if args.crop:
+        args.crop = tuple(int(v) for v in args.crop.split(","))
+        x0, y0, x1, y1 = args.crop
+        if not (len(args.crop) == 4 and 0 <= x0 < x1 <= size[0] and 0 <= y0 < y1 <= size[1]):
+            sys.exit(f"bench_cycles: --crop {args.crop} is not a window of the {size[0]}x{size[1]} frame")
     os.makedirs(args.out, exist_ok=True)
     out = os.path.abspath(args.out)
     start = datetime.datetime.now(datetime.timezone.utc)
@@ -346,9 +358,18 @@ def main():
     args.spec = write_meshes(SCENES[args.scene], out)
     regions = args.spec["regions"]
     mask = masks(args.spec, size)
+    if args.crop:
+        # The window's labels, renumbered over the regions it holds.
+        mask = mask[args.crop[1]:args.crop[3], args.crop[0]:args.crop[2]]
+        held = [i for i in range(len(regions)) if (mask == i).any()]
+        renumber = np.full(len(regions), -2)
+        renumber[held] = np.arange(len(held))
+        mask = np.where(mask >= 0, renumber[np.maximum(mask, 0)], mask)
+        regions = [regions[i] for i in held]
     np.save(os.path.join(out, "regions.npy"), mask)
     shadowing = cycles_shadowing(args.blender)
-    results = {"date_utc": start.strftime("%Y-%m-%d %H:%M"), "size": list(size), "spp": spps, "ref_spp": args.ref_spp,
+    results = {"date_utc": start.strftime("%Y-%m-%d %H:%M"), "size": list(size),
+               "crop": list(args.crop) if args.crop else None, "spp": spps, "ref_spp": args.ref_spp,
                "repeats": args.repeats, "threads": args.threads, "eps": EPS, "regions": regions,
                "region_pixels": {r: int((mask == i).sum()) for i, r in enumerate(regions)},
                "background_pixels": int((mask == -1).sum()), "scene": spec_for_json(args.spec),
@@ -423,6 +444,8 @@ def main():
         agree = {}
         for i, reg in enumerate(regions + ["background"]):
             m = (mask == i) if reg != "background" else (mask == -1)
+            if not m.any():  # a window without background
+                continue
             agree[reg] = {"median_abs_rel_diff": float(np.median(np.abs(rel[m]))),
                           "median_signed_rel_diff": float(np.median(rel[m])),
                           "mean_ratio_cycles_over_envrender": float(lc[m].sum() / max(le[m].sum(), 1e-30)),
@@ -473,7 +496,9 @@ def fmt(x, d=3):
 
 def write_markdown(res, out):
     L = []
-    L.append(f"envrender vs Cycles, {res['date_utc']} UTC, {res['size'][0]}x{res['size'][1]} px, references "
+    crop = res.get("crop")
+    window = f" (the window {crop[0]},{crop[1]} to {crop[2]},{crop[3]})" if crop else ""
+    L.append(f"envrender vs Cycles, {res['date_utc']} UTC, {res['size'][0]}x{res['size'][1]} px{window}, references "
              f"{res['ref_spp']} spp each, {res['repeats']} interleaved repeat(s) (medians), {res['threads']} threads, "
              f"load average at start {' '.join(res['uptime_load_start'])}, at end {' '.join(res['uptime_load_end'])}.")
     L.append("")

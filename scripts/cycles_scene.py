@@ -79,6 +79,15 @@ def build(scene_spec, hdri, threads):
     scene.render.resolution_percentage = 100
     scene.render.pixel_aspect_x = 1.0
     scene.render.pixel_aspect_y = 1.0
+    crop = scene_spec.get("crop")  # x0, y0, x1, y1 in pixels, row 0 on top, x1 / y1 exclusive
+    if crop:
+        # Blender's border is a fraction of the frame from the bottom left, turned into pixels by truncation: a
+        # quarter pixel past each edge lands on it whatever the float rounding.
+        x0, y0, x1, y1 = crop
+        scene.render.use_border = True
+        scene.render.use_crop_to_border = True
+        scene.render.border_min_x, scene.render.border_max_x = (x0 + 0.25) / w, (x1 + 0.25) / w
+        scene.render.border_min_y, scene.render.border_max_y = (h - y1 + 0.25) / h, (h - y0 + 0.25) / h
     scene.view_settings.view_transform = "Standard"
     scene.view_settings.look = "None"
     scene.view_settings.exposure = 0.0
