@@ -146,14 +146,21 @@ TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
       ASSERT_NEAR(s.pdf, expected, 1e-12 * expected) << share << " k " << k;
       ASSERT_NEAR(light.lookup(mixture, s.direction).pdf, s.pdf, 1e-12 * s.pdf) << share << " k " << k;
       ASSERT_EQ(light.pdf(mixture, s.direction), light.lookup(mixture, s.direction).pdf) << share << " k " << k;
-      if (share == 0.0) ASSERT_EQ(s.direction.x, light.sample(plain, u).direction.x) << " k " << k;
-      if (share == 1.0) ASSERT_EQ(s.direction.x, light.sample(compensated, u).direction.x) << " k " << k;
+      if (share == 0.0) {
+        ASSERT_EQ(s.direction.x, light.sample(plain, u).direction.x) << " k " << k;
+      }
+      if (share == 1.0) {
+        ASSERT_EQ(s.direction.x, light.sample(compensated, u).direction.x) << " k " << k;
+      }
       flux += light.radiance(s).y / s.pdf;
     }
     // The compensated table alone misses the texels below the mean: only a mixture with the plain one sees all.
     const double expected_flux = 4.0 * kPi * light.mean_radiance().y;
-    if (share < 1.0) EXPECT_NEAR(flux / n, expected_flux, 2e-3 * expected_flux) << "share " << share;
-    if (share == 1.0) EXPECT_LT(flux / n, 0.99 * expected_flux);
+    if (share < 1.0) {
+      EXPECT_NEAR(flux / n, expected_flux, 2e-3 * expected_flux) << "share " << share;
+    } else {
+      EXPECT_LT(flux / n, 0.99 * expected_flux);
+    }
   }
   BakeOptions coarse = bake;
   coarse.importance_width = 32;
