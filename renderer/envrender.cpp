@@ -220,19 +220,16 @@ int main(int argc, char** argv) {
   app.add_option("--bsdf-samples", a.bsdf_samples,
                  "BSDF samples per shading point (N) for every material; default: by the material's lobe, " +
                      std::to_string(envkit::render::kNarrowBsdfSamples) +
-                     " for materials with a lobe narrower than GGX alpha " + narrow + " (a glossy metal or coat; " +
-                     std::to_string(envkit::render::kNarrowSunBsdfSamples) + " under a sun with " +
-                     tools::fmt(100.0 * envkit::render::kDominantSunShare, 3) +
-                     "% or more of the light), "
-                     "else 1")
+                     " for materials with a lobe narrower than GGX alpha " + narrow +
+                     " (a glossy metal or coat), "
+                     "else 1 (powers of two stratify best)")
       ->transform(tools::integer_in(0, 1024));
   app.add_option("--light-samples", a.light_samples,
                  "light (or product) samples per shading point (M) for every material; default: by the material's "
                  "lobe, " +
                      std::to_string(envkit::render::kWideLightSamples) +
                      " for materials whose lobes are all at least as wide as GGX alpha " + narrow +
-                     " (Lambertian, rough metal), else " + std::to_string(envkit::render::kNarrowLightSamples) +
-                     " (1 under such a sun)")
+                     " (Lambertian, rough metal), else " + std::to_string(envkit::render::kNarrowLightSamples))
       ->transform(tools::integer_in(0, 1024));
   app.add_option("--sun-samples", a.sun_samples,
                  "light, mis, mis-compensated, product, product-mis: samples of the map's sun per shading point, drawn "

@@ -207,60 +207,42 @@ TEST(RenderReference, SunSplitFromTheRestOfTheMap) {
             5);
 }
 
-// Counts the options leave unset follow the material's lobe and the sun's share; given counts hold for every material.
-TEST(RenderSampleCounts, ByLobeAndSunUnlessGiven) {
+// Counts the options leave unset follow the material's lobe, whatever the sun; given counts hold for every
+// material.
+TEST(RenderSampleCounts, ByLobeUnlessGiven) {
   const IntegratorOptions unset;
   const auto diffuse = make_diffuse(Vec3(0.5)), rough_plastic = make_plastic(Vec3(0.5), 0.3);
   const auto glossy_plastic = make_plastic(Vec3(0.5), 0.05);  // a wide base, a narrow coat
   const auto narrow = make_conductor(Vec3(0.0), Vec3(1.0), 0.05), wide = make_conductor(Vec3(0.0), Vec3(1.0), 0.3);
-  for (const double share : {0.0, 0.2, 0.9}) {
-    for (const Material* m : {diffuse.get(), rough_plastic.get(), wide.get()}) {
-      EXPECT_EQ(sample_counts(unset, *m, share).bsdf, 1) << m->name();
-      EXPECT_EQ(sample_counts(unset, *m, share).light, kWideLightSamples) << m->name();
-    }
-    const bool dominant = share >= kDominantSunShare;
-    for (const Material* m : {narrow.get(), glossy_plastic.get()}) {
-      EXPECT_EQ(sample_counts(unset, *m, share).bsdf, dominant ? kNarrowSunBsdfSamples : kNarrowBsdfSamples)
-          << m->name() << " " << share;
-      EXPECT_EQ(sample_counts(unset, *m, share).light, dominant ? 1 : kNarrowLightSamples) << m->name() << " " << share;
-    }
+  for (const Material* m : {diffuse.get(), rough_plastic.get(), wide.get()}) {
+    EXPECT_EQ(sample_counts(unset, *m).bsdf, 1) << m->name();
+    EXPECT_EQ(sample_counts(unset, *m).light, kWideLightSamples) << m->name();
+  }
+  for (const Material* m : {narrow.get(), glossy_plastic.get()}) {
+    EXPECT_EQ(sample_counts(unset, *m).bsdf, kNarrowBsdfSamples) << m->name();
+    EXPECT_EQ(sample_counts(unset, *m).light, kNarrowLightSamples) << m->name();
   }
   IntegratorOptions given;
   given.light_samples = 5;
-  EXPECT_EQ(sample_counts(given, *narrow, 0.9).light, 5);
-  EXPECT_EQ(sample_counts(given, *narrow, 0.9).bsdf, kNarrowSunBsdfSamples);
+  EXPECT_EQ(sample_counts(given, *narrow).light, 5);
+  EXPECT_EQ(sample_counts(given, *narrow).bsdf, kNarrowBsdfSamples);
   given.bsdf_samples = 0;
-  EXPECT_EQ(sample_counts(given, *diffuse, 0.0).bsdf, 0);
-  EXPECT_EQ(sample_counts(given, *diffuse, 0.0).light, 5);
-}
-
-// The integrator takes the share from the sun it split off: a narrow lobe under a sun with 90% of the light takes
-// the sun's counts, under one with a tenth of it (or without a sun split) the others.
-TEST(RenderSampleCounts, TheIntegratorWeighsTheSunItSplitOff) {
-  const auto narrow = make_conductor(Vec3(0.0), Vec3(1.0), 0.05);
+  EXPECT_EQ(sample_counts(given, *diffuse).bsdf, 0);
+  EXPECT_EQ(sample_counts(given, *diffuse).light, 5);
+  // An integrator over a map with a dominant sun gives its materials the same counts.
+  const probes::SunProbe sun(Vec3(0.3, 0.7, -0.2).normalized(), probes::radians(0.5), Vec3(3e4), Vec3(0.05));
+  const Environment env(sun, identity3(), 0, 256, 128);
   Scene empty;
   empty.commit();
-  for (const double sun_radiance : {3e4, 3e3}) {
-    const probes::SunProbe sun(Vec3(0.3, 0.7, -0.2).normalized(), probes::radians(0.5), Vec3(sun_radiance),
-                               Vec3(sun_radiance > 1e4 ? 0.05 : 0.5));
-    const Environment env(sun, identity3(), 0, 256, 128);
-    IntegratorOptions options;
-    for (const int sun_samples : {1, 0}) {
-      options.sun_samples = sun_samples;
-      const Integrator integrator(empty, *env.light, options);
-      const SunSplit* split = integrator.sun_split();
-      ASSERT_EQ(split != nullptr, sun_samples > 0) << sun_radiance;
-      const double share = split ? split->sun().power_share : 0.0;
-      if (split) EXPECT_NEAR(share, sun_radiance > 1e4 ? 0.92 : 0.10, 0.04);
-      const bool dominant = share >= kDominantSunShare;
-      EXPECT_EQ(integrator.counts(*narrow).bsdf, dominant ? kNarrowSunBsdfSamples : kNarrowBsdfSamples) << share;
-      EXPECT_EQ(integrator.counts(*narrow).light, dominant ? 1 : kNarrowLightSamples) << share;
-    }
-  }
+  const Integrator integrator(empty, *env.light, unset);
+  ASSERT_NE(integrator.sun_split(), nullptr);
+  EXPECT_GT(integrator.sun_split()->sun().power_share, 0.5);
+  EXPECT_EQ(integrator.counts(*narrow).bsdf, kNarrowBsdfSamples);
+  EXPECT_EQ(integrator.counts(*narrow).light, kNarrowLightSamples);
 }
 
-// The integrator draws those counts: light sampling of a diffuse point with the counts unset (3 light samples) has
-// at most about a third of the variance of 1 light sample. And only given counts can be refused.
+// The integrator draws those counts: light sampling of a diffuse point with the counts unset (kWideLightSamples) has
+// at most about 1 / kWideLightSamples of the variance of 1 light sample. And only given counts can be refused.
 TEST(RenderSampleCounts, TheIntegratorDrawsThem) {
   const Environment env(probes::CheckerProbe(4, 8, Vec3(2.0, 1.0, 0.5), Vec3(0.1, 0.3, 0.6)), identity3());
   Scene empty;

@@ -18,11 +18,10 @@ bool has_wide_lobe(const Material& material) { return material.widest_lobe_alpha
 
 }  // namespace
 
-SampleCounts sample_counts(const IntegratorOptions& options, const Material& material, double sun_share) {
-  SampleCounts by_lobe{1, kWideLightSamples};
-  if (material.narrowest_lobe_alpha() < kWideLobeAlpha)  // a lobe of it narrow
-    by_lobe = sun_share >= kDominantSunShare ? SampleCounts{kNarrowSunBsdfSamples, 1}
-                                             : SampleCounts{kNarrowBsdfSamples, kNarrowLightSamples};
+SampleCounts sample_counts(const IntegratorOptions& options, const Material& material) {
+  const bool narrow = material.narrowest_lobe_alpha() < kWideLobeAlpha;
+  const SampleCounts by_lobe =
+      narrow ? SampleCounts{kNarrowBsdfSamples, kNarrowLightSamples} : SampleCounts{1, kWideLightSamples};
   return {options.bsdf_samples.value_or(by_lobe.bsdf), options.light_samples.value_or(by_lobe.light)};
 }
 

@@ -87,29 +87,24 @@ struct IntegratorOptions {
 /// whole map's table. Materials whose lobes are all wide take the wide sample counts below.
 inline constexpr double kWideLobeAlpha = 0.25;
 /// Light samples of a wide lobe when the options leave the counts unset.
-inline constexpr int kWideLightSamples = 3;
-/// A narrow lobe's BSDF and light samples: under a dominant sun (one that carries at least kDominantSunShare of
-/// the map's light) kNarrowSunBsdfSamples and 1, else kNarrowBsdfSamples and kNarrowLightSamples.
-inline constexpr double kDominantSunShare = 0.4;
-inline constexpr int kNarrowSunBsdfSamples = 3;
-inline constexpr int kNarrowBsdfSamples = 2;
-inline constexpr int kNarrowLightSamples = 2;
+inline constexpr int kWideLightSamples = 4;
+/// A narrow lobe's BSDF and light samples when the options leave the counts unset.
+inline constexpr int kNarrowBsdfSamples = 4;
+inline constexpr int kNarrowLightSamples = 4;
 
 /// BSDF (N) and light (M) samples per shading point.
 struct SampleCounts {
   int bsdf = 1;
   int light = 1;
 };
-/// The options' counts where set, else by the material's lobes and the map's sun. A material whose lobes are all
-/// wide (Lambertian, GGX alpha >= kWideLobeAlpha) has the noise of its light samples (and of the shadows):
-/// kWideLightSamples light samples and 1 BSDF sample. One with a narrow lobe (a glossy metal, a plastic's glossy
-/// coat) sees the sky through a small window that light and BSDF samples find about as well, both
-/// kNarrowBsdfSamples (= kNarrowLightSamples), except under a dominant sun: `sun_share` (the share of the map's light
-/// in its sun, 0 without one) at least kDominantSunShare. There the light samples, drawn from a table whose lobe is
-/// wider than the point's, go to the sun where the point's lobe misses it, and BSDF samples are the better guide:
-/// kNarrowSunBsdfSamples BSDF samples and 1 light sample. Pure delta materials take one BSDF sample whatever the
-/// counts. Why these numbers: BENCHMARKS.md, "Samples per shading point" and "Narrow lobes and the sun's share".
-SampleCounts sample_counts(const IntegratorOptions& options, const Material& material, double sun_share);
+/// The options' counts where set, else by the material's lobes. A material whose lobes are all wide (Lambertian,
+/// GGX alpha >= kWideLobeAlpha) has the noise of its light samples (and of the shadows): kWideLightSamples light
+/// samples and 1 BSDF sample. One with a narrow lobe (a glossy metal, a plastic's glossy coat) sees the sky through
+/// a small window that light and BSDF samples find about as well: kNarrowBsdfSamples and kNarrowLightSamples.
+/// Powers of two: a pixel's spp x M draws of one technique are the first spp x M points of one (0, 2)-sequence
+/// (Sampler::point_2d), evenly stratified when spp and M are powers of two. Pure delta materials take one BSDF
+/// sample whatever the counts. Why these numbers: BENCHMARKS.md, "Samples per shading point in powers of two".
+SampleCounts sample_counts(const IntegratorOptions& options, const Material& material);
 
 class Integrator {
  public:
@@ -125,10 +120,8 @@ class Integrator {
               const Material& material, Sampler& sampler) const;
 
   const IntegratorOptions& options() const { return options_; }
-  /// The samples a material takes per shading point (sample_counts(), with the share of the sun split off).
-  SampleCounts counts(const Material& material) const {
-    return sample_counts(options_, material, sun_ ? sun_->sun().power_share : 0.0);
-  }
+  /// The samples a material takes per shading point (sample_counts()).
+  SampleCounts counts(const Material& material) const { return sample_counts(options_, material); }
   /// The sun the light techniques split off (sun_split.h; directions in the tables' frame), or nullptr.
   const SunSplit* sun_split() const { return sun_.get(); }
   /// Whether the product strategies built tables (no: other strategies, or no material with a non-delta lobe).
