@@ -175,13 +175,15 @@ TEST(LobeProductTables, EveryTableIsANormalisedDensityPositiveWhereTheMapHasLigh
     std::mt19937_64 rng(11);
     for (int l = 0; l < int(kLobes.size()); ++l)
       for (const Vec3& axis : test_axes()) {
-        const SphericalDistribution& d = product.distribution(l, axis);
+        const SphericalDistribution& d = product.table(l, axis).distribution;
         double total = 0.0;
         for (int y = 0; y < H; ++y)
           for (int x = 0; x < W; ++x) {
             const double p = d.texel_pdf(x, y);
             total += p * d.texel_solid_angle(x, y);
-            if (importance[std::size_t(y) * W + x] > 0.0f) ASSERT_GT(p, 0.0) << l << " " << x << "," << y;
+            if (importance[std::size_t(y) * W + x] > 0.0f) {
+              ASSERT_GT(p, 0.0) << l << " " << x << "," << y;
+            }
           }
         EXPECT_NEAR(total, 1.0, 1e-5) << "lobe " << l;
         for (int s = 0; s < 200; ++s) {
@@ -208,7 +210,7 @@ TEST(LobeProductTables, TablesDoNotDependOnTheThreadCount) {
     for (const Vec3& axis : test_axes())
       for (int y = 0; y < env.height(); ++y)
         for (int x = 0; x < env.width(); ++x)
-          ASSERT_EQ(one->distribution(l, axis).texel_pdf(x, y), many.distribution(l, axis).texel_pdf(x, y));
+          ASSERT_EQ(one->table(l, axis).distribution.texel_pdf(x, y), many.table(l, axis).distribution.texel_pdf(x, y));
 }
 
 // Texels with a 1e-50 share of the map's light each: every table still draws them with a positive density.
@@ -220,7 +222,7 @@ TEST(LobeProductTables, TheFloorReachesTheDimmestLight) {
   const LobeProductTables product(env, kLobes);
   for (int l = 0; l < int(kLobes.size()); ++l)
     for (const Vec3& axis : test_axes()) {
-      const SphericalDistribution& d = product.distribution(l, axis);
+      const SphericalDistribution& d = product.table(l, axis).distribution;
       for (int y = 0; y < env.height(); ++y)
         for (int x = 0; x < env.width(); ++x) ASSERT_GT(d.texel_pdf(x, y), 0.0) << l << " " << x << "," << y;
     }
@@ -238,8 +240,8 @@ TEST(LobeProductTables, SamplesFollowTheLobeAroundTheAxis) {
     SCOPED_TRACE(axis.x);
     const int n = 20000;
     double above = 0.0, mean_cos = 0.0, near = 0.0;
-    const SphericalDistribution& cosine = product.distribution(0, axis);
-    const SphericalDistribution& narrow = product.distribution(1, axis);
+    const SphericalDistribution& cosine = product.table(0, axis).distribution;
+    const SphericalDistribution& narrow = product.table(1, axis).distribution;
     for (int s = 0; s < n; ++s) {
       const Vec3 d = cosine.sample(Vec2(uniform53(rng), uniform53(rng))).direction;
       above += (d ^ axis) > 0.0;
@@ -256,8 +258,8 @@ TEST(LobeProductTables, SamplesFollowTheLobeAroundTheAxis) {
   }
 }
 
-// mean_importance() is the sky a lobe sees: the map's radiance for every lobe and axis under a constant map; under a
-// sky that brightens upwards (L = 0.1 + 10 max(y, 0)), the radiance at a narrow lobe's axis and the upper
+// A table's mean_importance is the sky its lobe sees: the map's radiance for every lobe and axis under a constant map;
+// under a sky that brightens upwards (L = 0.1 + 10 max(y, 0)), the radiance at a narrow lobe's axis and the upper
 // hemisphere's mean weighted by the cosine's (widened) lobe.
 TEST(LobeProductTables, MeanImportanceIsTheSkyALobeSees) {
   const EnvTables constant =
@@ -265,14 +267,14 @@ TEST(LobeProductTables, MeanImportanceIsTheSkyALobeSees) {
   const LobeProductTables flat(*constant.distribution(SamplingMethod::Hierarchical), kLobes);
   // The importance of a grey 2.0 (its luminance), within the float rounding of the pyramid's sums.
   for (int l = 0; l < int(kLobes.size()); ++l)
-    for (const Vec3& axis : test_axes()) EXPECT_NEAR(flat.mean_importance(l, axis), 2.0, 1e-6);
+    for (const Vec3& axis : test_axes()) EXPECT_NEAR(flat.table(l, axis).mean_importance, 2.0, 1e-6);
 
   const EnvTables sky =
       bake(probes::GradientProbe(Vec3(0.1), Vec3(10.0)), std::make_unique<LatLongMap>(128, 64), Kind::LatLong);
   const LobeProductTables product(*sky.distribution(SamplingMethod::Hierarchical), kLobes);
   const Vec3 up(0, 1, 0), down(0, -1, 0);
-  const double cosine_up = product.mean_importance(0, up), cosine_down = product.mean_importance(0, down);
-  const double narrow_up = product.mean_importance(1, up), narrow_down = product.mean_importance(1, down);
+  const double cosine_up = product.table(0, up).mean_importance, cosine_down = product.table(0, down).mean_importance;
+  const double narrow_up = product.table(1, up).mean_importance, narrow_down = product.table(1, down).mean_importance;
   // The narrow lobe: the zenith's and the nadir's radiance, within 5% (its table's lobe is widened over the bin).
   EXPECT_NEAR(narrow_up, 10.1, 0.05 * 10.1);
   EXPECT_NEAR(narrow_down, 0.1, 0.05 * 0.1);
@@ -310,8 +312,8 @@ TEST(LobeProductTables, RefusesBadInput) {
   EXPECT_EQ(product.find(kLobes[2]), 2);
   EXPECT_EQ(product.find(Lobe{Lobe::Shape::Ggx, 0.7}), -1);
   // A zero or NaN axis gets a table (bin 0), never an out-of-range one.
-  EXPECT_GT(product.distribution(0, Vec3(0, 0, 0)).sample(Vec2(0.5, 0.5)).pdf, 0.0);
-  EXPECT_GT(product.distribution(1, Vec3(std::nan(""), 0, 1)).sample(Vec2(0.5, 0.5)).pdf, 0.0);
+  EXPECT_GT(product.table(0, Vec3(0, 0, 0)).distribution.sample(Vec2(0.5, 0.5)).pdf, 0.0);
+  EXPECT_GT(product.table(1, Vec3(std::nan(""), 0, 1)).distribution.sample(Vec2(0.5, 0.5)).pdf, 0.0);
 }
 
 // A distribution built on another's grid samples exactly as one built on its own.

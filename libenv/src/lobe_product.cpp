@@ -190,11 +190,10 @@ std::size_t LobeProductTables::table_index(int lobe, const Vec3& axis) const {
   return first_[std::size_t(lobe)] + std::size_t(by) * std::size_t(B) + std::size_t(bx);
 }
 
-const SphericalDistribution& LobeProductTables::distribution(int lobe, const Vec3& axis) const {
-  return tables_[table_index(lobe, axis)];
+LobeProductTables::Table LobeProductTables::table(int lobe, const Vec3& axis) const {
+  const std::size_t i = table_index(lobe, axis);
+  return {tables_[i], mean_[i]};
 }
-
-double LobeProductTables::mean_importance(int lobe, const Vec3& axis) const { return mean_[table_index(lobe, axis)]; }
 
 int LobeProductTables::find(const Lobe& lobe) const {
   const auto it = std::find(lobes_.begin(), lobes_.end(), lobe);

@@ -159,17 +159,16 @@ Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int li
   const std::array<std::optional<Lobe>, 2> lobes = product_lobes(x.material);
   const int widest = lobes[0] ? tables->find(*lobes[0]) : -1;
   if (widest < 0) return t;
-  const Vec3 widest_axis = light_.to_table(lobe_axis(*lobes[0], x));
-  t.parts[0].table = tables->distribution(widest, widest_axis);
+  const LobeProductTables::Table wide = tables->table(widest, light_.to_table(lobe_axis(*lobes[0], x)));
+  t.parts[0].table = wide.distribution;
   const int narrowest = lobes[1] ? tables->find(*lobes[1]) : -1;
   if (narrowest < 0) return t;
   // Two lobes: each lobe's expected share of the light, its albedo (the BSDF's own choice) times the sky it sees.
-  const Vec3 narrowest_axis = light_.to_table(lobe_axis(*lobes[1], x));
+  const LobeProductTables::Table narrow = tables->table(narrowest, light_.to_table(lobe_axis(*lobes[1], x)));
   const double a = x.material.narrowest_lobe_probability(x.wo);
-  const double sky_n = a * tables->mean_importance(narrowest, narrowest_axis);
-  const double sky_w = (1.0 - a) * tables->mean_importance(widest, widest_axis);
-  t.parts[0].table = LightTable(*t.parts[0].table.first, tables->distribution(narrowest, narrowest_axis),
-                                sky_n + sky_w > 0.0 ? sky_n / (sky_n + sky_w) : a);
+  const double sky_n = a * narrow.mean_importance, sky_w = (1.0 - a) * wide.mean_importance;
+  t.parts[0].table =
+      LightTable(wide.distribution, narrow.distribution, sky_n + sky_w > 0.0 ? sky_n / (sky_n + sky_w) : a);
   return t;
 }
 

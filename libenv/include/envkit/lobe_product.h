@@ -54,13 +54,17 @@ class LobeProductTables {
   /// env: a hierarchical (pyramid) table (Error otherwise); lobes: at least one, GGX alphas in [1e-3, 1].
   LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes);
 
+  /// One product table and what its lobe sees.
+  struct Table {
+    const SphericalDistribution& distribution;
+    /// The environment's importance averaged over the table's lobe (the lobe as its weights use it, widened over
+    /// the bin): sum of importance x solid angle x lobe over sum of solid angle x lobe, in the hierarchical table's
+    /// units. Comparable between the tables of one LobeProductTables: how bright the sky a lobe at that axis sees is.
+    double mean_importance;
+  };
   /// The table for lobe `lobe` (index into lobes(); Error outside) whose axis bin holds `axis` (table frame, any
   /// length > 0; a zero or NaN axis gets bin 0).
-  const SphericalDistribution& distribution(int lobe, const Vec3& axis) const;
-  /// The environment's importance averaged over that table's lobe (the lobe as its weights use it, widened over the
-  /// bin): sum of importance x solid angle x lobe over sum of solid angle x lobe, in the hierarchical table's units.
-  /// Comparable between the tables of one LobeProductTables: how bright the sky a lobe at that axis sees is.
-  double mean_importance(int lobe, const Vec3& axis) const;
+  Table table(int lobe, const Vec3& axis) const;
   const std::vector<Lobe>& lobes() const { return lobes_; }
   /// Index of lobe in lobes(), or -1 (the cosine lobe's alpha is not compared).
   int find(const Lobe& lobe) const;
@@ -71,7 +75,7 @@ class LobeProductTables {
   std::vector<int> bins_;                      // B per lobe
   std::vector<std::size_t> first_;             // index of each lobe's first table
   std::vector<SphericalDistribution> tables_;  // per lobe, B x B axis bins, row-major
-  std::vector<double> mean_;                   // mean_importance() per table
+  std::vector<double> mean_;                   // Table::mean_importance per table
   std::size_t table_index(int lobe, const Vec3& axis) const;
 };
 
