@@ -229,7 +229,8 @@ int main(int argc, char** argv) {
                  "lobe, " +
                      std::to_string(envkit::render::kWideLightSamples) +
                      " for materials whose lobes are all at least as wide as GGX alpha " + narrow +
-                     " (Lambertian, rough metal), else " + std::to_string(envkit::render::kNarrowLightSamples))
+                     " (Lambertian, rough metal) and " + std::to_string(envkit::render::kNarrowLightSamples) +
+                     " for the others")
       ->transform(tools::integer_in(0, 1024));
   app.add_option("--sun-samples", a.sun_samples,
                  "light, mis, mis-compensated, product, product-mis: samples of the map's sun per shading point, drawn "
