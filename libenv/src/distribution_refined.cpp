@@ -68,7 +68,7 @@ double RefinedDistribution2D::texel_pdf(int x, int y) const {
   if (!(node > 0.0)) return 0.0;
   // As pick(): pick_below's density given the cell, then density().
   const double given_cell = fine_->node(0, x, y) / node * (double(width_) * double(height_));
-  const double p = density(given_cell, cells_.pdf(Vec2((cx + 0.5) / cells_.width(), (cy + 0.5) / cells_.height())));
+  const double p = density(given_cell, cells_.texel_pdf(cx, cy));
   return std::isfinite(p) ? p : 0.0;
 }
 

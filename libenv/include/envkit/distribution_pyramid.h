@@ -124,6 +124,8 @@ class PyramidDistribution2D final : public Distribution2D {
   /// Batched sample_texel(), bit for bit: see pick_group().
   void sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const override;
   double pdf(Vec2 uv) const override;
+  /// pdf() at texel (x, y) of the grid, which the caller has checked (0 <= x < W, 0 <= y < H).
+  double texel_pdf(int x, int y) const { return leaf(x, y) * pdf_scale_; }
   double texel_probability(int x, int y) const override;
   bool can_invert() const override { return true; }
   Vec2 invert(Vec2 uv) const override;
@@ -228,7 +230,7 @@ class PyramidDistribution2D final : public Distribution2D {
   return t;
 }
 
-inline TexelSample PyramidDistribution2D::pick_below(int k, int i, int j, Vec2 u) const {
+[[gnu::always_inline]] inline TexelSample PyramidDistribution2D::pick_below(int k, int i, int j, Vec2 u) const {
   double ux = sampling::clamp_decision(u.x), uy = sampling::clamp_decision(u.y);
   std::size_t ii = std::size_t(i), jj = std::size_t(j);
   const double top = node(k, i, j);
