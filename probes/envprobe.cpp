@@ -33,6 +33,9 @@ namespace tools = envkit::tools;
 constexpr double kMaxRadiance = 3.4e38;
 // Checker probe: cell integrals over the whole map; 2^31 is a few seconds on one core.
 constexpr double kMaxCheckerPieces = 2147483648.0;
+// Checker probe on maps without exact integrals: background samples along the cells' edges (2^27 is about ten
+// seconds on one core).
+constexpr double kMaxEdgeEvaluations = 134217728.0;
 
 const char* kExamples = R"(Examples:
   envprobe default -o sky.exr                           built-in outdoor sky, 1024x512 lat-long
@@ -156,7 +159,8 @@ envkit::ParamSpec make_spec(const Args& a) {
   return spec;
 }
 
-std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, const envkit::Parameterization& map) {
+std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, const envkit::Parameterization& map,
+                                          const probes::RasterOptions& options) {
   auto rgb = [&](const std::string& option, const std::string& value, Vec3 fallback) {
     return value.empty() ? fallback : parse_rgb(option, value);
   };
@@ -196,8 +200,16 @@ std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, co
                   std::to_string(map.height()) + " map means about " + tools::fmt(pieces, 3) +
                   " cell integrals (limit " + tools::fmt(kMaxCheckerPieces, 3) +
                   "): a texel cannot show that many cells; use fewer cells");
-    return std::make_unique<probes::CheckerProbe>(nt, np, rgb("--color-a", a.color_a, Vec3(0.8)),
-                                                  rgb("--color-b", a.color_b, Vec3(0.1)));
+    auto checker = std::make_unique<probes::CheckerProbe>(nt, np, rgb("--color-a", a.color_a, Vec3(0.8)),
+                                                          rgb("--color-b", a.color_b, Vec3(0.1)));
+    // Without exact integrals every texel an edge crosses is supersampled.
+    const double samples = probes::edge_evaluations(*checker, map, options);
+    if (samples > kMaxEdgeEvaluations)
+      throw Error("--cells: '" + a.cells + "' on a " + std::to_string(map.width()) + " x " +
+                  std::to_string(map.height()) + " " + envkit::kind_name(map.kind()) + " map means about " +
+                  tools::fmt(samples, 3) + " samples along the cells' edges (limit " +
+                  tools::fmt(kMaxEdgeEvaluations, 3) + "): use fewer cells or a smaller map");
+    return checker;
   }
   if (a.kind == "default") {
     probes::OutdoorSettings s;
@@ -224,10 +236,10 @@ int run(const Args& a, const CLI::App& app) {
   for (const std::string& out : outputs) envkit::check_output_path(out, {}, true);
   const envkit::ParamSpec spec = make_spec(a);
   const std::unique_ptr<envkit::Parameterization> map = envkit::make_parameterization(spec);
-  const std::unique_ptr<probes::Probe> probe = make_probe(a, app, *map);
-
   probes::RasterOptions options;
   options.map_to_world = envkit::convention(a.convention).frame(spec.kind);
+  const std::unique_ptr<probes::Probe> probe = make_probe(a, app, *map, options);
+
   // Maps with texels that hold no data (mirror ball corners, blank cross cells) get a coverage channel.
   bool uncovered = false;
   for (int j = 0; j < map->height() && !uncovered; ++j)

@@ -5,18 +5,18 @@
 #include <envkit/latlong.h>
 #include <envkit/param_factory.h>
 #include <envkit/probes.h>
-
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -404,6 +404,77 @@ TEST(ProbeRaster, MapFrameRotationMovesTheSun) {
   EXPECT_LT(relative_error(image_power(img, map), sun.total_power()), 1e-6);
   const Vec2 p = map.to_image(Vec3(0, 0, 1));
   EXPECT_GT(img.at(static_cast<int>(p.x), static_cast<int>(p.y), 0), 10.0f);
+}
+
+// A checker that counts its background evaluations.
+class CountingChecker final : public Probe {
+ public:
+  CountingChecker(int n_theta, int n_phi) : checker_(n_theta, n_phi, Vec3(1.0), Vec3(0.0)) {}
+  std::string describe() const override { return checker_.describe(); }
+  Vec3 background(const Vec3& dir) const override {
+    calls_.fetch_add(1, std::memory_order_relaxed);
+    return checker_.background(dir);
+  }
+  Variation background_variation() const override { return checker_.background_variation(); }
+  bool background_may_vary(const Vec3& dir, double radius) const override {
+    return checker_.background_may_vary(dir, radius);
+  }
+  double discontinuity_length() const override { return checker_.discontinuity_length(); }
+  bool integrate_latlong(double u0, double u1, double v0, double v1, Vec3& integral) const override {
+    return checker_.integrate_latlong(u0, u1, v0, v1, integral);
+  }
+  Vec3 total_power() const override { return checker_.total_power(); }
+  long calls() const { return calls_.load(); }
+
+ private:
+  CheckerProbe checker_;
+  mutable std::atomic<long> calls_{0};
+};
+
+TEST(ProbeClosedForm, CheckerDiscontinuityLength) {
+  // Parallels 2 pi sin(k pi / 4), k = 1..3, and 8 meridians of length pi.
+  const double parallels = kTwoPi * (2.0 * std::sin(kPi / 4.0) + 1.0);
+  EXPECT_NEAR(CheckerProbe(4, 8, Vec3(1), Vec3(0)).discontinuity_length(), parallels + 8.0 * kPi, 1e-12);
+  // An odd number of columns: the seam joins two cells of one colour.
+  EXPECT_NEAR(CheckerProbe(4, 7, Vec3(1), Vec3(0)).discontinuity_length(), parallels + 6.0 * kPi, 1e-12);
+  EXPECT_NEAR(CheckerProbe(1, 2, Vec3(1), Vec3(0)).discontinuity_length(), 2.0 * kPi, 1e-12);
+  EXPECT_EQ(CheckerProbe(1, 1, Vec3(1), Vec3(0)).discontinuity_length(), 0.0);
+  EXPECT_EQ(CheckerProbe(4, 8, Vec3(1), Vec3(1)).discontinuity_length(), 0.0);
+  EXPECT_EQ(ConstantProbe(Vec3(1)).discontinuity_length(), 0.0);
+}
+
+TEST(ProbeRaster, EdgeEvaluationsEstimateTheWork) {
+  // The estimate against the background evaluations rasterize() makes beyond one per texel, on maps where
+  // the cells' edges are what costs: within a factor of 2 either way (the last case: cells far finer than texels).
+  struct Case {
+    Kind kind;
+    int n, n_theta, n_phi;
+    double edge_radius_deg = 0.25;
+  };
+  for (const Case& c :
+       {Case{Kind::CubeMap, 32, 6, 100}, Case{Kind::CubeMap, 32, 100, 6}, Case{Kind::MirrorBall, 64, 6, 100},
+        Case{Kind::Octahedral, 64, 30, 30}, Case{Kind::HEALPix, 16, 6, 100}, Case{Kind::CubeMap, 8, 3, 1000, 1.0}}) {
+    ParamSpec spec;
+    spec.kind = c.kind;
+    natural_image_size(c.kind, c.n, CubeLayout::VerticalStrip, spec.width, spec.height);
+    const auto map = make_parameterization(spec);
+    const CountingChecker probe(c.n_theta, c.n_phi);
+    RasterOptions options;
+    options.edge_radius = radians(c.edge_radius_deg);
+    (void)rasterize(probe, *map, options);
+    const double texels = double(map->width()) * map->height();
+    const double estimate = edge_evaluations(probe, *map, options);
+    const double beyond = double(probe.calls()) - texels;
+    EXPECT_GT(estimate, beyond / 2.0) << map->describe() << ", " << c.n_theta << " x " << c.n_phi << " cells";
+    EXPECT_LT(estimate, beyond * 2.0) << map->describe() << ", " << c.n_theta << " x " << c.n_phi << " cells";
+  }
+  // Exact lat-long integrals sample nothing; a rotated frame samples.
+  const LatLongMap latlong(64, 32);
+  const CountingChecker probe(6, 300);
+  EXPECT_EQ(edge_evaluations(probe, latlong), 0.0);
+  RasterOptions rotated;
+  rotated.map_to_world = rotation_from_euler_degrees(30.0, 0.0, 0.0);
+  EXPECT_GT(edge_evaluations(probe, latlong, rotated), 0.0);
 }
 
 TEST(ProbeRaster, DeterministicAcrossThreadCounts) {

@@ -48,6 +48,15 @@ bool CheckerProbe::background_may_vary(const Vec3& dir, double radius) const {
   return std::abs(uv.x - m / n_phi_) * kTwoPi < half_width;
 }
 
+double CheckerProbe::discontinuity_length() const {
+  if (colour_a_ == colour_b_) return 0.0;
+  // Parallel k of n_theta - 1 has length 2 pi sin(k pi / n_theta); their sines sum to cot(pi / (2 n_theta)).
+  const double parallels = n_theta_ > 1 ? kTwoPi / std::tan(kPi / (2.0 * n_theta_)) : 0.0;
+  // With an odd n_phi the seam joins cells of one colour.
+  const int meridians = n_phi_ == 1 ? 0 : n_phi_ - (n_phi_ & 1);
+  return parallels + kPi * meridians;
+}
+
 bool CheckerProbe::integrate_latlong(double u0, double u1, double v0, double v1, Vec3& integral) const {
   integral = Vec3(0.0);
   u0 = std::clamp(u0, 0.0, 1.0), u1 = std::clamp(u1, 0.0, 1.0);

@@ -133,6 +133,11 @@ Vec2 leaf_shift(double x0, double y0) {
   return Vec2(static_cast<double>(z & 0xFFFFFFFFu) * kUnit, static_cast<double>(z >> 32) * kUnit);
 }
 
+// Whether rasterize() may use a probe's exact lat-long rectangle integrals on this map.
+bool may_integrate_exactly(const Parameterization& map, const RasterOptions& options) {
+  return options.exact_latlong && is_identity(options.map_to_world) && map.kind() == Kind::LatLong;
+}
+
 struct TexelSums {
   double weight = 0.0;
   Vec3 background{0.0, 0.0, 0.0};
@@ -281,8 +286,7 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
 
   Context ctx{probe, map, options, features};
   ctx.rotate = !is_identity(options.map_to_world);
-  if (options.exact_latlong && !ctx.rotate && map.kind() == Kind::LatLong)
-    ctx.latlong = dynamic_cast<const LatLongMap*>(&map);
+  if (may_integrate_exactly(map, options)) ctx.latlong = dynamic_cast<const LatLongMap*>(&map);
   for (std::size_t k = 0; k < features.size(); ++k) ctx.all_features |= Mask{1} << k;
 
   const int width = map.width(), height = map.height();
@@ -390,6 +394,25 @@ Image rasterize(const Probe& probe, const Parameterization& map, const RasterOpt
   Image image(map.width(), map.height(), options.alpha ? 4 : 3);
   rasterize_into(probe, map, image, options, stats);
   return image;
+}
+
+double edge_evaluations(const Probe& probe, const Parameterization& map, const RasterOptions& options) {
+  const double length = probe.discontinuity_length();
+  const double texels = double(map.width()) * double(map.height());
+  Vec3 unused;
+  if (!(length > 0.0) || !(texels > 0.0) ||
+      (may_integrate_exactly(map, options) && probe.integrate_latlong(0.0, 1.0, 0.0, 1.0, unused)))
+    return 0.0;
+  // A texel of the mean solid angle 4 pi / texels, as a square, has the half-diagonal sqrt(2 pi / texels);
+  // rasterize() refines it down to leaves of edge_leaf's radius where the background may vary.
+  const double texel_radius = std::sqrt(kTwoPi / texels);
+  const double leaf_radius = std::min(std::ldexp(texel_radius, -options.edge_levels), options.edge_radius);
+  // A curve crosses about length / (2 r) leaves of radius r, the caps of as many again reach it, and cells halve
+  // down to a radius below r: about 2 length / r leaves (measured against rasterize()'s calls in the tests),
+  // at most every texel split down to leaves, about 2 (texel radius / r)^2 each.
+  const double ratio = texel_radius / leaf_radius;
+  const double leaves = 2.0 * std::min(length / leaf_radius, texels * ratio * ratio);
+  return kEdgeSamples * leaves;
 }
 
 Vec3 image_power(const Image& image, const Parameterization& map) {

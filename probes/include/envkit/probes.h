@@ -82,6 +82,10 @@ class Probe {
   /// Conservative refinement hint: may the background be discontinuous (or have a kink or a detail narrower
   /// than `radius`) within the cap of angular radius `radius` around dir? Smooth backgrounds return false.
   virtual bool background_may_vary(const Vec3& dir, double radius) const;
+  /// Total length (radians of arc) of the curves across which the background jumps, where it grows with the
+  /// probe's settings (the checker's parallels and meridians); 0 for probes without such curves. It is what
+  /// rasterizing costs beyond one sample per texel (edge_evaluations()).
+  virtual double discontinuity_length() const { return 0.0; }
 
   /// Exact integral of the background over the lat-long domain rectangle u in [u0, u1], v in [v0, v1]
   /// (u, v as in latlong.h: polar angle theta = pi v, azimuth = pi - 2 pi u) in W/sr x sr. Returns false
@@ -185,6 +189,9 @@ class CheckerProbe final : public Probe {
   Vec3 background(const Vec3& dir) const override;
   Variation background_variation() const override { return Variation::PiecewiseUniform; }
   bool background_may_vary(const Vec3& dir, double radius) const override;
+  /// The parallels between bands, 2 pi cot(pi / (2 n_theta)) in all, and the meridians between cells of
+  /// different colours, pi each (the seam too when n_phi is even); 0 when the two colours are equal.
+  double discontinuity_length() const override;
   bool integrate_latlong(double u0, double u1, double v0, double v1, Vec3& integral) const override;
   Vec3 total_power() const override;
   std::optional<Vec3> upward_irradiance() const override;
@@ -287,6 +294,13 @@ Image rasterize(const Probe& probe, const Parameterization& map, const RasterOpt
 /// colour channel gets Rec. 709 luminance), further colour channels 0, the alpha channel (if any) coverage.
 void rasterize_into(const Probe& probe, const Parameterization& map, Image& image,
                     const RasterOptions& options = {}, RasterStats* stats = nullptr);
+
+/// About how many background evaluations rasterize() spends resolving the probe's discontinuities
+/// (Probe::discontinuity_length()) on `map`: the leaves of edge_levels refinement that a curve of that length
+/// crosses, each sampled 16 times, at most every leaf of every texel; 0 where rasterize() integrates the
+/// probe exactly (a lat-long map in its own frame, a probe with lat-long integrals). An estimate, good to a
+/// small factor, for checking the cost of a request before rasterizing.
+double edge_evaluations(const Probe& probe, const Parameterization& map, const RasterOptions& options = {});
 
 /// Sum over texels of L_texel x texel_solid_angle (per channel, double accumulation): the power a map holds.
 /// A one-colour-channel image gives (Y, Y, Y).
