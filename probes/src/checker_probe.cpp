@@ -52,8 +52,8 @@ double CheckerProbe::discontinuity_length() const {
   if (colour_a_ == colour_b_) return 0.0;
   // Parallel k of n_theta - 1 has length 2 pi sin(k pi / n_theta); their sines sum to cot(pi / (2 n_theta)).
   const double parallels = n_theta_ > 1 ? kTwoPi / std::tan(kPi / (2.0 * n_theta_)) : 0.0;
-  // With an odd n_phi the seam joins cells of one colour.
-  const int meridians = n_phi_ == 1 ? 0 : n_phi_ - (n_phi_ & 1);
+  // With an odd n_phi (one cell too) the seam joins cells of one colour.
+  const int meridians = n_phi_ - (n_phi_ & 1);
   return parallels + kPi * meridians;
 }
 
