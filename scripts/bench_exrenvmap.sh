@@ -98,14 +98,18 @@ input() { [[ $1 == none ]] && echo "$2_none.exr" || echo "$2.exr"; }
 declare -A T
 for ((r = 1; r <= REPEATS; r++)); do
   log "# repeat $r/$REPEATS"
+  # The filters' order rotates from repeat to repeat: the run right after exrenvmap meets the memory it freed,
+  # whose first touch costs more on a virtual machine (BENCHMARKS.md, section 0), and no filter takes it every time.
+  k=$(((r - 1) % ${#FILTERS[@]}))
+  ORDER=("${FILTERS[@]:k}" "${FILTERS[@]:0:k}")
   for io in "${IOS[@]}"; do
     T[fwd_${io}_exrenvmap]+="$(run_timed "$EXRENVMAP" -c "${LI[@]}" -z "$io" -w "$FACE" "$(input $io in)" "ex_cube_$io.exr") "
-    for f in "${FILTERS[@]}"; do
+    for f in "${ORDER[@]}"; do
       T[fwd_${io}_$f]+="$(run_timed "$BIN/envconvert" "$(input $io in)" -o "ek_cube_${io}_$f.exr" --to cube \
                          --size "$FACE" --convention openexr --filter "$f" --half --compression "$io" --quiet) "
     done
     T[back_${io}_exrenvmap]+="$(run_timed "$EXRENVMAP" -l "${CI[@]}" -z "$io" -w "$LLW" "$(input $io ref_cube)" "ex_ll_$io.exr") "
-    for f in "${FILTERS[@]}"; do
+    for f in "${ORDER[@]}"; do
       T[back_${io}_$f]+="$(run_timed "$BIN/envconvert" "$(input $io ref_cube)" -o "ek_ll_${io}_$f.exr" --to latlong \
                           --size "$N" --convention openexr --filter "$f" --half --compression "$io" --quiet) "
     done
