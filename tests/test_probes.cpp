@@ -5,7 +5,9 @@
 #include <envkit/latlong.h>
 #include <envkit/param_factory.h>
 #include <envkit/probes.h>
+
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -16,7 +18,6 @@
 #include <fstream>
 #include <functional>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>

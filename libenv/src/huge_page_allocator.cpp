@@ -1,4 +1,5 @@
 #include <envkit/huge_page_allocator.h>
+
 #include <sys/mman.h>
 #include <tbb/parallel_for.h>
 
