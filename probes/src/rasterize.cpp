@@ -399,9 +399,11 @@ Image rasterize(const Probe& probe, const Parameterization& map, const RasterOpt
 double edge_evaluations(const Probe& probe, const Parameterization& map, const RasterOptions& options) {
   const double length = probe.discontinuity_length();
   const double texels = double(map.width()) * double(map.height());
+  // Whether the probe has lat-long integrals, asked of an empty rectangle (the whole sphere would cost a checker
+  // one integral per cell).
   Vec3 unused;
   if (!(length > 0.0) || !(texels > 0.0) ||
-      (may_integrate_exactly(map, options) && probe.integrate_latlong(0.0, 1.0, 0.0, 1.0, unused)))
+      (may_integrate_exactly(map, options) && probe.integrate_latlong(0.0, 0.0, 0.0, 0.0, unused)))
     return 0.0;
   // A texel of the mean solid angle 4 pi / texels, as a square, has the half-diagonal sqrt(2 pi / texels);
   // rasterize() refines it down to leaves of edge_leaf's radius where the background may vary.
