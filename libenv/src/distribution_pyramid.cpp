@@ -305,7 +305,7 @@ void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::siz
 
 double PyramidDistribution2D::pdf(Vec2 uv) const {
   if (!sampling::in_unit_square(uv)) return 0.0;
-  return leaf(sampling::texel_index(uv.x, width_), sampling::texel_index(uv.y, height_)) * pdf_scale_;
+  return texel_pdf(sampling::texel_index(uv.x, width_), sampling::texel_index(uv.y, height_));
 }
 
 double PyramidDistribution2D::texel_probability(int x, int y) const { return texel_probability_below(levels(), x, y); }
