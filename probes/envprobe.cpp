@@ -31,8 +31,8 @@ namespace tools = envkit::tools;
 
 // Radiance and colour components: finite, >= 0 and representable in a float file.
 constexpr double kMaxRadiance = 3.4e38;
-// Checker probe: cell integrals over the whole map; 2^31 is a few seconds on one core.
-constexpr double kMaxCheckerPieces = 2147483648.0;
+// Checker probe: cell integrals over the whole map beyond one per texel; 2^28 more is a few seconds on 2 cores.
+constexpr double kMaxCheckerPieces = 268435456.0;
 // Checker probe on maps without exact integrals: background samples along the cells' edges (2^27 is about ten
 // seconds on one core).
 constexpr double kMaxEdgeEvaluations = 134217728.0;
@@ -195,10 +195,11 @@ std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, co
     const auto [nt, np] = a.cells.empty() ? std::pair<int, int>{8, 16} : parse_pair("--cells", a.cells, ',', 1, 1 << 20);
     // Every texel integrates the cells its footprint covers: about (n_theta + H)(n_phi + W) cell pieces in all.
     const double pieces = (double(nt) + map.height()) * (double(np) + map.width());
-    if (pieces > kMaxCheckerPieces)
+    const double limit = kMaxCheckerPieces + double(map.width()) * map.height();
+    if (pieces > limit)
       throw Error("--cells: '" + a.cells + "' on a " + std::to_string(map.width()) + " x " +
                   std::to_string(map.height()) + " map means about " + tools::fmt(pieces, 3) +
-                  " cell integrals (limit " + tools::fmt(kMaxCheckerPieces, 3) +
+                  " cell integrals (limit " + tools::fmt(limit, 3) +
                   "): a texel cannot show that many cells; use fewer cells");
     auto checker = std::make_unique<probes::CheckerProbe>(nt, np, rgb("--color-a", a.color_a, Vec3(0.8)),
                                                           rgb("--color-b", a.color_b, Vec3(0.1)));
