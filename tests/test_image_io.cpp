@@ -175,6 +175,29 @@ TEST_F(ImageIoTest, HalfExrRoundTripWithinHalfPrecision) {
   }
 }
 
+TEST_F(ImageIoTest, HalfExrLargerThanOneConversionBlock) {
+  // Half data is converted and written a block of rows at a time: an image of several blocks and a remainder
+  // (16 MiB of halves per block: 682 rows of 4097 RGB texels) must come back row for row.
+  const int w = 4097, h = 1500;
+  Image img(w, h, 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c)  // integers below 2048: exact in half
+        img.pixels[(std::size_t(y) * w + x) * 3 + c] = float((x + 7 * y + 500 * c) % 2048);
+  Image expected = img;
+  img.pixels[(std::size_t(700) * w + 5) * 3] = -1.0e6f;         // second block
+  img.pixels[(std::size_t(1499) * w + 4096) * 3 + 2] = 1.0e6f;  // last row of the remainder
+  expected.pixels[(std::size_t(700) * w + 5) * 3] = -65504.0f;
+  expected.pixels[(std::size_t(1499) * w + 4096) * 3 + 2] = 65504.0f;
+  WriteOptions opt;
+  opt.pixel_type = PixelType::Half;
+  opt.compression = "none";
+  envkit::write_image(path("blocks.exr"), img, opt);
+  const Image back = envkit::read_image(path("blocks.exr"));
+  expect_same_layout(back, expected);
+  EXPECT_TRUE(back.pixels == expected.pixels);
+}
+
 TEST_F(ImageIoTest, HdrRoundTripWithinRgbePrecision) {
   const Image img = test_image(40, 20, 3, 11, 0.001f, 50.0f);
   envkit::write_image(path("rgbe.hdr"), img);

@@ -85,6 +85,9 @@ void use_exr_threads() {
 
 using Range = tbb::blocked_range<std::size_t>;
 constexpr std::size_t kGrain = 1 << 16;
+/// Rows of half data an EXR write converts at a time: enough for every thread's line buffers, small enough to stay
+/// in memory already touched.
+constexpr std::size_t kHalfBlockBytes = std::size_t(16) << 20;
 
 }  // namespace
 
@@ -582,30 +585,43 @@ void write_exr(const std::string& path, const std::string& file, const Image& da
     header.insert(key, Imf::StringAttribute(value));
   }
 
-  // Half data is converted up front (in parallel, clamped to half's largest finite value: beyond it half() gives
-  // Inf); float data is written straight from the interleaved buffer.
-  std::vector<half, HugePageAllocator<half>> halves;
-  const char* base = reinterpret_cast<const char*>(data.pixels.data());
-  std::size_t element = sizeof(float);
-  if (pixel == Imf::HALF) {
-    halves.resize(data.pixels.size());
-    tbb::parallel_for(Range(0, halves.size(), kGrain), [&](const Range& r) {
-      for (std::size_t i = r.begin(); i != r.end(); ++i) halves[i] = half(std::clamp(data.pixels[i], -65504.0f, 65504.0f));
-    });
-    base = reinterpret_cast<const char*>(halves.data());
-    element = sizeof(half);
-  }
   const auto nc = static_cast<std::size_t>(data.channels);
-  const std::size_t xstride = element * nc;
-  const std::size_t ystride = xstride * static_cast<std::size_t>(data.width);
-  Imf::FrameBuffer frame;
-  for (std::size_t c = 0; c < nc; ++c)
-    frame.insert(data.channel_names[c], Imf::Slice(pixel, const_cast<char*>(base + c * element), xstride, ystride));
+  const std::size_t width = static_cast<std::size_t>(data.width);
+  const auto frame_at = [&](const char* base, std::size_t element, std::ptrdiff_t first_row) {
+    // OpenEXR addresses pixel (x, y) as base + x xstride + y ystride: a block starting at row first_row is
+    // described by a base that many rows before it (the same arithmetic as the reader's data window).
+    const std::size_t xstride = element * nc, ystride = xstride * width;
+    Imf::FrameBuffer frame;
+    for (std::size_t c = 0; c < nc; ++c)
+      frame.insert(data.channel_names[c],
+                   Imf::Slice(pixel, const_cast<char*>(base + c * element - first_row * std::ptrdiff_t(ystride)),
+                              xstride, ystride));
+    return frame;
+  };
   use_exr_threads();
   try {
     Imf::OutputFile out(file.c_str(), header, Imf::globalThreadCount());
-    out.setFrameBuffer(frame);
-    out.writePixels(data.height);
+    if (pixel == Imf::FLOAT) {
+      out.setFrameBuffer(frame_at(reinterpret_cast<const char*>(data.pixels.data()), sizeof(float), 0));
+      out.writePixels(data.height);
+    } else {
+      // Half data is converted a block of rows at a time (in parallel, clamped to half's largest finite value:
+      // beyond it half() gives Inf) into one reused buffer: a copy of the whole image in halves would be one more
+      // large buffer whose first touch costs more than the conversion (BENCHMARKS.md, section 0).
+      const std::size_t row = width * nc;
+      const int rows = static_cast<int>(
+          std::clamp<std::size_t>(kHalfBlockBytes / (row * sizeof(half)), 1, std::size_t(data.height)));
+      std::vector<half> halves(std::size_t(rows) * row);
+      for (int y0 = 0; y0 < data.height; y0 += rows) {
+        const int n = std::min(rows, data.height - y0);
+        const float* from = data.pixels.data() + std::size_t(y0) * row;
+        tbb::parallel_for(Range(0, std::size_t(n) * row, kGrain), [&](const Range& r) {
+          for (std::size_t i = r.begin(); i != r.end(); ++i) halves[i] = half(std::clamp(from[i], -65504.0f, 65504.0f));
+        });
+        out.setFrameBuffer(frame_at(reinterpret_cast<const char*>(halves.data()), sizeof(half), y0));
+        out.writePixels(n);
+      }
+    }
   } catch (const std::exception& e) {
     fail(path, "cannot write: " + condense(e.what(), file, path));
   }
