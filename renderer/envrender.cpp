@@ -234,8 +234,9 @@ int main(int argc, char** argv) {
       ->transform(tools::integer_in(0, 1024));
   app.add_option("--sun-samples", a.sun_samples,
                  "light, mis, mis-compensated, product, product-mis: samples of the map's sun per shading point, drawn "
-                 "apart from the rest "
-                 "of the map (0 = sample the map as one table; ignored when the map has no sun)")
+                 "apart from the rest of the map, at materials whose widest lobe is at least GGX alpha " +
+                     tools::fmt(envkit::render::kSunSampleAlpha, 3) +
+                     " (0 = sample the map as one table; ignored when the map has no sun)")
       ->transform(tools::integer_in(0, 1024))
       ->capture_default_str();
   app.add_option("--max-depth", a.max_depth, "scattering events per path (1 = direct light only)")

@@ -200,11 +200,24 @@ TEST(RenderReference, SunSplitFromTheRestOfTheMap) {
   EXPECT_GE(
       check_point(sun, rotation_from_euler_degrees(-40, 0, 0), make_plastic(Vec3(0.5, 0.4, 0.3), 0.1), 3e-3, 0, 256, 3),
       5);
-  // A narrow lobe keeps the whole map's table at its shading points (integrator.cpp): the same integral too.
-  // The sun turned below the shading point's horizon: BSDF sampling alone cannot find a sun in view.
-  EXPECT_GE(check_point(sun, rotation_from_euler_degrees(0, 120, 0), make_conductor(Vec3(0.0), Vec3(1.0), 0.1), 3e-3, 0,
-                        256, 3),
-            5);
+  // The sun turned below the shading point's horizon: BSDF sampling alone cannot find a sun in view. A lobe between
+  // kSunSampleAlpha and kWideLobeAlpha takes sun samples beside its narrow-lobe counts; a narrower one keeps the
+  // whole map's table (takes_sun_samples()): the same integral for both.
+  for (const double alpha : {0.15, 0.05})
+    EXPECT_GE(check_point(sun, rotation_from_euler_degrees(0, 120, 0), make_conductor(Vec3(0.0), Vec3(1.0), alpha),
+                          3e-3, 0, 256, 3),
+              5)
+        << alpha;
+}
+
+// Which materials draw the sun apart: those whose widest lobe reaches kSunSampleAlpha.
+TEST(RenderSunSamples, ByWidestLobe) {
+  const auto conductor = [](double alpha) { return make_conductor(Vec3(0.0), Vec3(1.0), alpha); };
+  for (const auto& m : {make_diffuse(Vec3(0.5)), make_plastic(Vec3(0.5), 0.02), conductor(0.3), conductor(0.15),
+                        conductor(kSunSampleAlpha)})
+    EXPECT_TRUE(takes_sun_samples(*m)) << m->name() << " " << m->widest_lobe_alpha();
+  for (const auto& m : {conductor(0.09), conductor(0.02), make_mirror(Vec3(0.9))})
+    EXPECT_FALSE(takes_sun_samples(*m)) << m->name() << " " << m->widest_lobe_alpha();
 }
 
 // Counts the options leave unset follow the material's lobe, whatever the sun; given counts hold for every

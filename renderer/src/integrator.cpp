@@ -14,8 +14,6 @@ bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && 
 bool is_black(const Vec3& v) { return v.x == 0.0 && v.y == 0.0 && v.z == 0.0; }
 Vec3 mul(const Vec3& a, const Vec3& b) { return Vec3(a.x * b.x, a.y * b.y, a.z * b.z); }
 
-bool has_wide_lobe(const Material& material) { return material.widest_lobe_alpha() >= kWideLobeAlpha; }
-
 }  // namespace
 
 SampleCounts sample_counts(const IntegratorOptions& options, const Material& material) {
@@ -24,6 +22,8 @@ SampleCounts sample_counts(const IntegratorOptions& options, const Material& mat
       narrow ? SampleCounts{kNarrowBsdfSamples, kNarrowLightSamples} : SampleCounts{1, kWideLightSamples};
   return {options.bsdf_samples.value_or(by_lobe.bsdf), options.light_samples.value_or(by_lobe.light)};
 }
+
+bool takes_sun_samples(const Material& material) { return material.widest_lobe_alpha() >= kSunSampleAlpha; }
 
 const char* strategy_name(Strategy s) {
   switch (s) {
@@ -117,7 +117,7 @@ void Integrator::build_product_tables() {
   std::vector<Lobe> whole, split;
   for (int m = 0; m < scene_.material_count(); ++m) {
     const Material& material = scene_.material(m);
-    std::vector<Lobe>& set = sun_ && has_wide_lobe(material) ? split : whole;
+    std::vector<Lobe>& set = sun_ && takes_sun_samples(material) ? split : whole;
     for (const std::optional<Lobe>& lobe : product_lobes(material))
       if (lobe && std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
   }
@@ -146,10 +146,7 @@ double Integrator::mis_weight(double a, double b) const {
 }
 
 Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int light_samples) const {
-  // Narrow lobes take no sun samples: a narrow lobe sees the sun only where it reflects it, elsewhere the sun
-  // sample's shadow ray is spent on a contribution its BSDF samples find as well (the threshold lies between the
-  // alphas where the split was measured to win and to lose: BENCHMARKS.md, "The sun sampled apart").
-  const bool split = sun_ && has_wide_lobe(x.material);
+  const bool split = sun_ && takes_sun_samples(x.material);
   LightTechniques t = split ? split_ : whole_;
   t.parts[0].count = light_samples;
   const LobeProductTables* tables = split ? product_split_.get() : product_whole_.get();

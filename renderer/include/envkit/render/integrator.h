@@ -78,14 +78,15 @@ struct IntegratorOptions {
   int max_depth = 1;  ///< scattering events per path (1 = direct only)
   /// Samples of the sun's texels per shading point when the map has a sun (sun_split.h); the light samples then
   /// draw from the rest of the map. 0 = no split. Used by every strategy but bsdf, at shading points whose
-  /// material has a wide lobe (kWideLobeAlpha: Lambertian and plastic always).
+  /// material takes sun samples (takes_sun_samples(): Lambertian and plastic always).
   int sun_samples = 1;
 };
 
 /// A lobe is wide when it is at least this GGX alpha (Lambertian counts as 1): it sees much of the sky from a
-/// shading point. Materials with a wide lobe (Lambertian, plastic, rough metal) take sun samples; the others keep the
-/// whole map's table. Materials whose lobes are all wide take the wide sample counts below.
+/// shading point. Materials whose lobes are all wide take the wide sample counts below.
 inline constexpr double kWideLobeAlpha = 0.25;
+/// Materials whose widest lobe is at least this GGX alpha take sun samples (takes_sun_samples()).
+inline constexpr double kSunSampleAlpha = 0.1;
 /// Light samples of a wide lobe when the options leave the counts unset.
 inline constexpr int kWideLightSamples = 4;
 /// A narrow lobe's BSDF and light samples when the options leave the counts unset.
@@ -105,6 +106,13 @@ struct SampleCounts {
 /// (Sampler::point_2d), evenly stratified when spp and M are powers of two. Pure delta materials take one BSDF
 /// sample whatever the counts. Why these numbers: BENCHMARKS.md, "Samples per shading point in powers of two".
 SampleCounts sample_counts(const IntegratorOptions& options, const Material& material);
+
+/// Whether a material's shading points draw the sun apart from the rest of the map when the map has a sun: when
+/// its widest lobe is at least kSunSampleAlpha (Lambertian and plastic always). Such a lobe sees the sun through its
+/// tail from most points, where the sun's own samples find it; a narrower lobe sees it where it reflects it, and its
+/// light samples from a table that holds the sun find it there better than one sun sample. Why 0.1: BENCHMARKS.md,
+/// "The sun apart for lobes from GGX alpha 0.1".
+bool takes_sun_samples(const Material& material);
 
 class Integrator {
  public:
