@@ -21,10 +21,10 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench_cycles  # noqa: E402  (where the HDRIs are)
 import bench_product_efficiency as bpe  # noqa: E402  (scene loading, sphere masks, EXR reading, relMSE)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HDRI = "/usr/share/blender/datafiles/studiolights/world/%s.exr"
 CONFIGS = [("mis 1+1", ["--strategy", "mis", "--bsdf-samples", "1", "--light-samples", "1"]),
            ("mis", ["--strategy", "mis"]),
            ("default", [])]
@@ -35,7 +35,8 @@ VARIANT = {"c005": ("c002", 0.02), "c030": ("c020", 0.2), "p005": ("p002", 0.02)
 def scenes(hdri, out):
     """The two scene files lit by `hdri`, written into `out`."""
     base = bpe.load_scene(os.path.join(ROOT, "renderer", "scenes", "glossy.json"))
-    base["environment"] = {"image": HDRI % hdri, "convention": "blender", "intensity": 1.0}
+    base["environment"] = {"image": os.path.join(bench_cycles.HDRI_DIR, hdri + ".exr"), "convention": "blender",
+                           "intensity": 1.0}
     variant = json.loads(json.dumps(base))
     for old, (new, alpha) in VARIANT.items():
         variant["materials"][new] = dict(variant["materials"].pop(old), roughness=alpha)

@@ -23,7 +23,6 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_cycles as bc  # noqa: E402  (scene, masks, EXR reading, relMSE)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-HDRI = "/usr/share/blender/datafiles/studiolights/world/%s.exr"
 
 
 def main():
@@ -52,7 +51,7 @@ def main():
     for hdri in a.hdris.split(","):
         scene = os.path.join(a.out, hdri + ".json")
         with open(scene, "w") as f:
-            json.dump(bc.envrender_scene(spec, HDRI % hdri, size), f)
+            json.dump(bc.envrender_scene(spec, os.path.join(bc.HDRI_DIR, hdri + ".exr"), size), f)
         ref = os.path.join(a.out, "%s_ref_%d.exr" % (hdri, a.ref_spp))
         if not os.path.exists(ref):
             subprocess.run([a.envrender, "--scene", scene, "--spp", str(a.ref_spp), "--seed", "999", "--bake", "-q",
