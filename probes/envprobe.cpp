@@ -233,8 +233,7 @@ int run(const Args& a, const CLI::App& app) {
   // The preview is a second output: it must not replace the radiance map (or vice versa).
   std::vector<std::string> outputs = envkit::face_paths(a.output);
   if (!a.preview.empty()) outputs.push_back(a.preview);
-  envkit::check_distinct_outputs(outputs);
-  for (const std::string& out : outputs) envkit::check_output_path(out, {}, true);
+  envkit::check_outputs(outputs, {}, true);
   const envkit::ParamSpec spec = make_spec(a);
   const std::unique_ptr<envkit::Parameterization> map = envkit::make_parameterization(spec);
   probes::RasterOptions options;

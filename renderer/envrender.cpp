@@ -81,8 +81,7 @@ int run(const Args& a) {
   const std::string png = preview_path(a.output);
   std::vector<std::string> inputs;
   if (!a.scene.empty()) inputs.push_back(a.scene);
-  envkit::check_output_path(a.output, inputs, a.force);
-  envkit::check_output_path(png, inputs, a.force);
+  envkit::check_outputs({a.output, png}, inputs, a.force);
   auto thread_limit = tools::limit_threads(a.threads);
 
   SceneLoadOptions load;
@@ -99,8 +98,7 @@ int run(const Args& a) {
   // The environment image (its six faces for a '%' pattern) is an input too: never replace it. The loader names it
   // in environment_description ("probe ..." for a generated environment, which is no file).
   for (const std::string& image : envkit::face_paths(scene.environment_description)) inputs.push_back(image);
-  envkit::check_output_path(a.output, inputs, a.force);
-  envkit::check_output_path(png, inputs, a.force);
+  envkit::check_outputs({a.output, png}, inputs, a.force);
   if (!a.quiet) {
     for (const std::string& note : scene.notes) tools::info(note);
     for (const std::string& w : scene.tables->warnings())

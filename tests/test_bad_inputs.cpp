@@ -235,6 +235,7 @@ void generate(const fs::path& p, const std::string& gen) {
   if (head == "text") return spit(p, arg);
   if (head == "empty") return spit(p, "");
   if (head == "dir") return (void)fs::create_directories(p);
+  if (head == "symlink") return (void)(fs::remove(p), fs::create_symlink(arg, p));
   if (head == "fifo") return (void)(fs::remove(p), ::mkfifo(p.c_str(), 0600));
   if (head == "file") return (void)fs::copy_file(kCorpusDir / "files" / arg, p, fs::copy_options::overwrite_existing);
   throw std::runtime_error("unknown generator '" + gen + "'");

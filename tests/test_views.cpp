@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <random>
 
 namespace fs = std::filesystem;
@@ -195,6 +196,43 @@ TEST(Views, NinetyDegreeViewEqualsTheMatchingCubeFace) {
         }
       }
     EXPECT_LT(worst, 5e-3) << "face " << face;
+  }
+}
+
+// The narrowest views accepted see the radiance around the direction they look at: every texel between the
+// smallest and largest of the four source texels nearest to it, and the same values as a view 1000 times wider
+// (both far below one source texel); narrower views are refused rather than written black.
+TEST(Views, NarrowestViewsSeeTheirDirectionAndNarrowerAreRefused) {
+  const LatLongMap ll(64, 32);
+  const Image src = rasterize(ll, smooth_env);
+  const Vec3 forward = Vec3(0.3, 0.2, 1.0).normalized();
+  const Vec2 at = ll.to_image(forward);
+  const auto crop_of = [&](double fov, int lens) {
+    const std::unique_ptr<Parameterization> v =
+        lens < 0 ? std::unique_ptr<Parameterization>(std::make_unique<PerspectiveMap>(16, 16, view(forward, fov)))
+                 : std::make_unique<FisheyeMap>(16, 16, view(forward, fov, 0.0, kLenses[lens]));
+    return resample({src, ll, kId}, *v, kId);
+  };
+  const int x0 = int(std::floor(at.x - 0.5)), y0 = int(std::floor(at.y - 0.5));
+  for (int lens = -1; lens < 4; ++lens) {
+    const Image narrowest = crop_of(kMinFovDegrees, lens), wider = crop_of(1e-3, lens);
+    for (int c = 0; c < 3; ++c) {
+      float lo = src.at(x0, y0, c), hi = lo;
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          lo = std::min(lo, src.at(x0 + dx, y0 + dy, c));
+          hi = std::max(hi, src.at(x0 + dx, y0 + dy, c));
+        }
+      for (const int i : {6, 8, 9}) {  // inside every lens's image circle
+        EXPECT_GE(narrowest.at(i, i, c), lo * (1 - 1e-6)) << "lens " << lens << " channel " << c;
+        EXPECT_LE(narrowest.at(i, i, c), hi * (1 + 1e-6)) << "lens " << lens << " channel " << c;
+        EXPECT_NEAR(narrowest.at(i, i, c), wider.at(8, 8, c), 1e-3 * hi) << "lens " << lens << " channel " << c;
+      }
+    }
+  }
+  for (const double fov : {0.0, 1e-20, 0.5 * kMinFovDegrees, std::nan("")}) {
+    EXPECT_THROW(PerspectiveMap(16, 16, view(forward, fov)), Error) << fov;
+    for (const Lens lens : kLenses) EXPECT_THROW(FisheyeMap(16, 16, view(forward, fov, 0.0, lens)), Error) << fov;
   }
 }
 

@@ -175,13 +175,8 @@ envkit::ViewParams view_params(const Options& o, Kind kind) {
   if (!o.view_dir.empty()) {
     std::vector<double> c;
     std::istringstream in(o.view_dir);
-    for (std::string item; std::getline(in, item, ',');) {
-      try {
-        c.push_back(std::stod(item));
-      } catch (const std::exception&) {
-        throw CLI::ValidationError("--view-dir", "'" + o.view_dir + "' is not x,y,z or yaw,pitch");
-      }
-    }
+    for (std::string item; std::getline(in, item, ',');)
+      c.push_back(tools::parse_number("--view-dir", item, -1e300, 1e300));
     if (c.size() == 2) v.forward = envkit::direction_from_yaw_pitch(c[0], c[1]);
     else if (c.size() == 3 && Vec3(c[0], c[1], c[2]).length() > 0.0) v.forward = Vec3(c[0], c[1], c[2]);
     else throw CLI::ValidationError("--view-dir", "'" + o.view_dir + "' is not x,y,z (non-zero) or yaw,pitch");
@@ -232,6 +227,7 @@ void check_combinations(Options& o) {
                                "describe a camera view: add --to (or --from) perspective|fisheye");
   if (o.aspect != 1.0 && !is_view(to)) throw CLI::ValidationError("--aspect", "applies to --to perspective|fisheye");
   if (view_given && !is_view(to)) o.in.view = view_params(o, envkit::parse_kind(o.in.from));
+  if (is_view(to)) view_params(o, to);  // the output view's bounds: a usage error before anything is read
 }
 
 // The output image, the resampler's footprint tables and the encoder's copy: about 32 bytes per texel.
@@ -254,7 +250,7 @@ int convert(Options& o) {
   // Nothing is read before the paths are known to be sane: no surprises after a long conversion.
   envkit::install_temp_cleanup_on_signal();
   const std::vector<std::string> inputs = tools::input_paths(o.in.path);
-  for (const std::string& out : envkit::face_paths(o.out)) envkit::check_output_path(out, inputs, o.force);
+  envkit::check_outputs(envkit::face_paths(o.out), inputs, o.force);
   const auto thread_limit = tools::limit_threads(o.threads);
 
   tools::LoadedInput in = tools::load_input(o.in);

@@ -215,7 +215,7 @@ envkit::Image scalar_image(int w, int h, const std::vector<float>& values) {
   return image;
 }
 
-void export_tables(const envkit::EnvTables& t, const std::string& prefix) {
+void export_tables(const envkit::EnvTables& t, const std::string& table_path, const std::string& prefix) {
   const int W = t.width(), H = t.height();
   const std::size_t n = std::size_t(W) * H;
   envkit::WriteOptions wo;
@@ -225,8 +225,10 @@ void export_tables(const envkit::EnvTables& t, const std::string& prefix) {
   std::vector<std::string> written;
   const auto write = [&](const std::string& name, const envkit::Image& image) {
     const std::string path = prefix + "_" + name + ".exr";
-    envkit::write_image(path, image, wo);
+    // Checked as each name is made (the names depend on the tables): a failure here commits nothing.
     written.push_back(path);
+    envkit::check_outputs(written, {table_path}, false);
+    envkit::write_image(path, image, wo);
   };
   write("importance", scalar_image(W, H, {t.importance().begin(), t.importance().end()}));
 
@@ -321,7 +323,7 @@ int describe_tables(const Options& o) {
           tools::fmt(double(bytes) / (1 << 20), 4) + " MiB, " + tools::fmt(double(bytes) / texels, 3) + " bytes/texel");
     for (const std::string& w : t.warnings()) row("warning", w);
   }
-  if (!o.export_exr.empty()) export_tables(t, o.export_exr);
+  if (!o.export_exr.empty()) export_tables(t, o.in.path, o.export_exr);
   return tools::kExitOk;
 }
 

@@ -82,9 +82,10 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--irradiance", o.irradiance, "diffuse irradiance map (E/pi): .ktx2, .dds or .exr")->type_name("FILE");
   app.add_option("--lut", o.lut, "DFG lookup table: .png or .exr")->type_name("FILE");
   app.add_option("--size", o.size, "face size (cube) or side (octahedral) of level 0")
-      ->check(CLI::Range(1, 4096))
+      ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
-  app.add_option("--levels", o.levels, "number of levels (default: the full chain to 1 x 1)")->check(CLI::Range(0, 15));
+  app.add_option("--levels", o.levels, "number of levels (default: the full chain to 1 x 1)")
+      ->transform(tools::integer_in(0, 15));
   app.add_option("--mapping", o.mapping, "roughness of each level: gltf|filament|unreal")
       ->check(CLI::IsMember({"gltf", "filament", "unreal"}))
       ->capture_default_str();
@@ -93,7 +94,7 @@ void add_options(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_flag("--octahedral", o.octahedral, "equal-area octahedral maps instead of cubes");
   app.add_option("--accuracy", o.accuracy, "quadrature refinement threshold (smaller: slower, more exact)")
-      ->check(CLI::Range(0.01, 1.0))
+      ->check(tools::number_in(0.01, 1.0))
       ->capture_default_str();
   app.add_option("--sh-order", o.sh_order, "SH order: 2 (9 coefficients) or 3 (16)")
       ->check(CLI::IsMember({1, 2, 3}))
@@ -102,10 +103,10 @@ void add_options(CLI::App& app, Options& o) {
       ->check(CLI::IsMember({"none", "hanning", "lanczos"}))
       ->capture_default_str();
   app.add_option("--irradiance-size", o.irradiance_size, "face size of the irradiance map")
-      ->check(CLI::Range(1, 4096))
+      ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
   app.add_option("--lut-size", o.lut_size, "DFG LUT width and height")
-      ->check(CLI::Range(1, 4096))
+      ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
   app.add_option("--lut-layout", o.lut_layout, "DFG channels: scale-bias (R=A, G=B) or filament (R=B, G=A+B)")
       ->check(CLI::IsMember({"scale-bias", "filament"}))
@@ -153,7 +154,7 @@ int full_levels(int size) {
   return n;
 }
 
-void check_combinations(const Options& o) {
+void check_combinations(const Options& o, bool format_given) {
   if (o.out.empty() && o.sh.empty() && o.irradiance.empty() && o.lut.empty())
     throw CLI::ValidationError("outputs", "nothing to do: give -o, --sh, --irradiance and/or --lut");
   if (!o.out.empty()) {
@@ -177,10 +178,15 @@ void check_combinations(const Options& o) {
     throw CLI::ValidationError("--lut", "'" + o.lut + "': expected a .png or .exr file");
   if (!o.sh.empty() && extension(o.sh) != ".json")
     throw CLI::ValidationError("--sh", "'" + o.sh + "': expected a .json file");
+  const auto gpu_container = [](const std::string& path) {
+    return extension(path) == ".ktx2" || extension(path) == ".dds";
+  };
+  if (format_given && !gpu_container(o.out) && !gpu_container(o.irradiance))
+    throw CLI::ValidationError("--format", "applies to .ktx2 and .dds outputs only (OpenEXR outputs hold floats)");
 }
 
-int run(Options& o) {
-  check_combinations(o);
+int run(Options& o, bool format_given) {
+  check_combinations(o, format_given);
   envkit::install_temp_cleanup_on_signal();
   const std::vector<std::string> inputs = tools::input_paths(o.in.path);
   const int levels = o.levels == 0 ? full_levels(o.size) : o.levels;
@@ -189,7 +195,7 @@ int run(Options& o) {
     for (const std::string& p : chain_paths(o.out, levels)) targets.push_back(p);
   for (const std::string* p : {&o.sh, &o.irradiance, &o.lut})
     if (!p->empty()) targets.push_back(*p);
-  for (const std::string& t : targets) envkit::check_output_path(t, inputs, o.force);
+  envkit::check_outputs(targets, inputs, o.force);
   if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
   const auto thread_limit = tools::limit_threads(o.threads);
 
@@ -288,5 +294,5 @@ int main(int argc, char** argv) {
       "envprefilter");
   Options options;
   add_options(app, options);
-  return tools::run_cli(app, argc, argv, [&] { return run(options); });
+  return tools::run_cli(app, argc, argv, [&] { return run(options, app.count("--format") > 0); });
 }

@@ -198,11 +198,13 @@ fs::path temp_path_for(const fs::path& final_path) {
   return parent_dir(final_path) / temp;
 }
 
-/// Same file: equal after weakly_canonical, or the same inode when both exist (hard links).
+/// Same file: equal after weakly_canonical, or the same inode when both exist (hard links). Absolute first:
+/// weakly_canonical leaves a relative path whose first component does not exist relative, so "a.exr" would not
+/// match "sub/../a.exr".
 bool same_file(const std::string& a, const std::string& b) {
   std::error_code ea, eb;
-  const fs::path ca = fs::weakly_canonical(fs::path(a), ea);
-  const fs::path cb = fs::weakly_canonical(fs::path(b), eb);
+  const fs::path ca = fs::weakly_canonical(fs::absolute(fs::path(a), ea), ea);
+  const fs::path cb = fs::weakly_canonical(fs::absolute(fs::path(b), eb), eb);
   if (!ea && !eb && ca == cb) return true;
   std::error_code ec;
   return fs::exists(a, ec) && fs::exists(b, ec) && fs::equivalent(a, b, ec) && !ec;
@@ -412,6 +414,11 @@ void check_distinct_outputs(const std::vector<std::string>& outputs) {
   for (std::size_t i = 0; i < outputs.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
       if (same_file(outputs[j], outputs[i])) fail(outputs[i], "is the same file as the output " + outputs[j]);
+}
+
+void check_outputs(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs, bool force) {
+  check_distinct_outputs(outputs);
+  for (const std::string& out : outputs) check_output_path(out, inputs, force);
 }
 
 void install_temp_cleanup_on_signal() {

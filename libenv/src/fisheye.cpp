@@ -14,11 +14,13 @@ FisheyeMap::FisheyeMap(int width, int height, const ViewParams &view)
   const double fov = view.fov_degrees;
   const double max_fov = view.lens == Lens::Orthographic ? 180.0 : 360.0;
   const bool open_max = view.lens == Lens::Stereographic;
-  if (!(fov > 0.0) || fov > max_fov || (open_max && fov >= max_fov))
-    throw Error("a " + lens_name(view.lens) +
-                " fisheye's field of view must be in (0, " +
+  if (!(fov >= kMinFovDegrees) || fov > max_fov ||
+      (open_max && fov >= max_fov))
+    throw Error("the field of view of a fisheye (" + lens_name(view.lens) +
+                ") must be in [" +
+                number_text(kMinFovDegrees) + ", " +
                 std::to_string(int(max_fov)) + (open_max ? ")" : "]") +
-                " degrees, not " + std::to_string(fov));
+                " degrees, not " + number_text(fov));
   half_ = 0.5 * fov * kPi / 180.0;
   switch (view.lens) {
   case Lens::Equidistant:

@@ -12,10 +12,10 @@ PerspectiveMap::PerspectiveMap(int width, int height, const ViewParams &view)
     : Parameterization(width, height), view_(view), basis_(view_basis(view)) {
   if (width <= 0 || height <= 0)
     throw Error("a perspective view needs a non-empty image");
-  if (!(view.fov_degrees > 0.0 && view.fov_degrees < 180.0))
-    throw Error(
-        "a perspective field of view must be in (0, 180) degrees, not " +
-        std::to_string(view.fov_degrees));
+  if (!(view.fov_degrees >= kMinFovDegrees && view.fov_degrees < 180.0))
+    throw Error("a perspective field of view must be in [" +
+                number_text(kMinFovDegrees) + ", 180) degrees, not " +
+                number_text(view.fov_degrees));
   const double t = std::tan(0.5 * view.fov_degrees * kPi / 180.0);
   const double aspect = double(width) / height;
   tx_ = view.fov_axis == FovAxis::Horizontal ? t : t * aspect;

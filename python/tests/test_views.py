@@ -116,6 +116,16 @@ def test_view_errors_carry_the_cli_message(probe_dir, tmp_path):
         sky.convert("latlong", nside=4)
 
 
+@pytest.mark.parametrize("kind", ["perspective", "fisheye"])
+def test_vanishing_fields_of_view_are_refused_not_black(probe_dir, kind):
+    sky = envkit.EnvMap(str(probe_dir / "sky.exr"))
+    for fov in (1e-20, 0.0, float("nan")):
+        with pytest.raises((envkit.Error, ValueError), match="field of view|fov"):
+            sky.convert(kind, size=8, fov=fov)
+    narrowest = sky.convert(kind, size=8, fov=1e-6).data
+    assert np.all(narrowest[3:5, 3:5, :3] > 0), "the narrowest accepted view sees the sky"
+
+
 def test_view_size_from_the_texel_density_is_envconverts(probe_dir, tmp_path):
     src = probe_dir / "sky.exr"
     expected = cli_convert(src, tmp_path / "v.exr", "--to", "perspective", "--fov", "50", "--aspect", "2")

@@ -99,8 +99,13 @@ void check_output_path(const std::string& out, const std::vector<std::string>& i
 std::string without_temp_names(const std::string& message);
 
 /// Refuses two outputs of one run that name the same file (the later would replace the earlier):
-/// Error("<b>: is the same file as the output <a>") for the first such pair, compared like check_output_path.
+/// Error("<b>: is the same file as the output <a>") for the first such pair, compared like check_output_path
+/// (symlinks to one file, ".." paths and hard links match).
 void check_distinct_outputs(const std::vector<std::string>& outputs);
+
+/// Every output of one run, checked before any work: no two of them the same file (check_distinct_outputs), then
+/// each one as check_output_path(out, inputs, force). Tools with several outputs pass all of them in one call.
+void check_outputs(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs, bool force);
 
 /// Installs the SIGINT/SIGTERM/SIGHUP cleanup handlers (remove every live temp file, restore the previous handler,
 /// re-raise, so the process still dies with the signal or the previous handler runs) and the SIGXFSZ handler.

@@ -29,6 +29,11 @@ std::string lens_name(Lens lens);
 /// "equal-area", "ortho", "stereo"). Throws Error.
 Lens parse_lens(const std::string &name);
 
+/// The narrowest field of view a camera view accepts, in degrees (0.0036 arcseconds, far below any camera or
+/// telescope). Narrower views would have texel solid angles near float's smallest normal number at the largest
+/// image sizes, where the resampler's float tables lose them and the view comes out black.
+inline constexpr double kMinFovDegrees = 1e-6;
+
 /// Which image extent `fov_degrees` spans for a perspective view.
 enum class FovAxis { Horizontal, Vertical };
 
@@ -37,8 +42,9 @@ struct ViewParams {
       Vec3(0, 0, 1); ///< viewing direction, map frame (any non-zero length)
   double roll_degrees = 0.0;
   /// Perspective: full angle across the image width (Horizontal) or height
-  /// (Vertical), in (0, 180). Fisheye: full angle across the image circle's
-  /// diameter, in (0, 360] (orthographic (0, 180], stereographic (0, 360)).
+  /// (Vertical), in [kMinFovDegrees, 180). Fisheye: full angle across the
+  /// image circle's diameter, in [kMinFovDegrees, 360] (orthographic up to
+  /// 180, stereographic below 360).
   double fov_degrees = 90.0;
   FovAxis fov_axis = FovAxis::Horizontal;
   Lens lens = Lens::Equidistant; ///< fisheye only
