@@ -2,7 +2,7 @@
 # bench_bake.sh [--quick] [--repeats N] [--workdir DIR] [--build-dir DIR] [--no-build] [--threads T] [--out FILE]
 #               [--report-only]   (rewrite the report from the results already in --workdir; no measuring)
 #
-# The measurements of the envbake issue, side by side in ONE run, written to docs/bench_bake.md (or --out FILE):
+# envbake's measurements (against maketx, and what its defaults rest on), side by side in ONE run, written to docs/bench_bake.md (or --out FILE):
 #   a. full bake of the same float RGB EXR lat-long (envprobe default, 8192x4096; --quick 2048x1024):
 #      envbake IN -o T.envtbl (importance + cdf + alias + hierarchical) vs OIIO's maketx --envlatl IN -o OUT.tx,
 #      both with --threads T (default: nproc); plus envbake --tables cdf, envinfo IN (read + statistics: the cost
