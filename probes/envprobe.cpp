@@ -131,14 +131,14 @@ envkit::ParamSpec make_spec(const Args& a) {
       const int n = static_cast<int>(tools::parse_integer("--size", a.size, 1, kMaxSide));
       envkit::natural_image_size(kind, n, spec.layout, spec.width, spec.height);
       if (spec.width > kMaxSide || spec.height > kMaxSide)
-        throw CLI::ValidationError("--size", "'" + a.size + "': a " + envkit::kind_name(kind) + " map of natural size " +
-                                                 a.size + " is " + std::to_string(spec.width) + " x " +
-                                                 std::to_string(spec.height) + "; width and height must be in [1, " +
-                                                 std::to_string(kMaxSide) + "]");
+        throw CLI::ValidationError("--size", "'" + a.size + "': a " + envkit::kind_name(kind) +
+                                                 " map of natural size " + a.size + " is " +
+                                                 std::to_string(spec.width) + " x " + std::to_string(spec.height) +
+                                                 "; width and height must be in [1, " + std::to_string(kMaxSide) + "]");
     }
     // RGBA floats, the rasterizer's copy and the file encoder's: about 48 bytes per texel.
-    tools::check_image_size("--size", a.size, std::string(envkit::kind_name(kind)) + " map", spec.width,
-                            spec.height, 48.0);
+    tools::check_image_size("--size", a.size, std::string(envkit::kind_name(kind)) + " map", spec.width, spec.height,
+                            48.0);
   }
   if (!a.grid.empty()) {
     if (a.grid == "centre" || a.grid == "center") spec.grid = envkit::TexelGrid::Centre;

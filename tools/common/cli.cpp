@@ -244,12 +244,15 @@ std::optional<long long> whole_number(std::string_view text) {
 
 ImageSize parse_image_size(const std::string& option, const std::string& text, int max_side) {
   const std::size_t x = text.find_first_of("xX");
-  const std::optional<long long> w = x == std::string::npos ? std::nullopt : whole_number(std::string_view(text).substr(0, x));
-  const std::optional<long long> h = x == std::string::npos ? std::nullopt : whole_number(std::string_view(text).substr(x + 1));
+  std::optional<long long> w, h;
+  if (x != std::string::npos) {
+    w = whole_number(std::string_view(text).substr(0, x));
+    h = whole_number(std::string_view(text).substr(x + 1));
+  }
   if (!w || !h) throw CLI::ValidationError(option, "'" + text + "' is not WxH (two whole numbers, e.g. 1024x512)");
   if (*w < 1 || *h < 1 || *w > max_side || *h > max_side)
-    throw CLI::ValidationError(option, "'" + text + "': width and height must be in [1, " +
-                                           std::to_string(max_side) + "]");
+    throw CLI::ValidationError(option,
+                               "'" + text + "': width and height must be in [1, " + std::to_string(max_side) + "]");
   return {int(*w), int(*h)};
 }
 
