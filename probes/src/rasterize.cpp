@@ -11,7 +11,6 @@
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
 #include <envkit/vec.h>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
