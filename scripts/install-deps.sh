@@ -51,7 +51,7 @@ TEST_PACKAGES=(
   # The three.js viewer (web/) and its test: Debian's Chromium renders the page headless, WebGL on SwiftShader
   # (bundled with the package; no GPU, no display server, no browser download)
   chromium
-  blender blender-data                      # Cycles, the renderer peer of scripts/bench_cycles.sh; blender-data's HDRIs
+  blender blender-data                      # Cycles, the renderer peer of scripts/bench/bench_cycles.sh; blender-data's HDRIs
 )
 
 PACKAGES=("${RUNTIME_PACKAGES[@]}")

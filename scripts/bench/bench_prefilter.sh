@@ -5,9 +5,9 @@
 # and --accuracy 0.1 / 0.2 / 0.3 on the first case. Reports medians of interleaved repeats (wall seconds).
 # The usual peer, cmft, is not packaged in Debian 12 (apt-cache search cmft finds nothing), so no
 # ratio against it is measured here.
-# Usage: scripts/bench_prefilter.sh [--repeats N] [--no-large] [--build DIR]
+# Usage: scripts/bench/bench_prefilter.sh [--repeats N] [--no-large] [--build DIR]
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+root="$(cd "$(dirname "$0")/../.." && pwd)"
 build="${ENVKIT_BUILD_DIR:-$root/build}"
 repeats=3
 large=1
