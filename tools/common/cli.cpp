@@ -235,9 +235,8 @@ namespace {
 std::optional<long long> whole_number(std::string_view text) {
   if (text.empty() || text.find_first_not_of("0123456789") != std::string_view::npos) return std::nullopt;
   long long value = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error == std::errc::result_out_of_range) return std::numeric_limits<long long>::max();
-  return end == text.data() + text.size() ? std::optional<long long>(value) : std::nullopt;
+  const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
+  return result.ec == std::errc::result_out_of_range ? std::numeric_limits<long long>::max() : value;
 }
 
 }  // namespace
