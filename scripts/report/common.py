@@ -5,7 +5,7 @@ Every section gets a Context (tool paths, work directory, output directory, mode
   run(...)            run one command, log it (commands.log), return stdout, stderr and wall time
   timed_interleaved   median wall time of several commands over repeats, interleaved so that load hits all alike
   render(...)         one envrender run: parses the render seconds and spp it prints, returns the image as numpy
-  read_image(...)     any image (EXR with AOVs included) as a float32 numpy array H x W x C via oiiotool -> FITS
+  read_image(...)     one part of an image (EXR with AOVs included) as a numpy array H x W x C (bench/common.py)
   rel_mse(I, R)       mean((I - R)^2 / (R^2 + 1e-2)) over pixels and colour channels (bench/common.py)
   md_table / write_md / plot helpers / save_summary (JSON read by the final REPORT.md assembly)
 """
@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from bench.common import read_fits, rel_mse
+from bench.common import read_exr, rel_mse
 
 REPORT_DIR = os.path.dirname(os.path.abspath(__file__))
 SCENE_DIR = os.path.join(REPORT_DIR, "scenes")
@@ -115,13 +115,12 @@ class Context:
         return res
 
     def read_image(self, path, channels="R,G,B", subimage="0"):
-        """One subimage (EXR part) of an image; oiiotool would otherwise write every part into the FITS file."""
-        fits = path + ".fits"
-        self.run(["oiiotool", path] + (["--subimage", subimage] if subimage else []) +
-                 ["--ch", channels, "-d", "float", "-o", fits])
-        img = read_fits(fits)
-        os.remove(fits)
-        return img
+        """One subimage (EXR part, by index or name) of an image (bench/common.py read_exr); ToolFailed when oiiotool
+        cannot read it."""
+        try:
+            return read_exr(path, channels, subimage)
+        except subprocess.CalledProcessError as e:
+            raise ToolFailed(f"{path}: no channels {channels} in part {subimage}: {e.stderr.strip()[-200:]}") from e
 
     # ------------------------------------------------------------------ output
     def write_md(self, name, text):
