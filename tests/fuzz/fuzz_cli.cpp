@@ -27,7 +27,6 @@
 #endif
 #include <envkit/image_io.h>
 #include <envkit/latlong.h>
-
 #include <sys/stat.h>
 #include <unistd.h>
 
