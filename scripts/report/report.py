@@ -149,7 +149,7 @@ if s and s.get("ratios"):
     prod_scores = {c: v for c, v in prod_scores.items() if math.isfinite(v)}
     if comp and any(math.isfinite(x) for x in comp) and prod_scores:
         best_prod = max(prod_scores, key=prod_scores.get)
-        headline.append(f"Targets of the strategies issue: compensated MIS on the sunny probe {geomean(comp):.2f}x plain MIS "
+        headline.append(f"Strategy targets: compensated MIS on the sunny probe {geomean(comp):.2f}x plain MIS "
                         f"(target >= 1.5x: {'met' if geomean(comp) >= 1.5 else 'NOT met'}); best product "
                         f"configuration on the glossy sphere `{best_prod}` {prod_scores[best_prod]:.2f}x (target >= 2x: "
                         f"{'met' if prod_scores[best_prod] >= 2 else 'NOT met'}; "
