@@ -31,6 +31,8 @@ namespace tools = envkit::tools;
 
 // Radiance and colour components: finite, >= 0 and representable in a float file.
 constexpr double kMaxRadiance = 3.4e38;
+// --size: the widest and tallest map written.
+constexpr int kMaxSide = 65536;
 // Checker probe: cell integrals over the whole map beyond one per texel; 2^28 more is a few seconds on 2 cores.
 constexpr double kMaxCheckerPieces = 268435456.0;
 // Checker probe on maps without exact integrals: background samples along the cells' edges (2^27 is about ten
@@ -122,29 +124,21 @@ envkit::ParamSpec make_spec(const Args& a) {
   if (!a.layout.empty()) layout = envkit::parse_layout(a.layout);
   envkit::ParamSpec spec = envkit::spec_for(kind, 512, conv, layout);  // default natural size 512: 1024x512
   if (!a.size.empty()) {
-    long w = 0, h = 0;
-    try {
-      std::size_t used = 0;
-      const auto x = a.size.find('x');
-      if (x == std::string::npos) {
-        const long n = std::stol(a.size, &used);
-        if (used != a.size.size() || n < 1 || n > 65536) throw std::out_of_range(a.size);
-        envkit::natural_image_size(kind, static_cast<int>(n), spec.layout, spec.width, spec.height);
-        w = spec.width, h = spec.height;
-      } else {
-        const std::string ws = a.size.substr(0, x), hs = a.size.substr(x + 1);
-        std::size_t uw = 0, uh = 0;
-        w = std::stol(ws, &uw), h = std::stol(hs, &uh);
-        if (uw != ws.size() || uh != hs.size()) throw std::invalid_argument(a.size);
-      }
-    } catch (const std::exception&) {
-      throw Error("--size: '" + a.size + "' must be WxH or N (natural size: lat-long 2N x N, cube faces N)");
+    if (a.size.find_first_of("xX") != std::string::npos) {
+      const tools::ImageSize size = tools::parse_image_size("--size", a.size, kMaxSide);
+      spec.width = size.width, spec.height = size.height;
+    } else {
+      const int n = static_cast<int>(tools::parse_integer("--size", a.size, 1, kMaxSide));
+      envkit::natural_image_size(kind, n, spec.layout, spec.width, spec.height);
+      if (spec.width > kMaxSide || spec.height > kMaxSide)
+        throw CLI::ValidationError("--size", "'" + a.size + "': a " + envkit::kind_name(kind) +
+                                                 " map of natural size " + a.size + " is " +
+                                                 std::to_string(spec.width) + " x " + std::to_string(spec.height) +
+                                                 "; width and height must be in [1, " + std::to_string(kMaxSide) + "]");
     }
-    if (w < 1 || h < 1 || w > 65536 || h > 65536)
-      throw Error("--size: '" + a.size + "': width and height must be in [1, 65536]");
     // RGBA floats, the rasterizer's copy and the file encoder's: about 48 bytes per texel.
-    tools::check_image_size("--size", a.size, std::string(envkit::kind_name(kind)) + " map", w, h, 48.0);
-    spec.width = static_cast<int>(w), spec.height = static_cast<int>(h);
+    tools::check_image_size("--size", a.size, std::string(envkit::kind_name(kind)) + " map", spec.width, spec.height,
+                            48.0);
   }
   if (!a.grid.empty()) {
     if (a.grid == "centre" || a.grid == "center") spec.grid = envkit::TexelGrid::Centre;

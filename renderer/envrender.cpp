@@ -87,12 +87,10 @@ int run(const Args& a) {
   SceneLoadOptions load;
   load.bake = a.bake;
   if (!a.resolution.empty()) {
-    char tail = 0;
-    if (std::sscanf(a.resolution.c_str(), "%9dx%9d%c", &load.width, &load.height, &tail) != 2)
-      throw CLI::ValidationError("--resolution", "expected WxH, got '" + a.resolution + "'");
     // The scene format's limit, checked before the scene is loaded and anything is allocated.
-    if (load.width < 1 || load.height < 1 || load.width > 16384 || load.height > 16384)
-      throw CLI::ValidationError("--resolution", "'" + a.resolution + "': width and height must be in [1, 16384]");
+    const tools::ImageSize size = tools::parse_image_size("--resolution", a.resolution, 16384);
+    load.width = size.width;
+    load.height = size.height;
   }
   LoadedScene scene = a.scene.empty() ? make_default_scene(load) : load_scene_file(a.scene, load);
   // The environment image (its six faces for a '%' pattern) is an input too: never replace it. The loader names it

@@ -4,7 +4,7 @@
 # sampling tables, picture their samples, and render the default scene lit by them.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
-"$root/scripts/install-deps.sh"
+"$root/scripts/install-deps.sh" --runtime  # what the main job needs: no test, benchmark or viewer packages
 "$root/scripts/build.sh"
 bin="${ENVKIT_BUILD_DIR:-$root/build}/bin"
 out="${ENVKIT_DEMO_DIR:-$root/out/demo}"

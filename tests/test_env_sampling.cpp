@@ -1,5 +1,6 @@
 // Sampling directions from baked tables (env_sampling.h, env_tables.h): chi-square on the sphere for every
-// method and grid on the catalogue of maps, pdf consistency, inversion, extremes, file round trips.
+// method and grid on a catalogue of small maps built for their extremes (constant, one bright texel, light on the
+// pole rows only, ...), pdf consistency, inversion, extremes, file round trips.
 #include <envkit/color.h>
 #include <envkit/distribution_cdf.h>
 #include <envkit/env_tables.h>

@@ -1,4 +1,4 @@
-// The float-precision stress on the sphere: a 16384 x 8192 lat-long with a 1e6 sun over a 1e-3 sky
+// A float-precision stress on the sphere: a 16384 x 8192 lat-long with a 1e6 sun over a 1e-3 sky
 // (dynamic range 1e9), baked through EnvTables, sampled by every method, chi-square on the sphere. About 5 GB
 // and a minute: ctest label "long" (ENVKIT_LONG_TESTS=1 scripts/test.sh).
 #include "chi2.h"

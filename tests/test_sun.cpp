@@ -6,6 +6,7 @@
 #include <envkit/octahedral.h>
 #include <envkit/probes.h>
 #include <envkit/sun.h>
+#include <envkit/vec.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -20,7 +21,7 @@ namespace fs = std::filesystem;
 namespace {
 
 double degrees_between(const Vec3& a, const Vec3& b) {
-  return std::acos(std::clamp(a.normalized() ^ b.normalized(), -1.0, 1.0)) * 180.0 / kPi;
+  return safe_acos(a.normalized() ^ b.normalized()) * 180.0 / kPi;
 }
 
 EnvMap rasterized(const probes::Probe& probe, std::unique_ptr<Parameterization> param) {

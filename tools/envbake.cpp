@@ -18,6 +18,9 @@ namespace {
 namespace tools = envkit::tools;
 using envkit::Kind;
 
+// The widest bake grid (a lat-long of --size 65536): no importance map is wider.
+constexpr int kMaxImportanceSide = 1 << 17;
+
 const char* kFooter = R"(What is baked: importance = luminance (the working space's weights, Rec.709 primaries
 by default), average or max of the colour channels, times the exact solid angle of each texel. Maps that
 are not an envkit lat-long (or octahedral with --param octahedral, HEALPix with --param healpix) are first
@@ -73,14 +76,10 @@ void parse_tables(const std::string& list, envkit::BakeOptions& b) {
 }
 
 void parse_resolution(const std::string& text, envkit::BakeOptions& b) {
-  int w = 0, h = 0;
-  char x = 0, extra = 0;
-  std::stringstream ss(text);
-  if (!(ss >> w >> x >> h) || (x != 'x' && x != 'X') || (ss >> extra) || w < 1 || h < 1)
-    throw CLI::ValidationError("--resolution", "expected WxH with positive integers, got '" + text + "'");
-  tools::check_image_size("--resolution", text, "an importance map", w, h, 40.0);
-  b.importance_width = w;
-  b.importance_height = h;
+  const tools::ImageSize size = tools::parse_image_size("--resolution", text, kMaxImportanceSide);
+  tools::check_image_size("--resolution", text, "an importance map", size.width, size.height, 40.0);
+  b.importance_width = size.width;
+  b.importance_height = size.height;
 }
 
 int run(Options& o) {

@@ -122,11 +122,6 @@ double LatLongMap::solid_angle(double x0, double y0, double x1, double y1) const
   return kTwoPi * du * cos_difference(kPi * v0, kPi * v1);
 }
 
-double LatLongMap::row_solid_angle(int j) const {
-  const int i = width_ > 2 ? 1 : 0;  // an interior column (corner grids halve the edge columns)
-  return texel_solid_angle(i, j);
-}
-
 bool LatLongMap::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const {
   // Longitude wraps with the period of the grid (a corner grid repeats column 0 as column W-1);
   // latitude clamps.

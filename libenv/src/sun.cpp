@@ -3,6 +3,7 @@
 #include <envkit/solid_angle_table.h>
 #include <envkit/sun.h>
 #include <envkit/texel_directions.h>
+#include <envkit/vec.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -110,7 +111,7 @@ std::optional<SunEstimate> detect_sun(const EnvMap& map, const SunOptions& optio
     max_value = std::max({max_value, c[0], c[1], c[2]});
   }
   sun.texels = int(region.size());
-  sun.angular_radius = std::acos(std::clamp(1.0 - sun.solid_angle / kTwoPi, -1.0, 1.0));
+  sun.angular_radius = safe_acos(1.0 - sun.solid_angle / kTwoPi);
   sun.power_share = region_luminance_power / total_power;
   if (sun.angular_radius > options.max_radius || sun.power_share < options.min_power_share) return std::nullopt;
   sun.direction = centroid.length() > 0.0 ? centroid.normalized() : peak_dir;

@@ -3,6 +3,7 @@
 #include <envkit/error.h>
 #include <envkit/param_factory.h>
 #include <envkit/sun_split.h>
+#include <envkit/vec.h>
 
 #include <algorithm>
 #include <cmath>
@@ -24,7 +25,7 @@ double bounding_angle(const SphericalDistribution& grid, const Vec3& axis, const
     for (double fy : {0.0, 0.5, 1.0})
       for (double fx : {0.0, 0.5, 1.0}) {
         const Vec3 d = grid.direction_in_texel(x, y, fx, fy);
-        widest = std::max(widest, std::acos(std::clamp(d ^ axis, -1.0, 1.0)));
+        widest = std::max(widest, safe_acos(d ^ axis));
       }
   }
   return std::min(kPi, widest + texel_width);

@@ -10,7 +10,7 @@
 #include <envkit/error.h>
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
-
+#include <envkit/vec.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -301,7 +301,7 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
     latlong_texel_rect(*ctx.latlong, 0, j, 0.0, rect);
     Mask mask = 0;
     for (std::size_t k = 0; k < features.size(); ++k) {
-      const double theta = std::acos(std::clamp(features[k].centre.y, -1.0, 1.0));
+      const double theta = safe_acos(features[k].centre.y);
       const double margin = 1e-9 + features[k].bound;
       if (theta + margin >= kPi * rect[2] && theta - margin <= kPi * rect[3]) mask |= Mask{1} << k;
     }

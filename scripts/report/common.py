@@ -1,11 +1,12 @@
-"""Shared helpers of the speed-accuracy report (scripts/report.sh runs one scripts/report/<section>.py per section).
+"""Shared helpers of the speed-accuracy report (scripts/report/report.sh runs one scripts/report/<section>.py per section,
+as the module report.<section>).
 
 Every section gets a Context (tool paths, work directory, output directory, mode) and uses:
   run(...)            run one command, log it (commands.log), return stdout, stderr and wall time
   timed_interleaved   median wall time of several commands over repeats, interleaved so that load hits all alike
   render(...)         one envrender run: parses the render seconds and spp it prints, returns the image as numpy
-  read_image(...)     any image (EXR with AOVs included) as a float32 numpy array H x W x C via oiiotool -> FITS
-  relmse(I, R)        mean((I - R)^2 / (R^2 + 1e-2)) over pixels and colour channels (GUIDE.md "Measuring")
+  read_image(...)     one part of an image (EXR with AOVs included) as a numpy array H x W x C (bench/common.py)
+  rel_mse(I, R)       mean((I - R)^2 / (R^2 + 1e-2)) over pixels and colour channels (bench/common.py)
   md_table / write_md / plot helpers / save_summary (JSON read by the final REPORT.md assembly)
 """
 import json
@@ -20,6 +21,8 @@ import time
 
 import numpy as np
 
+from bench.common import read_exr, rel_mse
+
 REPORT_DIR = os.path.dirname(os.path.abspath(__file__))
 SCENE_DIR = os.path.join(REPORT_DIR, "scenes")
 
@@ -29,7 +32,7 @@ class ToolFailed(RuntimeError):
 
 
 class Context:
-    """Paths and mode shared by all sections; built from the environment set by scripts/report.sh."""
+    """Paths and mode shared by all sections; built from the environment set by scripts/report/report.sh."""
 
     def __init__(self, section):
         self.section = section
@@ -112,13 +115,12 @@ class Context:
         return res
 
     def read_image(self, path, channels="R,G,B", subimage="0"):
-        """One subimage (EXR part) of an image; oiiotool would otherwise write every part into the FITS file."""
-        fits = path + ".fits"
-        self.run(["oiiotool", path] + (["--subimage", subimage] if subimage else []) +
-                 ["--ch", channels, "-d", "float", "-o", fits])
-        img = read_fits(fits)
-        os.remove(fits)
-        return img
+        """One subimage (EXR part, by index or name) of an image (bench/common.py read_exr); ToolFailed when oiiotool
+        cannot read it."""
+        try:
+            return read_exr(path, channels, subimage)
+        except subprocess.CalledProcessError as e:
+            raise ToolFailed(f"{path}: no channels {channels} in part {subimage}: {e.stderr.strip()[-200:]}") from e
 
     # ------------------------------------------------------------------ output
     def write_md(self, name, text):
@@ -137,41 +139,6 @@ class Context:
         data["generated"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
         with open(os.path.join(self.out, f"{self.section}.json"), "w") as f:
             json.dump(data, f, indent=1, default=float)
-
-
-def read_fits(path):
-    """The FITS files oiiotool writes: BITPIX -32, NAXIS1 = channels, NAXIS2 = width, NAXIS3 = height, big-endian."""
-    with open(path, "rb") as f:
-        data = f.read()
-    cards, pos = {}, 0
-    while True:
-        block = data[pos:pos + 2880]
-        pos += 2880
-        end = False
-        for i in range(0, 2880, 80):
-            card = block[i:i + 80].decode("ascii", "replace")
-            key = card[:8].strip()
-            if key == "END":
-                end = True
-                break
-            if card[8:10] == "= ":
-                cards[key] = card[10:].split("/")[0].strip()
-        if end or pos >= len(data):
-            break
-    assert int(cards["BITPIX"]) == -32, f"{path}: BITPIX {cards['BITPIX']}"
-    naxis = int(cards["NAXIS"])
-    dims = [int(cards[f"NAXIS{i}"]) for i in range(1, naxis + 1)]
-    n = int(np.prod(dims))
-    arr = np.frombuffer(data, dtype=">f4", count=n, offset=pos).astype(np.float32)
-    if naxis == 3:
-        return arr.reshape(dims[2], dims[1], dims[0])
-    return arr.reshape(dims[1], dims[0], 1)
-
-
-def relmse(img, ref):
-    img = np.asarray(img, dtype=np.float64)
-    ref = np.asarray(ref, dtype=np.float64)
-    return float(np.mean((img - ref) ** 2 / (ref ** 2 + 1e-2)))
 
 
 def max_rel_pixel_error(img, ref):
@@ -321,5 +288,5 @@ class Reference:
 
     def error(self, img):
         """(relMSE against the reference, the same minus the reference's own expected contribution)."""
-        e = relmse(img, self.image)
+        e = rel_mse(img, self.image)
         return e, max(e - self.noise, 0.0)

@@ -1,10 +1,10 @@
 """Section 1: conversion. envconvert lat-long -> cube for every filter and output size: wall time vs error against
 the analytic probe rasterized exactly at the output size by envprobe; power error for a sub-texel sun; envconvert
-vs exrenvmap through scripts/bench_exrenvmap.sh."""
+vs exrenvmap through scripts/bench/bench_exrenvmap.sh."""
 import json
 import os
 
-from common import Context, commands_block, g, machine_line, md_table, plt
+from report.common import Context, commands_block, g, machine_line, md_table, plt
 
 ctx = Context("conversion")
 N = ctx.pick(128, 1024, 2048)  # source lat-long 2N x N
@@ -67,21 +67,21 @@ for f in FILTERS:
 bench = None
 bench_md = os.path.join(ctx.out, "bench_exrenvmap.md")
 if ctx.mode == "smoke":
-    ctx.note("smoke mode: scripts/bench_exrenvmap.sh is not run (its smallest case takes longer than the smoke budget)")
+    ctx.note("smoke mode: scripts/bench/bench_exrenvmap.sh is not run (its smallest case takes longer than the smoke budget)")
 else:
-    args = [os.path.join(ctx.root, "scripts", "bench_exrenvmap.sh"), "--workdir", ctx.path("exrenvmap"),
+    args = [os.path.join(ctx.root, "scripts", "bench", "bench_exrenvmap.sh"), "--workdir", ctx.path("exrenvmap"),
             "--out", bench_md]
     if ctx.mode == "quick":
         args.append("--quick")
     else:
         args += ["--repeats", str(ctx.repeats)]
     env = dict(os.environ, ENVKIT_BIN=ctx.bin)
-    ctx.info("scripts/bench_exrenvmap.sh")
+    ctx.info("scripts/bench/bench_exrenvmap.sh")
     out, err, wall, rc = ctx.run(args, check=False, env=env)
     if rc == 0 and os.path.exists(bench_md):
         bench = open(bench_md).read()
     else:
-        ctx.note(f"scripts/bench_exrenvmap.sh failed (exit {rc}): {err.strip()[-300:]}")
+        ctx.note(f"scripts/bench/bench_exrenvmap.sh failed (exit {rc}): {err.strip()[-300:]}")
 
 # ---------------------------------------------------------------- plots
 p = plt()
@@ -139,7 +139,7 @@ text = ["## 1. Conversion\n",
         "\n### envconvert vs exrenvmap\n"]
 if bench:
     body = bench.split("\n", 1)[1] if bench.startswith("## ") else bench
-    text.append(f"From `scripts/bench_exrenvmap.sh{' --quick' if ctx.mode == 'quick' else ''}` (run by the report; "
+    text.append(f"From `scripts/bench/bench_exrenvmap.sh{' --quick' if ctx.mode == 'quick' else ''}` (run by the report; "
                 f"table also in [bench_exrenvmap.md](bench_exrenvmap.md)):\n")
     text.append(body.replace("### ", "#### "))
 else:

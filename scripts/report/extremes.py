@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from common import (Context, Reference, commands_block, g, machine_line, max_rel_pixel_error, md_table, plt,
+from report.common import (Context, Reference, commands_block, g, machine_line, max_rel_pixel_error, md_table, plt,
                     scene_from_template)
 
 ctx = Context("extremes")

@@ -4,7 +4,7 @@ a plot."""
 import csv
 import io
 
-from common import Context, commands_block, g, machine_line, md_table, plt
+from report.common import Context, commands_block, g, machine_line, md_table, plt
 
 ctx = Context("precision")
 SIZES = ctx.pick("1024", "1024,2048,4096", "1024,2048,4096,8192,16384")

@@ -4,7 +4,7 @@ glossy (roughness 0.1) and a near-mirror (0.01) sphere under a sunny and an over
 import math
 import sys
 
-from common import (Context, Reference, ToolFailed, commands_block, g, geomean, machine_line, make_probe_images, md_table,
+from report.common import (Context, Reference, ToolFailed, commands_block, g, geomean, machine_line, make_probe_images, md_table,
                     plt, scene_with_image)
 
 ctx = Context("strategies")

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 
-from common import Context, commands_block, g, geomean, machine_line, md_table, plt
+from report.common import Context, commands_block, g, geomean, machine_line, md_table, plt
 
 ctx = Context("stratification")
 W, H = ctx.pick((256, 128), (1024, 512), (1024, 512))

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from common import (Context, Reference, ToolFailed, commands_block, g, machine_line, md_table, plt, scene_with_image)
+from report.common import (Context, Reference, ToolFailed, commands_block, g, machine_line, md_table, plt, scene_with_image)
 
 ctx = Context("tables")
 W, H = ctx.pick((256, 128), (1024, 512), (2048, 1024))

@@ -1,5 +1,5 @@
-// One timed image read or write, by envkit (read_image / write_image) or by OpenImageIO, for scripts/bench_io.sh, and
-// a conversion's I/O floor for scripts/bench_io_floor.sh.
+// One timed image read or write, by envkit (read_image / write_image) or by OpenImageIO, for scripts/bench/bench_io.sh,
+// and a conversion's I/O floor for scripts/bench/bench_io_floor.sh.
 //
 //   io_throughput envkit|oiio read  IN         time reading IN into float RGB(A)
 //   io_throughput envkit|oiio write IN OUT     read IN (untimed), time writing OUT (format from the extension)

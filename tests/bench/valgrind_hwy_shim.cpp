@@ -1,4 +1,4 @@
-// LD_PRELOAD shim for instruction counting under valgrind (scripts/bench_bake.sh section c).
+// LD_PRELOAD shim for instruction counting under valgrind (scripts/bench/bench_bake.sh section c).
 //
 // The benchmark programs link OpenImageIO, which brings libjxl's libhwy; libhwy's start-up code measures its timer
 // with rdtscp, an instruction valgrind 3.19 does not decode (SIGILL before main). Preloading this definition of the

@@ -27,10 +27,10 @@
 #endif
 #include <envkit/image_io.h>
 #include <envkit/latlong.h>
-
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -254,8 +254,10 @@ bool envprobe_too_costly(const std::vector<std::string>& args) {
     return plain(a) && plain(b) ? std::stol(a) * std::stol(b) : 0;
   };
   bool present = false;
-  for (const std::string& v : option_values(args, "--size", present))
+  for (std::string v : option_values(args, "--size", present)) {
+    std::replace(v.begin(), v.end(), 'X', 'x');  // WxH takes either case (tools/common/cli.h parse_image_size)
     if (v.empty() || product(v, 'x', 6) > kMaxTexels) return true;  // N: six cube faces of N x N at most
+  }
   for (const std::string& v : option_values(args, "--cells", present))
     if (product(v, ',', 1) > kMaxTexels) return true;
   return false;

@@ -13,11 +13,15 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <new>
+#include <optional>
+#include <string_view>
 
 namespace envkit::tools {
 
@@ -223,6 +227,32 @@ std::pair<double, double> parse_number_pair(const std::string& option, const std
   } catch (const std::exception&) {
     throw CLI::ValidationError(option, "'" + text + "' is not two numbers X,Y");
   }
+}
+
+namespace {
+
+// Digits only, as a non-negative integer; values beyond long long read as its maximum (out of every range).
+std::optional<long long> whole_number(std::string_view text) {
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string_view::npos) return std::nullopt;
+  long long value = 0;
+  const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
+  return result.ec == std::errc::result_out_of_range ? std::numeric_limits<long long>::max() : value;
+}
+
+}  // namespace
+
+ImageSize parse_image_size(const std::string& option, const std::string& text, int max_side) {
+  const std::size_t x = text.find_first_of("xX");
+  std::optional<long long> w, h;
+  if (x != std::string::npos) {
+    w = whole_number(std::string_view(text).substr(0, x));
+    h = whole_number(std::string_view(text).substr(x + 1));
+  }
+  if (!w || !h) throw CLI::ValidationError(option, "'" + text + "' is not WxH (two whole numbers, e.g. 1024x512)");
+  if (*w < 1 || *h < 1 || *w > max_side || *h > max_side)
+    throw CLI::ValidationError(option,
+                               "'" + text + "': width and height must be in [1, " + std::to_string(max_side) + "]");
+  return {int(*w), int(*h)};
 }
 
 CLI::Option* add_threads_option(CLI::App& app, int& threads) {

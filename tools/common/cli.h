@@ -79,6 +79,16 @@ std::string json_text(const nlohmann::json& j, int indent = 2);
 /// Parses "X,Y" (two finite numbers); throws CLI::ValidationError naming `option` otherwise.
 std::pair<double, double> parse_number_pair(const std::string& option, const std::string& text);
 
+/// An image size in texels.
+struct ImageSize {
+  int width = 0;
+  int height = 0;
+};
+/// Parses an image size "WxH": two whole decimal numbers joined by 'x' (or 'X'), nothing else (no signs, spaces or
+/// exponents), each in [1, max_side]. Every tool's WxH option goes through this one parser, so a malformed or
+/// out-of-range size is a usage error (CLI::ValidationError naming `option` and the value: kExitUsage).
+ImageSize parse_image_size(const std::string& option, const std::string& text, int max_side);
+
 /// Adds --threads N to `app` (0 = all cores, at most 1024).
 CLI::Option* add_threads_option(CLI::App& app, int& threads);
 /// Limits oneTBB to `threads` workers while the returned object lives (nothing for 0).

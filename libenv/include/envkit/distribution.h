@@ -13,9 +13,10 @@
 ///
 /// Which warp to prefer
 /// --------------------
-/// All three are exact in the sense that matters for estimators: pdf(sample(u).uv) == sample(u).pdf bit for bit,
+/// All four are exact in the sense that matters for estimators: pdf(sample(u).uv) == sample(u).pdf bit for bit,
 /// and pdf() is the density the tables actually draw from. They differ in how close that is to the ideal
-/// w / integral: alias and pyramid to ~1e-7 / ~1e-6 relative for every texel (pdf() returns w / integral);
+/// w / integral: sparse to double rounding (its densities and cumulative table are stored in double); alias and
+/// pyramid to ~1e-7 / ~1e-6 relative for every texel (pdf() returns w / integral);
 /// cdf's pdf() follows its float CDF steps, within (m + c) 2^-24 of the ideal for a texel of marginal m and
 /// conditional c (~1e-4 relative for ordinary texels of a 16k row, more for texels far dimmer than their row).
 /// - CdfDistribution2D (distribution_cdf.h): marginal CDF over rows + conditional CDF per row, continuous

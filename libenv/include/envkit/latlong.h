@@ -38,10 +38,6 @@ class LatLongMap final : public Parameterization {
   double solid_angle_density(Vec2 pos) const override;
   bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
 
-  /// Exact solid angle of one texel of row j (all texels of a row have the same solid angle, except the
-  /// duplicated edge columns of a corner-sampled map, which have half of it).
-  double row_solid_angle(int j) const;
-
   /// The domain's axes as angles, the one place that says how (envkit canonical frame, +Y up): longitude
   /// lon = pi - 2 pi u (u = 0 and 1 at -Z, 1/2 at +Z, lon measured from +Z towards +X), latitude pi (1/2 - v), polar
   /// angle from +Y theta = pi v; and back. Fast paths that tabulate rows or columns build from these.

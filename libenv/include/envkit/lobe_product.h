@@ -20,8 +20,8 @@
 /// with angle the angle between the bin's centre axis and the sub-node's centre, and delta the bin's radius plus
 /// the sub-node's (the largest lobe value any axis of the bin gives any direction of the sub-node, so that no
 /// point's lobe is cut where its table's is 0, e.g. a bright window just above a point's horizon but below its
-/// bin centre's). The second term, the floor, is at least the smallest normal float on every cell with light.
-/// and the texels inside a cell are drawn in proportion to the environment (the pyramid's own sums). The floor puts
+/// bin centre's). The second term is the floor; a cell with light weighs at least the smallest normal float.
+/// Within a cell, texels are drawn in proportion to the environment (the pyramid's own sums). The floor puts
 /// a share of every cell with light into the table, so pdf > 0 wherever the environment has light: unbiased with
 /// or without MIS, whatever lobe or axis a shading point is given.
 /// Density: every table is a SphericalDistribution over the environment's grid (the same sample() / pdf() /

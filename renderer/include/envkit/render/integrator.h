@@ -24,8 +24,8 @@
 ///           Their densities never overlap, so each is weighted against the BSDF alone (in the weights above, a
 ///           light sample's n p is that of its own part, a BSDF sample's light term M p_rest + S p_sun). The
 ///           radiance is the map's in every case: the converged image does not depend on S. Materials whose
-///           widest lobe is narrower than GGX alpha 0.25 keep the whole map's table (the split costs them more
-///           than it gains: measured in BENCHMARKS.md).
+///           widest lobe is narrower than GGX alpha kSunSampleAlpha (0.1) keep the whole map's table (the split
+///           costs them more than it gains: takes_sun_samples()).
 ///  - product, product-mis: as light and mis, with the light technique (the whole map's, or the rest of the map
 ///           beside the sun) replaced by the product table of the point's lobe (lobe_product.h): built once when
 ///           the integrator starts, for every lobe the scene's materials have (the clamped cosine around the normal

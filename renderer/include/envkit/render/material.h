@@ -18,8 +18,8 @@
 ///   probability of choosing the lobe (1 for a pure mirror).
 /// - No NaN or inf ever leaves a function: grazing and below-horizon directions give 0 / false.
 ///
-/// Models (stated, as the issue asks)
-/// ----------------------------------
+/// Models (stated in full: matching another renderer needs the exact formulas)
+/// ----------------------------------------------------------------------------
 /// - diffuse: f = albedo / pi; cosine-weighted hemisphere sampling (Shirley-Chiu concentric disk, Malley).
 /// - conductor: GGX (Trowbridge-Reitz) microfacet reflection, isotropic, alpha = roughness (clamped to
 ///   [1e-3, 1]); Smith HEIGHT-CORRELATED masking-shadowing G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (or, on request,

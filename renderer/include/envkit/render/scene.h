@@ -64,8 +64,6 @@ class Scene {
   /// behind). `which` receives the shape's label.
   bool inside_geometry(const Vec3& p, std::string* which = nullptr) const;
 
-  std::size_t shape_count() const { return shapes_.size(); }
-
   /// Origin for a ray leaving `hit` towards the side of the geometric normal `side_normal` (already flipped to
   /// the outgoing side): offset by a small distance proportional to the position's magnitude.
   static Vec3 offset_origin(const Vec3& position, const Vec3& side_normal);

@@ -8,7 +8,7 @@ efficiency over the first configuration's (median over the seeds), and in bracke
 spp. This is how the strategy and sample-count defaults were chosen (BENCHMARKS.md, "Product tables", "Samples
 per shading point"); bench_cycles.sh compares the default with Cycles.
 
-  scripts/bench_strategies.py --hdris sunrise,forest,interior,city \\
+  scripts/bench/bench_strategies.sh --hdris sunrise,forest,interior,city \\
       --config "1+1=--bsdf-samples 1 --light-samples 1" --config "by lobe="
 """
 import argparse
@@ -17,12 +17,9 @@ import os
 import shlex
 import statistics
 import subprocess
-import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import bench_cycles as bc  # noqa: E402  (scene, masks, EXR reading, relMSE)
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench import bench_cycles as bc  # the scenes and the HDRIs
+from bench.common import ROOT, exr_attr, read_exr, region_masks, rel_mse
 
 
 def main():
@@ -45,7 +42,7 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     spec = bc.SCENE
     regions = list(spec["regions"])
-    masks = bc.masks(spec, size)
+    masks = region_masks(spec, size)
     lines = ["| HDRI | configuration | s | " + " | ".join(regions) + " | geomean |",
              "|---|---|---:|" + "---:|" * (len(regions) + 1)]
     for hdri in a.hdris.split(","):
@@ -56,16 +53,16 @@ def main():
         if not os.path.exists(ref):
             subprocess.run([a.envrender, "--scene", scene, "--spp", str(a.ref_spp), "--seed", "999", "--bake", "-q",
                             "-f", "-o", ref, "--threads", a.threads], check=True)
-        R = bc.read_exr(ref)
+        R = read_exr(ref)
         runs = {name: [] for name, _ in configs}
         for seed in range(1, a.seeds + 1):  # interleaved: every configuration once per seed
             for name, options in configs:
                 out = os.path.join(a.out, "%s_%s_%d.exr" % (hdri, name.replace(" ", "_"), seed))
                 subprocess.run([a.envrender, "--scene", scene, "--spp", str(a.spp), "--seed", str(seed), "--bake",
                                 "-q", "-f", "-o", out, "--threads", a.threads] + shlex.split(options), check=True)
-                seconds = float(bc.exr_attr(out, "envkit:seconds"))
-                I = bc.read_exr(out)
-                runs[name].append((seconds, [bc.rel_mse(I, R, masks == i) for i in range(len(regions))]))
+                seconds = float(exr_attr(out, "envkit:seconds"))
+                I = read_exr(out)
+                runs[name].append((seconds, [rel_mse(I, R, masks == i) for i in range(len(regions))]))
         base = runs[configs[0][0]]
         for name, _ in configs:
             eff, rel = [], []

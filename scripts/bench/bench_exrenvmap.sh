@@ -16,7 +16,7 @@
 # context. The markdown table is printed and written to docs/bench_exrenvmap.md (or --out FILE).
 set -euo pipefail
 
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 BIN="${ENVKIT_BIN:-$ROOT/build/bin}"
 EXRENVMAP="${EXRENVMAP:-/usr/bin/exrenvmap}"
 QUICK=0

@@ -1,9 +1,9 @@
-"""Blender/Cycles side of scripts/bench_cycles.sh: builds the benchmark scene from scratch and renders it.
+"""Blender/Cycles side of scripts/bench/bench_cycles.sh: builds the benchmark scene from scratch and renders it.
 
 Run inside Blender (never imported by the system Python):
-    blender -b --factory-startup --python scripts/cycles_scene.py -- JOB.json
+    blender -b --factory-startup --python scripts/bench/cycles_scene.py -- JOB.json
 
-JOB.json (written by scripts/bench_cycles.py):
+JOB.json (written by scripts/bench/bench_cycles.py):
     {"scene": {...envkit-frame geometry, see bench_cycles.py...}, "hdri": "/path/x.exr", "threads": 2,
      "renders": [{"spp": 16, "seed": 1, "output": "/path/out.exr"}, ...], "timings": "/path/timings.json"}
 

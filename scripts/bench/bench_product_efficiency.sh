@@ -3,10 +3,10 @@
 # Renders renderer/scenes/glossy.json (sunny default probe) and glossy_overcast.json, a high-spp power-MIS
 # reference, then each config below for several seeds; relMSE per sphere, time, efficiency, ratio vs power MIS.
 # Output: docs/bench_product.md. Env: BUILD (build dir), SEEDS, REF_SPP, SPP, SCENES, OUT, THREADS.
-#   scripts/bench_product_efficiency.sh
-#   SEEDS=1 REF_SPP=512 scripts/bench_product_efficiency.sh    (quick look)
+#   scripts/bench/bench_product_efficiency.sh
+#   SEEDS=1 REF_SPP=512 scripts/bench/bench_product_efficiency.sh    (quick look)
 set -euo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/../.."
 BUILD=${BUILD:-build}
 SEEDS=${SEEDS:-3}
 REF_SPP=${REF_SPP:-2048}
@@ -17,7 +17,7 @@ SCENES=${SCENES:-"renderer/scenes/glossy.json renderer/scenes/glossy_overcast.js
 ENVRENDER=$BUILD/renderer/envrender
 [ -x "$ENVRENDER" ] || ENVRENDER=$(find "$BUILD" -name envrender -type f -perm -u+x | head -1)
 [ -x "$ENVRENDER" ] || { echo "no envrender in $BUILD (cmake --build $BUILD --target envrender)" >&2; exit 1; }
-command -v oiiotool >/dev/null && command -v exrheader >/dev/null || { echo "needs oiiotool and exrheader" >&2; exit 1; }
+command -v oiiotool >/dev/null || { echo "needs oiiotool" >&2; exit 1; }
 scene_args=()
 for s in $SCENES; do scene_args+=(--scene "$s"); done
 # label|spp|options. The first row is the baseline (power MIS, 1 BSDF + 1 light sample).
@@ -35,5 +35,5 @@ else
 fi
 config_args=()
 for c in "${configs[@]}"; do config_args+=(--config "$c"); done
-python3 scripts/bench_product_efficiency.py --envrender "$ENVRENDER" "${scene_args[@]}" --out "$OUT" \
+PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m bench.bench_product_efficiency --envrender "$ENVRENDER" "${scene_args[@]}" --out "$OUT" \
   --md docs/bench_product.md --ref-spp "$REF_SPP" --seeds "$SEEDS" --threads "$THREADS" "${config_args[@]}"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Image I/O throughput and tool start-up, envkit against OpenImageIO in the same run (BENCHMARKS.md, "Image I/O").
 #
-#   scripts/bench_io.sh [--build DIR] [--size WxH] [--repeats N] [--baseline BUILD_DIR] [--work DIR] [--startup-only]
+#   scripts/bench/bench_io.sh [--build DIR] [--size WxH] [--repeats N] [--baseline BUILD_DIR] [--work DIR] [--startup-only]
 #
 # Inputs: an WxH (default 8192x4096) float RGB lat-long from envprobe, stored as .exr (zip), .hdr and .pfm.
 # For each format, envkit (read_image / write_image) and OIIO (ImageInput / ImageOutput) read and write it,
@@ -11,7 +11,7 @@
 # timed by Python around each process), and of `oiiotool --help`; with --baseline, the same tools of another build
 # (e.g. one that links OIIO), interleaved run by run with envkit's, and the ratio. --startup-only skips the I/O part.
 set -euo pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 BUILD=${ENVKIT_BUILD_DIR:-$ROOT/build}
 SIZE=8192x4096
 REPEATS=3

@@ -5,12 +5,12 @@ For each HDRI (blender-data's studio lights) the scene of renderer/scenes/glossy
 plastics pNNN of alpha NNN/100) and a variant with alpha 0.02 and 0.2 in place of 0.05 and 0.3 are lit by the map;
 every sphere's bounding box is rendered on its own (`--crop`), so a render's seconds are that sphere's. Per sphere:
 a `--strategy mis` reference at --ref-spp, then --seeds renders at --spp of each configuration (interleaved);
-relMSE over the pixels lying entirely on the sphere (bench_product_efficiency.py's masks and formula), efficiency =
+relMSE over the pixels lying entirely on the sphere (bench_product_efficiency.py's pixels and formula), efficiency =
 1 / (relMSE x seconds), medians over the seeds. The table gives the default's efficiency over power MIS with 1 BSDF +
 1 light sample and, in brackets, over `--strategy mis` with the same sample counts as the default.
 
-  scripts/bench_spheres_alone.py                      (4 HDRIs x 10 spheres, about 20 min on 2 cores)
-  scripts/bench_spheres_alone.py --hdris sunrise --seeds 3 --ref-spp 1024   (a quick look)
+  scripts/bench/bench_spheres_alone.sh                      (4 HDRIs x 10 spheres, about 20 min on 2 cores)
+  scripts/bench/bench_spheres_alone.sh --hdris sunrise --seeds 3 --ref-spp 1024   (a quick look)
 """
 import argparse
 import json
@@ -20,11 +20,9 @@ import statistics
 import subprocess
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import bench_cycles  # noqa: E402  (where the HDRIs are)
-import bench_product_efficiency as bpe  # noqa: E402  (scene loading, sphere masks, EXR reading, relMSE)
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench import bench_cycles  # where the HDRIs are
+from bench import bench_product_efficiency as bpe  # its images and relMSE
+from bench.common import ROOT, load_scene, sphere_pixels
 CONFIGS = [("mis 1+1", ["--strategy", "mis", "--bsdf-samples", "1", "--light-samples", "1"]),
            ("mis", ["--strategy", "mis"]),
            ("default", [])]
@@ -34,7 +32,7 @@ VARIANT = {"c005": ("c002", 0.02), "c030": ("c020", 0.2), "p005": ("p002", 0.02)
 
 def scenes(hdri, out):
     """The two scene files lit by `hdri`, written into `out`."""
-    base = bpe.load_scene(os.path.join(ROOT, "renderer", "scenes", "glossy.json"))
+    base = load_scene(os.path.join(ROOT, "renderer", "scenes", "glossy.json"))
     base["environment"] = {"image": os.path.join(bench_cycles.HDRI_DIR, hdri + ".exr"), "convention": "blender",
                            "intensity": 1.0}
     variant = json.loads(json.dumps(base))
@@ -71,9 +69,9 @@ def main():
     spheres = []
     for hdri in a.hdris.split(","):
         for scene_path in scenes(hdri, a.out):
-            scene = bpe.load_scene(scene_path)
+            scene = load_scene(scene_path)
             width, height = scene["camera"]["resolution"]
-            for sphere, pix in bpe.sphere_masks(scene, width, height).items():
+            for sphere, pix in sphere_pixels(scene, width, height).items():
                 if sphere in rows.get(hdri, {}):
                     continue  # c010 and p010 are in both scenes
                 xs, ys = [x for x, _ in pix], [y for _, y in pix]

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""envrender vs Blender Cycles on real HDRIs (driver of scripts/bench_cycles.sh).
+"""envrender vs Blender Cycles on real HDRIs (driver of scripts/bench/bench_cycles.sh).
 
 One scene (four spheres on a diffuse ground: one Lambertian, three Fresnel-less GGX reflectors of alpha 0.05,
 0.15, 0.4), lit only by a real HDRI of blender-data, rendered direct-light-only by envrender (its default
-strategy: power-heuristic MIS of 1 BSDF sample and 1 sample of the product tables, lobe_product.h) and by Cycles (scripts/cycles_scene.py)
+strategy: power-heuristic MIS of 1 BSDF sample and 1 sample of the product tables, lobe_product.h) and by Cycles (scripts/bench/cycles_scene.py)
 in the same run. Each renderer is measured against its OWN converged reference rendered in the same run (another
 seed, --ref-spp samples); the two references are compared with each other for agreement.
 
@@ -16,7 +16,7 @@ Per region (each sphere, the ground; pixels whose whole footprint sees one objec
   efficiency = 1 / (relMSE x seconds) (seconds of the whole image: the regions share one render)
 With --repeats N, relMSE and seconds are the medians over N interleaved repeats (different seeds).
 
-EXRs are read through oiiotool (--dumpdata), so only numpy and matplotlib are needed here.
+EXRs are read through oiiotool (bench/common.py), so only numpy and matplotlib are needed here.
 """
 import argparse
 import datetime
@@ -31,7 +31,8 @@ import time
 
 import numpy as np
 
-EPS = 1e-2
+from bench.common import EPS, exr_attr, read_exr, region_masks, rel_mse
+
 HDRI_DIR = "/usr/share/blender/datafiles/studiolights/world"
 
 CAMERA = {"position": [0.0, 1.6, -7.5], "look_at": [0.0, 0.55, 0.0], "up": [0, 1, 0], "fov": 26}
@@ -166,106 +167,6 @@ def envrender_scene(spec, hdri, size, shadowing="height-correlated"):
     }
 
 
-def masks(spec, size, sub=4):
-    """Label per pixel (index into spec["regions"], -1 background, -2 mixed) from envrender's camera model
-    (camera.cpp): every one of sub x sub sub-pixel rays must see the same object."""
-    w, h = size
-    cam = spec["camera"]
-    pos = np.array(cam["position"], float)
-    fwd = np.array(cam["look_at"], float) - pos
-    fwd /= np.linalg.norm(fwd)
-    right = np.cross(fwd, np.array(cam.get("up", [0, 1, 0]), float))
-    right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    t = math.tan(0.5 * math.radians(cam["fov"]))
-    offs = (np.arange(sub) + 0.5) / sub
-    px = (np.arange(w)[None, :, None, None] + offs[None, None, None, :])
-    py = (np.arange(h)[:, None, None, None] + offs[None, None, :, None])
-    sx = (2 * px / w - 1) * t * (w / h)
-    sy = (1 - 2 * py / h) * t
-    sx, sy = np.broadcast_arrays(sx, sy)
-    d = fwd + right * sx[..., None] + up * sy[..., None]
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    best = np.full(d.shape[:-1], np.inf)
-    label = np.full(d.shape[:-1], -1)
-    regions = spec["regions"]
-    for sp in spec["spheres"]:
-        oc = pos - np.array(sp["center"], float)
-        b = (d * oc).sum(-1)
-        c = (oc * oc).sum() - sp["radius"] ** 2
-        disc = b * b - c
-        tt = -b - np.sqrt(np.maximum(disc, 0))
-        hit = (disc > 0) & (tt > 0) & (tt < best)
-        best[hit] = tt[hit]
-        label[hit] = regions.index(sp["material"])
-    for m in spec.get("meshes", []):
-        tri = m["triangles"]  # (n, 3, 3)
-        # Rays that can hit the mesh: those through its bounding sphere (Moeller-Trumbore on those only).
-        centre = tri.reshape(-1, 3).mean(0)
-        radius = np.linalg.norm(tri.reshape(-1, 3) - centre, axis=1).max()
-        oc = pos - centre
-        b = (d * oc).sum(-1)
-        near = b * b - ((oc * oc).sum() - radius ** 2) > 0
-        dn = d[near]
-        tbest = best[near]
-        lab = label[near]
-        for v0, v1, v2 in tri:
-            e1, e2 = v1 - v0, v2 - v0
-            pv = np.cross(dn, e2)
-            det = pv @ e1
-            with np.errstate(divide="ignore", invalid="ignore"):
-                inv = 1.0 / det
-                tv = pos - v0
-                u = (pv @ tv) * inv
-                qv = np.cross(tv, e1)
-                v = (dn @ qv) * inv
-                tt = (qv @ e2) * inv
-            hit = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (tt > 1e-9) & (tt < tbest)
-            tbest[hit] = tt[hit]
-            lab[hit] = regions.index(m["material"])
-        best[near] = tbest
-        label[near] = lab
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tg = -pos[1] / d[..., 1]
-    hp = pos + d * tg[..., None]
-    s = spec["ground"]["half_size"]
-    hit = (tg > 0) & (tg < best) & (np.abs(hp[..., 0]) < s) & (np.abs(hp[..., 2]) < s)
-    label[hit] = regions.index("ground")
-    flat = label.reshape(h, w, sub * sub)
-    out = flat[..., 0].copy()
-    out[(flat != flat[..., :1]).any(-1)] = -2
-    return out
-
-
-def read_exr(path, channels="R,G,B", subimage=None):
-    """Float image (H, W, C), row 0 on top: oiiotool extracts the channels to a float EXR and prints its pixels
-    (--dumpdata, 9 significant digits; Debian's OIIO has no PFM or raw writer)."""
-    tmp = "/tmp/bench_cycles_read_%d.exr" % os.getpid()
-    cmd = ["oiiotool", path] + (["--subimage", str(subimage)] if subimage is not None else [])
-    subprocess.run(cmd + ["--ch", channels, "-d", "float", "-o", tmp], check=True)
-    text = subprocess.run(["oiiotool", "--dumpdata", tmp], check=True, capture_output=True, text=True).stdout
-    os.unlink(tmp)
-    lines = text.splitlines()
-    w, h = map(int, lines[0].split(":", 1)[1].split(",")[0].split("x"))
-    vals = [ln.split(":", 1)[1] for ln in lines[1:] if ln.strip().startswith("Pixel (")]
-    data = np.array(" ".join(vals).split(), dtype=np.float64)
-    return data.reshape(h, w, -1)
-
-
-def exr_attr(path, key):
-    out = subprocess.run(["oiiotool", "--info", "-v", path], check=True, capture_output=True, text=True).stdout
-    for line in out.splitlines():
-        line = line.strip()
-        if line.startswith(key + ":"):
-            return line[len(key) + 1:].strip().strip('"')
-    return None
-
-
-def rel_mse(img, ref, mask):
-    e = (img - ref) ** 2 / (ref ** 2 + EPS)
-    return float(e[mask].mean())
-
-
 def run_envrender(args, scene_path, spp, seed, out):
     cmd = [args.envrender, "--scene", scene_path, "--spp", str(spp), "--seed", str(seed), "--bake",
            "--threads", str(args.threads), "-q", "-f", "-o", out]
@@ -357,7 +258,7 @@ def main():
     load_before = open("/proc/loadavg").read().split()[:3]
     args.spec = write_meshes(SCENES[args.scene], out)
     regions = args.spec["regions"]
-    mask = masks(args.spec, size)
+    mask = region_masks(args.spec, size)
     if args.crop:
         # The window's labels, renumbered over the regions it holds.
         mask = mask[args.crop[1]:args.crop[3], args.crop[0]:args.crop[2]]

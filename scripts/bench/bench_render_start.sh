@@ -7,7 +7,7 @@
 # (default 3), interleaved, and reports medians of process wall time, envrender's own setup note (split + product
 # tables) and peak RSS. Writes DIR/results.md (default out/bench_render_start). Uses build/bin.
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+root="$(cd "$(dirname "$0")/../.." && pwd)"
 bin="$root/build/bin"
 size=8192x4096
 repeats=3
@@ -63,7 +63,7 @@ median() { sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (
   echo "# envrender start on a ${size} map: the sun split built at load vs stored by envbake"
   echo
   echo "$(date -u '+%Y-%m-%d %H:%M UTC'), $(nproc) cores, load average $(cut -d' ' -f1-3 /proc/loadavg), medians of $repeats interleaved runs"
-  echo "(\`scripts/bench_render_start.sh --size $size --repeats $repeats\`). The two renders are compared with envdiff below."
+  echo "(\`scripts/bench/bench_render_start.sh --size $size --repeats $repeats\`). The two renders are compared with envdiff below."
   echo
   echo "| tables | envbake s | file MiB | envrender wall s | setup ms (split + product tables) | peak RSS MiB |"
   echo "|---|---:|---:|---:|---:|---:|"

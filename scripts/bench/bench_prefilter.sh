@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
-# Times envprefilter on the issue's two cases and its accuracy knob:
+# Times envprefilter on two sizes (a usual real-time one and a large one) and its accuracy knob:
 #   2048x1024 lat-long -> 256^2 cube, 9 GGX levels + SH + 128^2 DFG LUT   (target <= 1 s wall on 2 cores)
 #   8192x4096 lat-long -> 1024^2 cube, 11 GGX levels + SH + LUT           (target <= 10 s)
 # and --accuracy 0.1 / 0.2 / 0.3 on the first case. Reports medians of interleaved repeats (wall seconds).
-# The peer named by the issue, cmft, is not packaged in Debian 12 (apt-cache search cmft finds nothing), so no
+# The usual peer, cmft, is not packaged in Debian 12 (apt-cache search cmft finds nothing), so no
 # ratio against it is measured here.
-# Usage: scripts/bench_prefilter.sh [--repeats N] [--no-large] [--build DIR]
+# Usage: scripts/bench/bench_prefilter.sh [--repeats N] [--no-large] [--build DIR]
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+root="$(cd "$(dirname "$0")/../.." && pwd)"
 build="${ENVKIT_BUILD_DIR:-$root/build}"
 repeats=3
 large=1

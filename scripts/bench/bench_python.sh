@@ -6,10 +6,10 @@
 #     thread, bench_env_sampling Sample and SampleBatch) for context;
 #  3. batch throughput: envkit.batch (convert + bake) on a LocalCluster of two workers vs envconvert + envbake
 #     back to back on the same files; medians of interleaved repeats, ratio reported.
-# Usage: scripts/bench_python.sh [--quick] [--sampling] [--build DIR]   (builds nothing; run scripts/build.sh first)
+# Usage: scripts/bench/bench_python.sh [--quick] [--sampling] [--build DIR]   (builds nothing; run scripts/build.sh first)
 #   --sampling: sections 1 and 2 only.
 set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
+root="$(cd "$(dirname "$0")/../.." && pwd)"
 build="${ENVKIT_BUILD_DIR:-$root/build}"
 quick=0
 sampling_only=0

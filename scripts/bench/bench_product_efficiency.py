@@ -2,14 +2,12 @@
 """Product-sampling efficiency on glossy spheres: relMSE per sphere against a high-spp MIS reference,
 time from the EXR metadata (envkit:seconds), efficiency 1/(relMSE x time) and its ratio to power-heuristic MIS.
 
-Driven by scripts/bench_product_efficiency.sh; standard library only (EXRs are read through oiiotool -> FITS).
+Driven by scripts/bench/bench_product_efficiency.sh; needs numpy and oiiotool (EXRs are read by bench/common.py).
 relMSE = mean((I - R)^2 / (R^2 + 1e-2)) over every channel of the pixels lying entirely on one sphere (the pixel's
 four corners and centre hit it: silhouette pixels are left out), minus the reference's own variance of the mean
 (the AOV), so that a finite-spp reference does not flatten the ratios. Several seeds; medians.
 """
 import argparse
-import array
-import json
 import math
 import os
 import re
@@ -18,128 +16,32 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 
-def load_scene(path):
-    text = open(path).read()
-    text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
-    text = re.sub(r"(^|[^:])//[^\n]*", r"\1", text)
-    return json.loads(text)
-
-
-def sub(a, b): return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-def add(a, b): return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-def mul(a, s): return (a[0] * s, a[1] * s, a[2] * s)
-def dot(a, b): return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-def cross(a, b): return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-def norm(a): return mul(a, 1.0 / math.sqrt(dot(a, a)))
-
-
-class Camera:  # renderer/src/camera.cpp
-    def __init__(self, c, width, height):
-        self.pos = tuple(c["position"])
-        self.fwd = norm(sub(tuple(c["look_at"]), self.pos))
-        self.right = norm(cross(self.fwd, tuple(c.get("up", [0, 1, 0]))))
-        self.up = norm(cross(self.right, self.fwd))
-        self.tan_half = math.tan(0.5 * c.get("fov", 40) * math.pi / 180)
-        self.w, self.h = width, height
-
-    def ray(self, px, py):
-        aspect = self.w / self.h
-        sx = (2 * px / self.w - 1) * self.tan_half * aspect
-        sy = (1 - 2 * py / self.h) * self.tan_half
-        return norm(add(add(self.fwd, mul(self.right, sx)), mul(self.up, sy)))
-
-
-def hits_sphere(o, d, centre, r):
-    oc = sub(o, centre)
-    b = dot(oc, d)
-    c = dot(oc, oc) - r * r
-    return b * b - c > 0 and -b - math.sqrt(max(b * b - c, 0)) > 0
-
-
-def sphere_masks(scene, width, height):
-    cam = Camera(scene["camera"], width, height)
-    masks = {}
-    for s in scene["shapes"]:
-        if s["type"] != "sphere":
-            continue
-        pix = []
-        for y in range(height):
-            for x in range(width):
-                pts = [(x + 0.5, y + 0.5), (x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)]
-                if all(hits_sphere(cam.pos, cam.ray(px, py), tuple(s["center"]), s["radius"]) for px, py in pts):
-                    pix.append((x, y))
-        if pix:
-            masks[s["material"]] = pix
-    return masks
-
-
-def read_fits(path):
-    data = open(path, "rb").read()
-    cards, pos = {}, 0
-    while True:
-        block = data[pos:pos + 2880]
-        pos += 2880
-        end = False
-        for i in range(0, 2880, 80):
-            card = block[i:i + 80].decode("ascii", "replace")
-            if card[:8].strip() == "END":
-                end = True
-                break
-            if card[8:10] == "= ":
-                cards[card[:8].strip()] = card[10:].split("/")[0].strip()
-        if end:
-            break
-    dims = [int(cards[f"NAXIS{i}"]) for i in range(1, int(cards["NAXIS"]) + 1)]
-    n = 1
-    for d in dims:
-        n *= d
-    a = array.array("f")
-    a.frombytes(data[pos:pos + 4 * n])
-    if sys.byteorder == "little":
-        a.byteswap()
-    ch, w, h = (dims + [1])[:3] if len(dims) == 3 else (1, dims[0], dims[1])
-    return a, ch, w, h
-
-
-def read_exr(path, subimage, channels):
-    fits = path + f".{subimage}.fits"
-    subprocess.run(["oiiotool", path, "--subimage", str(subimage), "--ch", channels, "-d", "float", "-o", fits],
-                   check=True, capture_output=True)
-    img = read_fits(fits)
-    os.remove(fits)
-    return img
-
-
-def exr_seconds(path):
-    out = subprocess.run(["exrheader", path], check=True, capture_output=True, text=True).stdout
-    m = re.search(r'envkit:seconds \(type string\): "([0-9.eE+-]+)"', out)
-    return float(m.group(1))
+from bench.common import exr_attr, load_scene, read_exr, rel_mse, sphere_pixels
 
 
 class Image:
-    def __init__(self, path, crop):
-        self.rgb, ch, w, h = read_exr(path, 0, "R,G,B")
-        self.var = read_exr(path, 1, "variance.R,variance.G,variance.B")[0]
-        assert ch == 3, (path, ch)
-        if w == crop[2] - crop[0] and h == crop[3] - crop[1]:
-            self.x0, self.y0, self.w = crop[0], crop[1], w  # data window only
-        else:
-            self.x0, self.y0, self.w = 0, 0, w  # the full display window (oiiotool fills outside with 0)
-        self.seconds = exr_seconds(path)
+    """An envrender EXR of a --crop window: radiance, the variance of its mean (the aov part) and the render seconds,
+    addressed by pixel coordinates of the whole frame."""
 
-    def at(self, arr, x, y, c):
-        return arr[((y - self.y0) * self.w + (x - self.x0)) * 3 + c]
+    def __init__(self, path, crop):
+        self.rgb = read_exr(path, "R,G,B", 0)
+        self.var = read_exr(path, "variance.R,variance.G,variance.B", 1)
+        h, w = self.rgb.shape[:2]
+        self.x0, self.y0 = (crop[0], crop[1]) if (w, h) == (crop[2] - crop[0], crop[3] - crop[1]) else (0, 0)
+        self.seconds = float(exr_attr(path, "envkit:seconds"))
+
+    def at(self, arr, pix):
+        """arr's values (n x 3) at the pixels pix, a list of (x, y)."""
+        xs = np.array([x for x, _ in pix]) - self.x0
+        ys = np.array([y for _, y in pix]) - self.y0
+        return arr[ys, xs]
 
 
 def relmse(img, ref, pix):
-    s = 0.0
-    for x, y in pix:
-        for c in range(3):
-            r = ref.at(ref.rgb, x, y, c)
-            d = img.at(img.rgb, x, y, c) - r
-            s += (d * d - ref.at(ref.var, x, y, c)) / (r * r + 1e-2)
-    return max(s / (3 * len(pix)), 1e-30)
+    """relMSE over the pixels pix against the converged image (the reference's own variance taken off)."""
+    return rel_mse(img.at(img.rgb, pix), ref.at(ref.rgb, pix), ref_variance=ref.at(ref.var, pix))
 
 
 def main():
@@ -166,7 +68,7 @@ def main():
         subprocess.run(cmd, check=True)
 
     md = ["# Product sampling efficiency on glossy spheres", "",
-          "Generated by `scripts/bench_product_efficiency.sh` (" + time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()) +
+          "Generated by `scripts/bench/bench_product_efficiency.sh` (" + time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()) +
           f", {os.cpu_count()} cores, shared machine). relMSE = mean((I - R)^2 / (R^2 + 1e-2)) over the pixels lying "
           "entirely on each sphere, minus the reference's own variance of the mean; reference: power MIS 1+1 at "
           f"{args.ref_spp} spp; time = envkit:seconds of the render (all passes of one crop); efficiency = "
@@ -176,7 +78,7 @@ def main():
     for scene_path in args.scene:
         scene = load_scene(scene_path)
         W, H = scene["camera"]["resolution"]
-        masks = sphere_masks(scene, W, H)
+        masks = sphere_pixels(scene, W, H)
         ys = [y for pix in masks.values() for _, y in pix]
         xs = [x for pix in masks.values() for x, _ in pix]
         crop = (min(xs), min(ys), max(xs) + 1, max(ys) + 1)
@@ -189,7 +91,7 @@ def main():
         ref = Image(ref_path, crop)
         hl = {}
         for m in masks:
-            lum = sorted(masks[m], key=lambda p: -sum(ref.at(ref.rgb, p[0], p[1], c) for c in range(3)))
+            lum = sorted(masks[m], key=lambda p: -ref.at(ref.rgb, [p]).sum())
             hl[m] = lum[:max(1, len(lum) // 10)]
         results = {}  # label -> material -> [eff]
         secs = {}

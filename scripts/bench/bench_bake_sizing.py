@@ -3,7 +3,7 @@
 size, so that the default is chosen by measurement.
 
 For each map and each importance resolution (the map's own grid, then halved, quartered, ...), envbake bakes the
-tables envrender's default strategy reads (--tables hierarchical), and envrender renders scripts/bench_cycles.py's
+tables envrender's default strategy reads (--tables hierarchical), and envrender renders scripts/bench/bench_cycles.py's
 scene (four spheres on a ground) with its default strategy against a reference rendered from the full-resolution
 tables at many samples (any tables give the same converged image: rendering stays unbiased).
 
@@ -13,7 +13,7 @@ tables at many samples (any tables give the same converged image: rendering stay
 Maps: blender-data's sunrise, forest and interior (1024 x 512, real), and envprobe's default sky (sharp sun) at
 --probe-size (default 8192x4096: the size whose full bake is hundreds of MB).
 
-  scripts/bench_bake_sizing.sh [--spp 64] [--ref-spp 1024] [--repeats 3] [--probe-size 8192x4096] [--out DIR]
+  scripts/bench/bench_bake_sizing.sh [--spp 64] [--ref-spp 1024] [--repeats 3] [--probe-size 8192x4096] [--out DIR]
 Output: DIR/results.json and DIR/results.md (default out/bench_bake_sizing/).
 """
 import argparse
@@ -21,15 +21,12 @@ import datetime
 import json
 import os
 import subprocess
-import sys
 import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import bench_cycles as bc  # noqa: E402  (scene, masks, EXR reading)
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from bench import bench_cycles as bc  # the scene and the HDRIs
+from bench.common import ROOT, exr_attr, read_exr, region_masks, rel_mse
 
 
 def run(cmd):
@@ -50,7 +47,7 @@ def bake(args, image, tables, resolution):
 def render(args, scene, spp, seed, out):
     run([f"{args.bin}/envrender", "--scene", scene, "--spp", str(spp), "--seed", str(seed), "--threads",
          str(args.threads), "-q", "-f", "-o", out])
-    return float(bc.exr_attr(out, "envkit:seconds"))
+    return float(exr_attr(out, "envkit:seconds"))
 
 
 def scene_file(args, work, name, image, tables):
@@ -82,7 +79,7 @@ def main():
     maps = [(h, os.path.join(bc.HDRI_DIR, h + ".exr")) for h in ("sunrise", "forest", "interior")]
     maps.append(("probe " + args.probe_size, probe))
 
-    labels = bc.masks(bc.SCENE, args.size)
+    labels = region_masks(bc.SCENE, args.size)
     mask = labels >= 0
     start = datetime.datetime.now(datetime.timezone.utc)
     load_start = open("/proc/loadavg").read().split()[:3]
@@ -97,7 +94,7 @@ def main():
         bake(args, image, full_tables, None)
         ref_path = os.path.join(work, f"{key}_ref.exr")
         render(args, scene_file(args, work, key, image, full_tables), args.ref_spp, 9001, ref_path)
-        ref = bc.read_exr(ref_path)
+        ref = read_exr(ref_path)
         rows = []
         for level in range(args.levels):
             res = None if level == 0 else (max(w >> level, 2), max(h >> level, 1))
@@ -108,7 +105,7 @@ def main():
             for rep in range(args.repeats):
                 out = os.path.join(work, f"{key}_{level}_{rep}.exr")
                 sec = render(args, scene, args.spp, 100 + rep, out)
-                runs.append((bc.rel_mse(bc.read_exr(out), ref, mask), sec))
+                runs.append((rel_mse(read_exr(out), ref, mask), sec))
             relmse = float(np.median([r[0] for r in runs]))
             sec = float(np.median([r[1] for r in runs]))
             rows.append({"resolution": list(res) if res else [w, h], "bake_seconds": bake_s, "bytes": nbytes,

@@ -4,7 +4,7 @@
 # Regenerates the speed-accuracy report: docs/REPORT.md, with its tables (docs/report/*.md), plots
 # (docs/report/*.png) and raw numbers (docs/report/*.json). One python file per section in scripts/report/:
 #   1 conversion     envconvert filters x output sizes: time vs error against envprobe's exact rasterization,
-#                    sub-texel sun power error, envconvert vs exrenvmap (scripts/bench_exrenvmap.sh)
+#                    sub-texel sun power error, envconvert vs exrenvmap (scripts/bench/bench_exrenvmap.sh)
 #   2 tables         importance tables at full, 1/2, 1/4, 1/8 resolution: bake time, bytes, render relMSE
 #   3 strategies     envrender strategies: relMSE vs time, efficiency vs power-heuristic MIS (6 scenes)
 #   4 stratification cdf / alias / hierarchical x random / Sobol at 1..64 samples (envsample irradiance estimates)
@@ -24,7 +24,7 @@
 # Exit status: 0 when every section ran (a section may still report a missing feature in its text), 1 otherwise.
 set -euo pipefail
 
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 MODE=full
 BUILD="$ROOT/build-report"
 OUT=""
@@ -85,23 +85,25 @@ done
 
 export REPORT_MODE="$MODE" REPORT_BIN="$BUILD/bin" REPORT_ROOT="$ROOT" REPORT_OUT="$OUT" REPORT_WORK="$WORK"
 export REPORT_REPEATS="$REPEATS" PYTHONDONTWRITEBYTECODE=1
+# The sections are modules of the package report, which imports the package bench (scripts/bench/common.py).
+export PYTHONPATH="$ROOT/scripts${PYTHONPATH:+:$PYTHONPATH}"
 START=$(date +%s)
 FAILED=()
 IFS=',' read -r -a SECS <<< "$SECTIONS"
 for s in "${SECS[@]}"; do
   t0=$(date +%s)
   echo "report.sh: === $s ($MODE) ===" >&2
-  if "$PYTHON" "$ROOT/scripts/report/$s.py"; then
+  if "$PYTHON" -m "report.$s"; then
     echo "report.sh: $s done in $(( $(date +%s) - t0 )) s" >&2
   else
     echo "report.sh: section $s FAILED after $(( $(date +%s) - t0 )) s" >&2
     FAILED+=("$s")
-    printf '## %s\n\nThis section failed to run in the last %s invocation (see the console output of scripts/report.sh).\n' \
+    printf '## %s\n\nThis section failed to run in the last %s invocation (see the console output of scripts/report/report.sh).\n' \
       "$s" "$MODE" > "$OUT/$s.md"
     rm -f "$OUT/$s.json"
   fi
 done
-"$PYTHON" "$ROOT/scripts/report/report.py" "$OUT" "$MODE" "$(( $(date +%s) - START ))" "${FAILED[*]:-}"
+"$PYTHON" -m report.report "$OUT" "$MODE" "$(( $(date +%s) - START ))" "${FAILED[*]:-}"
 [[ -s "$(dirname "$OUT")/REPORT.md" ]] || { echo "report.sh: no $(dirname "$OUT")/REPORT.md written" >&2; exit 1; }
 echo "report.sh: $MODE report in $(( $(date +%s) - START )) s: $(dirname "$OUT")/REPORT.md" >&2
 [[ ${#FAILED[@]} == 0 ]] || { echo "report.sh: failed sections: ${FAILED[*]}" >&2; exit 1; }

@@ -6,9 +6,9 @@
 # process start-up that envconvert's wall time includes). Median of N interleaved repeats (default 3); the ratio
 # envconvert / floor is the figure (target <= 1.5).
 #
-#   scripts/bench_io_floor.sh [--build DIR] [--size WxH] [--face N] [--repeats N] [--work DIR]
+#   scripts/bench/bench_io_floor.sh [--build DIR] [--size WxH] [--face N] [--repeats N] [--work DIR]
 set -euo pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 BUILD=${ENVKIT_BUILD_DIR:-$ROOT/build}
 SIZE=8192x4096
 FACE=1024
