@@ -4,6 +4,7 @@
 #include <envkit/solid_angle_table.h>
 #include <envkit/texel_directions.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -327,9 +328,13 @@ class SliverReader {
       : capture_(c), layer_(layer), dst_(dst), dst_to_src_(compose(transposed(c.map.to_world()), dst_to_world)) {}
 
   bool read(Vec2 q, double rgb[3], double& m) {
+    // Isolated: while this thread waits for the nested parallel work, it must not
+    // take another texel of the caller's loop and reach this call_once again.
     std::call_once(once_, [this] {
-      colour_.emplace(layer_.source_colour, *capture_.map.param);
-      if (!layer_.source_mask.empty()) mask_.emplace(layer_.source_mask, *capture_.map.param);
+      tbb::this_task_arena::isolate([this] {
+        colour_.emplace(layer_.source_colour, *capture_.map.param);
+        if (!layer_.source_mask.empty()) mask_.emplace(layer_.source_mask, *capture_.map.param);
+      });
     });
     Vec3 d;
     if (!dst_.to_direction(q, d)) return false;
@@ -413,8 +418,10 @@ Image merge_captures(const std::vector<Capture>& captures, const Parameterizatio
         const bool inside = p.x >= 0 && p.y >= 0 && p.x <= c.map.image.width && p.y <= c.map.image.height;
         double per_pixel = inside ? c.map.param->solid_angle_density(p) : 0.0;
         if (!(per_pixel > 0.0)) {
-          std::call_once(mean_once, [&] {
-            mean_per_pixel = SolidAngleTable(*c.map.param).total() / (double(c.map.image.width) * c.map.image.height);
+          std::call_once(mean_once, [&] {  // isolated, as in SliverReader
+            tbb::this_task_arena::isolate([&] {
+              mean_per_pixel = SolidAngleTable(*c.map.param).total() / (double(c.map.image.width) * c.map.image.height);
+            });
           });
           per_pixel = mean_per_pixel;
         }
