@@ -2,22 +2,24 @@
 // outdoor probe (fisheyes, mirror balls 90 degrees apart, perspective views)
 // merge back into the probe's lat-long; masks drop a "photographer", exposures
 // undo darker shots, and the uncovered solid angle matches the closed form.
-#include "cli_support.h"
-
+#include <envkit/cubemap.h>
 #include <envkit/envmap.h>
 #include <envkit/fisheye.h>
 #include <envkit/latlong.h>
 #include <envkit/merge.h>
 #include <envkit/mirrorball.h>
+#include <envkit/octahedral.h>
 #include <envkit/perspective.h>
 #include <envkit/probes.h>
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
-
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cli_support.h"
 
 namespace fs = std::filesystem;
 using namespace envkit;
@@ -220,4 +222,186 @@ TEST(Merge, ToolMergesFilesAndReportsCoverage) {
   EXPECT_EQ(r.code, 2);
   EXPECT_FALSE(fs::exists(dir / "bad.exr"));
   fs::remove_all(dir);
+}
+
+namespace {
+
+// The probe's lat-long (with its sun) as a capture that covers the sphere.
+Capture whole_probe() {
+  Capture c;
+  c.map.param = std::make_unique<LatLongMap>(1024, 512);
+  c.map.image = reference();
+  c.name = "probe";
+  return c;
+}
+
+// Fraction of texel (i, j)'s solid angle that `sees` holds on, by brute force:
+// n x n sub-cells weighted by their exact solid angles.
+template <class Sees>
+double brute_force_coverage(const Parameterization& p, int i, int j, int n, const Sees& sees) {
+  double in = 0, all = 0;
+  for (int b = 0; b < n; ++b)
+    for (int a = 0; a < n; ++a) {
+      const double x0 = i + double(a) / n, y0 = j + double(b) / n;
+      const double w = p.solid_angle(x0, y0, x0 + 1.0 / n, y0 + 1.0 / n);
+      Vec3 d;
+      if (!(w > 0) || !p.to_direction(Vec2(x0 + 0.5 / n, y0 + 0.5 / n), d)) continue;
+      all += w;
+      if (sees(d)) in += w;
+    }
+  return all > 0 ? in / all : 0.0;
+}
+
+}  // namespace
+
+// A map that covers the sphere merges to itself: alpha exactly 1 wherever the
+// output holds data, and the radiance the area resampler gives (sun included),
+// whatever the output's kind and size.
+TEST(Merge, ACompleteMapMergesToItself) {
+  const std::vector<Capture> captures = [] {
+    std::vector<Capture> v;
+    v.push_back(whole_probe());
+    return v;
+  }();
+  const LatLongMap ll64(128, 64), ll8(16, 8);
+  const CubeMap cube(24);
+  const OctahedralMap octa(48);
+  const MirrorBallMap ball(64, 64);
+  for (const Parameterization* dst : std::initializer_list<const Parameterization*>{&ll64, &ll8, &cube, &octa, &ball}) {
+    SCOPED_TRACE(dst->describe());
+    const Image merged = merge_captures(captures, *dst, kId);
+    const Image ref = resample({reference(), LatLongMap(1024, 512), kId}, *dst, kId);
+    const SolidAngleTable omega(*dst);
+    int wrong_alpha = 0, wrong_colour = 0;
+    for (int j = 0; j < dst->height(); ++j)
+      for (int i = 0; i < dst->width(); ++i) {
+        if (!(omega(i, j) > 0)) {
+          wrong_alpha += merged.at(i, j, 3) != 0.0f;
+          continue;
+        }
+        wrong_alpha += merged.at(i, j, 3) != 1.0f;
+        for (int c = 0; c < 3; ++c)
+          wrong_colour += std::abs(merged.at(i, j, c) - ref.at(i, j, c)) > 2e-7f * std::abs(ref.at(i, j, c));
+      }
+    EXPECT_EQ(wrong_alpha, 0);
+    EXPECT_EQ(wrong_colour, 0);
+  }
+  // The same through the tools: envmerge of a complete map is envconvert's
+  // map of the same size.
+  const fs::path dir = fs::temp_directory_path() / ("envkit_test_merge_self_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  EnvMap ref;
+  ref.param = std::make_unique<LatLongMap>(1024, 512);
+  ref.image = reference();
+  const std::string src = (dir / "sky.exr").string(), merged = (dir / "m.exr").string(),
+                    converted = (dir / "c.exr").string();
+  save_envmap(src, ref);
+  auto r = test::run_tool("envmerge", {src, "-o", merged, "--size", "64", "-q"}, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = test::run_tool("envconvert", {src, "-o", converted, "--to", "latlong", "--size", "64", "-q"}, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Image m = load_envmap(merged).image, c = load_envmap(converted).image;
+  ASSERT_EQ(m.width, c.width);
+  ASSERT_EQ(m.height, c.height);
+  double worst = 0, alpha = 1;
+  for (int j = 0; j < m.height; ++j)
+    for (int i = 0; i < m.width; ++i) {
+      alpha = std::min(alpha, double(m.at(i, j, 3)));
+      for (int k = 0; k < 3; ++k)
+        worst =
+            std::max(worst, std::abs(double(m.at(i, j, k)) - c.at(i, j, k)) / std::max(1e-6, double(c.at(i, j, k))));
+    }
+  EXPECT_EQ(alpha, 1.0);
+  EXPECT_LT(worst, 1e-6);
+  fs::remove_all(dir);
+}
+
+// Two views whose union is the sphere merge to alpha 1 everywhere, also on the
+// texels each of them covers only in part: 180-degree fisheyes back to back
+// (their common edge cuts through texels), and 200-degree ones that overlap.
+TEST(Merge, HalfCapturesThatCoverTheSphereTogetherGiveAlphaOne) {
+  for (const double fov : {180.0, 200.0}) {
+    SCOPED_TRACE(fov);
+    std::vector<Capture> captures;
+    ViewParams front = fisheye_view(10, fov), back = fisheye_view(190, fov);
+    front.lens = back.lens = Lens::Equidistant;
+    captures.push_back(cut(std::make_unique<FisheyeMap>(256, 256, front)));
+    captures.push_back(cut(std::make_unique<FisheyeMap>(256, 256, back)));
+    const LatLongMap ll(128, 64);
+    MergeReport report;
+    const Image merged = merge_captures(captures, ll, kId, &report);
+    int below = 0;
+    for (int j = 0; j < ll.height(); ++j)
+      for (int i = 0; i < ll.width(); ++i) below += merged.at(i, j, 3) != 1.0f;
+    EXPECT_EQ(below, 0);
+    EXPECT_EQ(report.uncovered_solid_angle, 0.0);
+  }
+}
+
+// A partial capture's alpha is the covered fraction of each texel's solid
+// angle: a 120-degree fisheye looking straight up covers the cap within 60
+// degrees of +Y, so on the lat-long row the cap's edge cuts through the
+// fraction is (cos theta0 - cos 60) / (cos theta0 - cos theta1) exactly.
+TEST(Merge, CoverageOfACapIsItsExactFraction) {
+  ViewParams up;
+  up.forward = direction_from_yaw_pitch(0, 90);
+  up.fov_degrees = 120;
+  up.lens = Lens::Equidistant;
+  std::vector<Capture> captures;
+  captures.push_back(cut(std::make_unique<FisheyeMap>(200, 200, up)));
+  const LatLongMap ll(128, 64);
+  MergeReport report;
+  const Image merged = merge_captures(captures, ll, kId, &report);
+  const double edge = std::cos(kPi / 3);
+  double worst = 0;
+  for (int j = 0; j < ll.height(); ++j) {
+    const double c0 = std::cos(kPi * j / ll.height()), c1 = std::cos(kPi * (j + 1) / ll.height());
+    const double expected = std::clamp((c0 - std::max(c1, edge)) / (c0 - c1), 0.0, 1.0);
+    for (int i = 0; i < ll.width(); ++i) {
+      if (expected == 1.0 || expected == 0.0) {
+        ASSERT_EQ(merged.at(i, j, 3), float(expected)) << i << "," << j;
+      }
+      worst = std::max(worst, std::abs(merged.at(i, j, 3) - expected));
+    }
+  }
+  EXPECT_LT(worst, 1e-3);
+  // The cap's solid angle: 2 pi (1 - cos 60) = pi.
+  EXPECT_NEAR(report.covered_solid_angle[0], kPi, 1e-4 * kPi);
+  EXPECT_NEAR(report.uncovered_solid_angle, 3 * kPi, 1e-4 * kPi);
+}
+
+// The same for a tilted, rolled perspective view (a spherical quadrilateral
+// with corners) onto a lat-long and a cube, against a brute-force reference.
+TEST(Merge, CoverageOfAViewIsItsExactFraction) {
+  ViewParams v;
+  v.forward = direction_from_yaw_pitch(20, 15);
+  v.fov_degrees = 60;
+  v.roll_degrees = 10;
+  std::vector<Capture> captures;
+  captures.push_back(cut(std::make_unique<PerspectiveMap>(120, 90, v)));
+  const Parameterization& view = *captures[0].map.param;
+  const auto sees = [&](const Vec3& d) {
+    const Vec2 p = view.to_image(d);
+    return p.x >= 0 && p.y >= 0 && p.x <= view.width() && p.y <= view.height();
+  };
+  const LatLongMap ll(64, 32);
+  const CubeMap cube(12);
+  for (const Parameterization* dst : std::initializer_list<const Parameterization*>{&ll, &cube}) {
+    SCOPED_TRACE(dst->describe());
+    const Image merged = merge_captures(captures, *dst, kId);
+    double worst = 0;
+    int straddling = 0;
+    for (int j = 0; j < dst->height(); ++j)
+      for (int i = 0; i < dst->width(); ++i) {
+        const double coarse = brute_force_coverage(*dst, i, j, 16, sees);
+        const float a = merged.at(i, j, 3);
+        const bool uniform = coarse == 0.0 || coarse == 1.0;
+        if (uniform && a == float(coarse)) continue;
+        straddling += !uniform;
+        const double fine = brute_force_coverage(*dst, i, j, 256, sees);
+        worst = std::max(worst, std::abs(a - fine));
+      }
+    EXPECT_GT(straddling, 10);
+    EXPECT_LT(worst, 1e-3);
+  }
 }

@@ -19,8 +19,10 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/cli.h"
@@ -31,8 +33,11 @@ namespace {
 namespace fs = std::filesystem;
 namespace tools = envkit::tools;
 
+const char* kAtEscape = "an '@' in a file name is written '@@'";
+
 const char* kFooter =
-    R"(CAPTURE is FILE or FILE@key=value,key=value,... with keys
+    R"(CAPTURE is FILE or FILE@key=value,key=value,... (each key at most once; an '@' in FILE or in a value is written
+'@@': shot@@noon.exr@exposure=2 is the file shot@noon.exr) with keys
   from=KIND            the capture's parameterization (default: its metadata, as every tool detects it)
   lens=L fov=DEG yaw=DEG pitch=DEG roll=DEG
                        a camera view (from=fisheye|perspective): lens, field of view, where it looks (yaw about
@@ -42,8 +47,11 @@ const char* kFooter =
   exposure=X           multiply its colour by X (a shot one stop darker: exposure=2)
   mask=FILE            same size as the capture; 0 drops a pixel (camera, photographer, tripod), 1 keeps it
   convention=C         the convention it was written for
-Weights: coverage x mask x sampling density (a capture that spends more pixels on a direction counts more).
-Directions no capture sees get alpha 0 and radiance 0; their solid angle is reported.
+Each capture's radiance is its flux-weighted mean over the part of each output texel it sees (what envconvert
+gives), weighted by coverage x mask x sampling density (a capture that spends more pixels on a direction counts
+more). Alpha is the exact fraction of each texel's solid angle some capture sees (1 on texels seen whole: a
+complete map merges to itself), times the largest mask mean there. Directions no capture sees get alpha 0 and
+radiance 0; their solid angle is reported.
 
 Examples:
   envmerge front.exr@from=fisheye,lens=equisolid,fov=190 back.exr@from=fisheye,lens=equisolid,fov=190,yaw=180 -o sky.exr
@@ -74,20 +82,52 @@ struct CaptureSpec {
   std::string mask, rotate;
 };
 
+// A CAPTURE's file name and its key list: the keys start at the first '@' that is not doubled; "@@" is one '@' of
+// the name. No key list: nullopt.
+std::pair<std::string, std::optional<std::string>> split_capture(const std::string& text) {
+  std::string path;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '@') {
+      path += text[i];
+    } else if (i + 1 < text.size() && text[i + 1] == '@') {
+      path += '@';
+      ++i;
+    } else {
+      return {path, text.substr(i + 1)};
+    }
+  }
+  return {path, std::nullopt};
+}
+
+// A value of the key list with its "@@" read as '@'; a single '@' is refused (a name written without the escape).
+std::string unescape_value(const std::string& capture, const std::string& item) {
+  std::string out;
+  for (std::size_t i = 0; i < item.size(); ++i) {
+    if (item[i] == '@' && (i + 1 >= item.size() || item[i + 1] != '@'))
+      throw CLI::ValidationError("CAPTURE", "'" + capture + "': '" + item + "' has a single '@' (" + kAtEscape + ")");
+    out += item[i];
+    if (item[i] == '@') ++i;
+  }
+  return out;
+}
+
 CaptureSpec parse_capture(const std::string& text) {
   CaptureSpec c;
-  const auto at = text.rfind('@');
-  c.in.path = text.substr(0, at);
-  if (at == std::string::npos) return c;
+  const auto [path, keys] = split_capture(text);
+  c.in.path = path;
+  if (!keys) return c;
   envkit::ViewParams view;
   bool has_view = false;
   double yaw = 0, pitch = 0;
-  std::istringstream in(text.substr(at + 1));
+  std::set<std::string> given;
+  std::istringstream in(*keys);
   for (std::string item; std::getline(in, item, ',');) {
     const auto eq = item.find('=');
     if (eq == std::string::npos)
-      throw CLI::ValidationError("CAPTURE", "'" + text + "': '" + item + "' is not key=value");
-    const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
+      throw CLI::ValidationError("CAPTURE", "'" + text + "': '" + item + "' is not key=value (" + kAtEscape + ")");
+    const std::string key = item.substr(0, eq), value = unescape_value(text, item.substr(eq + 1));
+    if (!given.insert(key).second)
+      throw CLI::ValidationError("CAPTURE", "'" + text + "': key '" + key + "' given twice");
     try {
       if (key == "from")
         envkit::parse_kind(c.in.from = value);
@@ -113,7 +153,9 @@ CaptureSpec parse_capture(const std::string& text) {
         if (r.find(',') == std::string::npos) r += ",0,0";
         envkit::parse_rotation(c.rotate = r);
       } else
-        throw CLI::ValidationError("CAPTURE", "'" + text + "': unknown key '" + key + "'");
+        throw CLI::ValidationError(
+            "CAPTURE", "'" + text + "': unknown key '" + key + "'" +
+                           (key.find('@') != std::string::npos ? std::string(" (") + kAtEscape + ")" : std::string()));
     } catch (const envkit::Error& e) {
       throw CLI::ValidationError("CAPTURE", "'" + text + "': " + e.what());
     }

@@ -3,20 +3,26 @@
 /// Merging partial captures (fisheye photographs, mirror balls shot from
 /// different sides, perspective views, any map) into one environment map.
 ///
-/// Each capture is resampled into the output with the area filter, its colour
-/// scaled by its exposure and multiplied by its mask (1 keeps, 0 drops: the
-/// camera, the photographer, the tripod), the mask resampled alongside as an
-/// extra channel, and its coverage (the part of each output texel it sees) from
-/// the resampler's alpha. At each output texel, capture k gets the weight
-///     w_k = coverage_k x mask_k x density_k,   density_k = 1 / (capture's
-///     solid angle per pixel where it sees
-///                                                             the texel's
-///                                                             centre)
-/// (a capture that spends more of its pixels on a direction measures it
-/// better), and the merged radiance is sum_k w_k L_k / sum_k w_k, with L_k the
-/// capture's masked mean over the texel. Texels no capture sees get radiance 0
-/// and alpha 0 (not data, never black light); alpha is the largest coverage x
-/// mask any capture has there.
+/// Each capture's colour (times its mask) goes through the area resampler
+/// exactly as a conversion would (flux conserving, a sun splatted exactly), so
+/// L_k, its radiance over an output texel, is the flux-weighted mean over the
+/// part of the texel the capture sees; with a mask (the capture's mask times
+/// its alpha: 1 keeps, 0 drops the camera, the photographer, the tripod),
+/// L_k = mean(L x mask) / mask_k, mask_k = mean(mask) over that part. The
+/// capture's coverage_k is the exact fraction of the texel's solid angle it
+/// sees (its image, its disk): 1 exactly on texels it sees whole, 0 on texels
+/// it does not reach, an adaptive quadrature down to 1/256 of a texel on those
+/// its edge cuts through. At each output texel capture k gets the weight
+///     w_k = coverage_k x mask_k x density_k,
+/// density_k = 1 / (the capture's solid angle per pixel where it sees the
+/// texel's centre) (a capture that spends more of its pixels on a direction
+/// measures it better), and the merged radiance is sum_k w_k L_k / sum_k w_k,
+/// times each capture's exposure. Alpha is the fraction of the texel some
+/// capture sees (the union of the footprints, exactly) times the largest
+/// mask_k there, which is exact without masks or with one capture: a map that
+/// covers the sphere merges to itself (alpha 1, the resampler's radiance).
+/// Texels no capture sees get radiance 0 and alpha 0 (not data, never black
+/// light).
 #include <envkit/envmap.h>
 #include <envkit/image.h>
 #include <envkit/resample.h>
@@ -41,8 +47,8 @@ struct MergeReport {
   /// Solid angle (sr) of the output that no capture sees: sum over texels of
   /// Omega x (1 - alpha).
   double uncovered_solid_angle = 0.0;
-  /// Per capture: solid angle it sees (after its mask) and the share of the
-  /// merged weight it carries.
+  /// Per capture: solid angle it sees (sum of Omega x coverage_k x mask_k) and
+  /// the share of the merged weight it carries.
   std::vector<double> covered_solid_angle, weight_share;
 };
 
