@@ -358,6 +358,15 @@ TEST_F(RenderCli, HugeKeysAndValuesAreCutInMessages) {
   }
 }
 
+// A missing required key is named as the field, on the line of the object that lacks it.
+TEST_F(RenderCli, MissingKeyIsTheField) {
+  std::string text = scene();
+  const std::string position = "\"position\": [0, 1, -5], ";
+  text.replace(text.find(position), position.size(), "");  // line 2
+  const auto file = write("nopos.json", text);
+  expect_error(file, {"nopos.json:2: camera.position: missing key 'position'"});
+}
+
 // A scene path that loops (a symlink to itself) is named with the cause.
 TEST_F(RenderCli, SceneSymlinkLoopIsNamed) {
   fs::create_symlink("self.json", dir_ / "self.json");

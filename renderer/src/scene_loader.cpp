@@ -77,7 +77,7 @@ class Reader {
       }
   }
   const json& require(const json& object, const std::string& path, const std::string& key) const {
-    if (!object.contains(key)) fail(path, "missing key '" + key + "'");
+    if (!object.contains(key)) fail(join(path, key), "missing key '" + key + "'");  // the line of `path`
     return object.at(key);
   }
   double number(const json& v, const std::string& path) const {
