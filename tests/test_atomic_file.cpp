@@ -1,16 +1,16 @@
 // Tests for atomic_file.h: temp + rename writes, cleanup on failure and on signals, output-path checks.
 #include <envkit/atomic_file.h>
 #include <envkit/error.h>
-
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -68,6 +68,30 @@ int run_unprivileged(const std::function<int()>& body) {
   ::waitpid(pid, &status, 0);
   return WIFEXITED(status) ? WEXITSTATUS(status) : 100 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
+
+/// The process HandlerInstalledEarlierStaysInCharge starts: installs its own SIGINT handler before envkit installs
+/// anything, writes `target` through an AtomicOutput with a SIGINT in the middle, and exits 0 if its handler ran and
+/// the output was committed.
+int earlier_handler_child(const std::string& target) {
+  static volatile sig_atomic_t got = 0;
+  struct sigaction own {};
+  own.sa_handler = [](int) { got = 1; };
+  sigemptyset(&own.sa_mask);
+  ::sigaction(SIGINT, &own, nullptr);
+  AtomicOutput out(target);  // installs the cleanup handlers
+  { std::ofstream(out.temp_path()) << "data"; }
+  ::raise(SIGINT);
+  if (!got) return 1;
+  if (!fs::exists(out.temp_path())) return 2;
+  out.commit();
+  return fs::exists(target) ? 0 : 3;
+}
+
+// Before main(): the copy of this binary that HandlerInstalledEarlierStaysInCharge starts runs only the child.
+const int kEarlierHandlerChild = [] {
+  if (const char* target = std::getenv("ENVKIT_TEST_EARLIER_HANDLER")) ::_exit(earlier_handler_child(target));
+  return 0;
+}();
 
 bool starts_with(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
 
@@ -347,7 +371,9 @@ TEST_F(AtomicFileTest, FileSizeLimitFailsTheCommitInsteadOfKillingTheProcess) {
       out.commit();
       ::_exit(1);
     } catch (const Error& e) {
-      if (std::string(e.what()) != target + ": cannot write: file size limit exceeded (ulimit -f)") ::_exit(2);
+      if (std::string(e.what()) !=
+          target + ": cannot write: " + std::strerror(EFBIG) + " (the file size limit, ulimit -f)")
+        ::_exit(2);
     }
     ::_exit(fs::exists(target) || fs::exists(out.temp_path()) ? 3 : 0);
   }
@@ -364,4 +390,123 @@ TEST_F(AtomicFileTest, MessagesNameTargetsNotTempFiles) {
             "Failed to write \"" + path("sky.exr") + "\". File too large.");
   EXPECT_EQ(envkit::without_temp_names(bare.temp_path() + ": no file extension"), path("o_+X") + ": no file extension");
   EXPECT_EQ(envkit::without_temp_names("plain message"), "plain message");
+}
+
+TEST_F(AtomicFileTest, MessagesNameTheTargetOnceWhateverFollowsTheTempName) {
+  // A temp name followed by ':' (a writer's "<path>: cannot write") was turned into "u.ktx2.ktx2:".
+  AtomicOutput ktx(path("u.ktx2"));
+  EXPECT_EQ(envkit::without_temp_names(ktx.temp_path() + ": cannot write: No space left on device"),
+            path("u.ktx2") + ": cannot write: No space left on device");
+  EXPECT_EQ(envkit::without_temp_names("'" + ktx.temp_path() + "', then " + ktx.temp_path() + "."),
+            "'" + path("u.ktx2") + "', then " + path("u.ktx2") + ".");
+  // The bare file name (libraries that print only that) names the target too.
+  EXPECT_EQ(envkit::without_temp_names(fs::path(ktx.temp_path()).filename().string() + ": short write"),
+            path("u.ktx2") + ": short write");
+  // A relative target keeps its spelling.
+  AtomicOutput relative("irr.exr");
+  EXPECT_EQ(envkit::without_temp_names(relative.temp_path() + ": cannot write"), "irr.exr: cannot write");
+}
+
+TEST_F(AtomicFileTest, WriterHandedATempPathWritesIntoIt) {
+  // A tool stages its outputs itself and hands a writer the temp path: no second temp file, no second rename.
+  AtomicOutput staged(path("irr.exr"));
+  {
+    AtomicOutput inner(staged.temp_path());
+    EXPECT_EQ(inner.temp_path(), staged.temp_path());
+    envkit::AtomicOutputStream os(inner);
+    os << "irradiance";
+    os.close();
+    inner.commit();
+    EXPECT_EQ(listing(), std::vector<std::string>{fs::path(staged.temp_path()).filename().string()});
+  }
+  staged.commit();
+  EXPECT_EQ(read_text(path("irr.exr")), "irradiance");
+  EXPECT_EQ(listing(), std::vector<std::string>{"irr.exr"});
+}
+
+TEST_F(AtomicFileTest, StreamReportsTheTargetAndTheCause) {
+  const std::string target = path("s.csv");
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    int code = 1;
+    try {
+      AtomicOutput out(target);  // installs the SIGXFSZ handler: the write fails with EFBIG
+      const struct rlimit rl { 1024, 1024 };
+      ::setrlimit(RLIMIT_FSIZE, &rl);
+      envkit::AtomicOutputStream os(out);
+      for (int i = 0; i < 1000; ++i) os << "0.123456789,0.987654321\n";
+      os.close();
+    } catch (const Error& e) {
+      code = std::string(e.what()) == target + ": cannot write: " + std::strerror(EFBIG) ? 0 : 2;
+    }
+    ::_exit(code);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: no error, 2: wrong message";
+  EXPECT_TRUE(listing().empty()) << "the temp file is removed with its AtomicOutput";
+}
+
+TEST_F(AtomicFileTest, NulInTheTargetIsRefused) {
+  const std::string target = path("a") + std::string(1, '\0') + "b.exr";
+  try {
+    AtomicOutput out(target);
+    FAIL() << "a path with a NUL names another file once cut at the NUL";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("contains a NUL character"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("\\x00"), std::string::npos) << e.what();
+  }
+}
+
+// Every signal a user can send that ends the process by default: temp files removed, the process still dies by
+// that signal (exit status 128 + N in a shell).
+TEST_F(AtomicFileTest, EveryTerminatingSignalRemovesLiveTempFiles) {
+  for (int sig : {SIGHUP, SIGINT, SIGQUIT, SIGTERM, SIGUSR1, SIGUSR2, SIGPIPE, SIGALRM, SIGVTALRM, SIGPROF, SIGXCPU,
+                  SIGIO, SIGPWR, SIGRTMIN, SIGRTMAX}) {
+    SCOPED_TRACE(strsignal(sig));
+    const std::string target = path("interrupted.exr");
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      ::close(fds[0]);
+      const struct rlimit no_core { 0, 0 };
+      ::setrlimit(RLIMIT_CORE, &no_core);  // SIGQUIT dumps core by default
+      AtomicOutput out(target);
+      { std::ofstream(out.temp_path()) << "long write in progress"; }
+      if (::write(fds[1], "x", 1) != 1) ::_exit(3);
+      for (;;) ::pause();
+    }
+    ::close(fds[1]);
+    char c;
+    ASSERT_EQ(::read(fds[0], &c, 1), 1);
+    ::close(fds[0]);
+    ASSERT_EQ(listing().size(), 1u) << "the child wrote its temp file";
+    ::kill(pid, sig);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << "status " << status;
+    EXPECT_TRUE(listing().empty()) << "temp file removed by the handler";
+  }
+}
+
+// A handler someone installed before (Python's SIGINT handler raises KeyboardInterrupt) stays in charge: the signal
+// reaches it, the temp file is not pulled from under a write that goes on, and the output is committed. Run in a
+// fresh copy of this binary (see kEarlierHandlerChild): in this process the cleanup handlers are installed already.
+TEST_F(AtomicFileTest, HandlerInstalledEarlierStaysInCharge) {
+  const std::string target = path("python.exr");
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::setenv("ENVKIT_TEST_EARLIER_HANDLER", target.c_str(), 1);
+    char self[] = "test_atomic_file";
+    char* argv[] = {self, nullptr};
+    ::execv("/proc/self/exe", argv);
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: the earlier handler did not run, 2: temp file removed, 3: not committed";
+  EXPECT_TRUE(fs::exists(target));
 }

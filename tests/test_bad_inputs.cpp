@@ -470,6 +470,12 @@ class InterruptedWrite : public ::testing::Test {
     return status;
   }
 
+  /// SIGQUIT's default action dumps core: no core file may land in the work directory.
+  static void without_core_dumps() {
+    const struct rlimit no_core { 0, 0 };
+    ::setrlimit(RLIMIT_CORE, &no_core);  // inherited by the tools started
+  }
+
   /// Files the atomic writers leave only while they run: temp files and the backups of a group commit.
   bool leftovers(const fs::path& dir) const {
     for (const auto& e : fs::recursive_directory_iterator(dir)) {
@@ -483,9 +489,11 @@ class InterruptedWrite : public ::testing::Test {
 };
 
 // A 4096x2048 float EXR (100 MB before compression) takes long enough to write that the test catches the temp file.
+// SIGQUIT and SIGUSR1 stand for the other terminating signals a user can send (all listed in atomic_file.h).
 TEST_F(InterruptedWrite, SigtermDuringTheWriteLeavesNoOutputAndNoTempFile) {
-  for (int sig : {SIGTERM, SIGINT}) {
-    SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGINT");
+  without_core_dumps();
+  for (int sig : {SIGTERM, SIGINT, SIGQUIT, SIGUSR1}) {
+    SCOPED_TRACE(strsignal(sig));
     bool seen = false;
     const int status = run_and_signal(
         "envconvert",
@@ -495,6 +503,24 @@ TEST_F(InterruptedWrite, SigtermDuringTheWriteLeavesNoOutputAndNoTempFile) {
     ASSERT_TRUE(seen) << "envconvert finished (status " << status << ") before its temp file was seen";
     EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << "status " << status;
     EXPECT_EQ(names(), std::set<std::string>{"in.exr"}) << "a partial output or a temp file was left";
+  }
+}
+
+// envprefilter stages its outputs (GGX chain, irradiance, LUT) as temp files and renames them at the end: any
+// terminating signal meanwhile leaves none of them, and the process dies by that signal.
+TEST_F(InterruptedWrite, EnvprefilterInterruptedBySignalsLeavesNothing) {
+  without_core_dumps();
+  for (int sig : {SIGQUIT, SIGUSR1, SIGUSR2, SIGALRM, SIGPIPE, SIGXCPU, SIGHUP}) {
+    SCOPED_TRACE(strsignal(sig));
+    bool seen = false;
+    const int status = run_and_signal(
+        "envprefilter",
+        {(dir_ / "in.exr").string(), "-o", (dir_ / "u.ktx2").string(), "--size", "128", "--irradiance",
+         (dir_ / "irr.exr").string(), "--lut", (dir_ / "lut.png").string(), "-q"},
+        [&] { return temp_file_present(); }, sig, seen);
+    ASSERT_TRUE(seen) << "envprefilter finished (status " << status << ") before a temp file was seen";
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == sig) << "status " << status;
+    EXPECT_EQ(names(), std::set<std::string>{"in.exr"}) << "an output or a temp file was left";
   }
 }
 
@@ -669,6 +695,54 @@ TEST_F(InterruptedWrite, FullDiskLeavesNoOutput) {
     EXPECT_FALSE(leftovers(full));
   }
   if (mounted) ::umount(full.c_str());
+}
+
+// A failed write names the user's file and the cause, for every kind of writer (text, KTX2, OpenEXR through the
+// staged outputs of envprefilter and through envconvert, table files): one stderr line
+// "<tool>: <output>: cannot write: <strerror>", never a temp name, and nothing left behind. Under a file size limit
+// (EFBIG, "File too large") always; on a full 16 KiB tmpfs (ENOSPC) where mounting is allowed (root).
+TEST_F(InterruptedWrite, WriteErrorsNameTheOutputAndTheCause) {
+  const std::string in = (dir_ / "in.exr").string(), tables = (dir_ / "t.envtbl").string();
+  ASSERT_EQ(envkit::test::run_tool("envbake", {in, "-o", tables, "-q"}, dir_).code, 0);
+  const fs::path out = dir_ / "out";
+  fs::create_directories(out);
+  const bool mounted = ::mount("tmpfs", out.c_str(), "tmpfs", 0, "size=16k") == 0;
+  struct Writer {
+    std::string output;
+    std::vector<std::string> command;
+  };
+  const std::string o = out.string() + "/";
+  const std::vector<Writer> writers = {
+      {o + "s.csv", {"envsample", tables, "-o", o + "s.csv", "-n", "20000", "-q"}},
+      {o + "u.ktx2", {"envprefilter", in, "-o", o + "u.ktx2", "--size", "64", "-q"}},
+      {o + "irr.exr", {"envprefilter", in, "--irradiance", o + "irr.exr", "--irradiance-size", "64", "-q"}},
+      {o + "c.exr", {"envconvert", in, "-o", o + "c.exr", "--to", "latlong", "--compression", "none", "-q"}},
+      {o + "b.envtbl", {"envbake", in, "-o", o + "b.envtbl", "-q"}},
+  };
+  for (const bool full_disk : {false, true}) {
+    if (full_disk && !mounted) continue;
+    const std::string cause = std::strerror(full_disk ? ENOSPC : EFBIG);
+    for (const Writer& w : writers) {
+      SCOPED_TRACE(w.command[0] + " " + w.output + (full_disk ? " on a full tmpfs" : " under a file size limit"));
+      const std::vector<std::string> args(w.command.begin() + 1, w.command.end());
+      std::string err;
+      int status = 0;
+      if (full_disk) {
+        const CommandResult r = envkit::test::run_tool(w.command[0], args, dir_);
+        status = r.code == 1 ? 0x100 : -1;
+        err = r.err;
+      } else {
+        status = run_with_file_limit(w.command[0], args, 4096, err);
+      }
+      EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << "status " << status << ": " << err;
+      EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+      EXPECT_EQ(err.rfind(w.command[0] + ": " + w.output + ": cannot write: ", 0), 0u) << err;
+      EXPECT_NE(err.find(cause), std::string::npos) << "says why: " << err;
+      EXPECT_EQ(err.find(".tmp-"), std::string::npos) << "no temp name: " << err;
+      EXPECT_TRUE(fs::is_empty(out)) << "nothing left in " << out;
+    }
+  }
+  if (mounted) ::umount(out.c_str());
 }
 
 }  // namespace

@@ -19,7 +19,9 @@
 #include <OpenEXR/ImfMultiPartInputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 
 #include <filesystem>
 #include <fstream>
@@ -312,6 +314,68 @@ TEST_F(RenderCli, MissingMeshIsAnError) {
   const auto file = write("mesh.json", scene(R"(,
     {"type": "mesh", "file": "nowhere.obj", "material": "white"})"));
   expect_error(file, {"mesh.json:9:", "shapes[1].file", "nowhere.obj", "does not exist"});
+}
+
+// A symlink loop among the meshes is a scene error like a missing mesh: the scene file, the line, the field, the
+// file and the cause, not a bare file-system exception.
+TEST_F(RenderCli, MeshSymlinkLoopNamesTheSceneLineAndField) {
+  fs::create_symlink("b.obj", dir_ / "a.obj");
+  fs::create_symlink("a.obj", dir_ / "b.obj");
+  const auto file = write("loop.json", scene(R"(,
+    {"type": "mesh", "file": "a.obj", "material": "white"})"));
+  expect_error(file, {"loop.json:9: shapes[1].file: mesh file '", "a.obj': ", std::strerror(ELOOP)});
+}
+
+// A "\u0000" in a file name: refused as such (cut at the NUL, the name would silently name another file).
+TEST_F(RenderCli, NulInAFileNameIsNamed) {
+  write("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const auto mesh = write("nul.json", scene(R"(,
+    {"type": "mesh", "file": "a.obj\u0000.png", "material": "white"})"));
+  expect_error(mesh, {"nul.json:9: shapes[1].file: file name 'a.obj\\x00.png' contains a NUL character"});
+  const auto image = write("nul_image.json",
+                           scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                 R"("image": "sky\u0000.exr", "tables": "sky.envtbl")"));
+  expect_error(image, {"nul_image.json:3: environment.image: file name 'sky\\x00.exr' contains a NUL character"});
+}
+
+// User text echoed in a message is cut: a 2 MB unknown key (or material name, or value) gives a line of a few
+// hundred characters that still names the scene, the line and the start of the key.
+TEST_F(RenderCli, HugeKeysAndValuesAreCutInMessages) {
+  const std::string huge(2 << 20, 'k');
+  std::string text = scene();
+  text.replace(text.find("\"fov\": 40"), 9, "\"fov\": 40, \"" + huge + "\": 2");  // line 2
+  const auto key = write("key.json", text);
+  expect_error(key, {"key.json:2: camera." + std::string(60, 'k') + "... (2097152 bytes): unknown key '"});
+  const auto material = write("material.json", scene(R"(,
+    {"type": "sphere", "center": [2, 0.5, 0], "radius": 0.5, "material": ")" + huge + R"("})"));
+  expect_error(material, {"material.json:9: shapes[1].material: unknown material '" + std::string(60, 'k') +
+                          "... (2097152 bytes)'"});
+  const auto malformed = write("malformed.json", "{\"" + huge + "\" 1}");
+  expect_error(malformed, {"malformed.json:1: malformed JSON: "});
+  for (const auto& file : {key, material, malformed}) {
+    const auto r = envrender({"--scene", file.string(), "-o", (dir_ / "out.exr").string()});
+    EXPECT_LT(r.err.size(), 1000u) << file;
+  }
+}
+
+// A missing required key is named as the field, on the line of the object that lacks it.
+TEST_F(RenderCli, MissingKeyIsTheField) {
+  std::string text = scene();
+  const std::string position = "\"position\": [0, 1, -5], ";
+  text.replace(text.find(position), position.size(), "");  // line 2
+  const auto file = write("nopos.json", text);
+  expect_error(file, {"nopos.json:2: camera.position: missing key 'position'"});
+}
+
+// A scene path that loops (a symlink to itself) is named with the cause.
+TEST_F(RenderCli, SceneSymlinkLoopIsNamed) {
+  fs::create_symlink("self.json", dir_ / "self.json");
+  const auto r = envrender({"--scene", (dir_ / "self.json").string(), "-o", (dir_ / "out.exr").string()});
+  EXPECT_EQ(r.code, 1) << r.err;
+  ASSERT_EQ(r.err_lines().size(), 1u) << r.err;
+  EXPECT_NE(r.err.find("self.json: cannot read the scene file: " + std::string(std::strerror(ELOOP))),
+            std::string::npos)
+      << r.err;
 }
 
 TEST_F(RenderCli, DegenerateTrianglesAreReported) {

@@ -262,9 +262,11 @@ int run(Options& o, bool format_given) {
     const envkit::ShCoefficients sh = sh_projected.get();
     nlohmann::json j = sh.to_json();
     j["source"] = fs::path(o.in.path).filename().string();
-    std::ofstream os(stage(o.sh));
+    envkit::AtomicOutput staged(stage(o.sh));  // writes into the staged temp file
+    envkit::AtomicOutputStream os(staged);
     os << j.dump(2) << "\n";
-    if (!os) envkit::fail(o.sh, "cannot write");
+    os.close();
+    staged.commit();
     summary.push_back(o.sh + ": SH order " + std::to_string(o.sh_order) + ", window " + o.sh_window);
   }
   if (!o.irradiance.empty()) {

@@ -74,7 +74,7 @@ class Sequence {
 void write_csv(const std::string& path, const envkit::SphericalDistribution& d, Sequence& seq, std::size_t n) {
   envkit::AtomicOutput out(path);
   {
-    std::ofstream f(out.temp_path());
+    envkit::AtomicOutputStream f(out);
     f << "u0,u1,x,y,z,pdf,texel_x,texel_y\n" << std::setprecision(17);
     for (std::size_t i = 0; i < n; ++i) {
       const envkit::Vec2 u = seq.next(std::uint32_t(i));
@@ -82,8 +82,7 @@ void write_csv(const std::string& path, const envkit::SphericalDistribution& d, 
       f << u.x << ',' << u.y << ',' << s.direction.x << ',' << s.direction.y << ',' << s.direction.z << ',' << s.pdf
         << ',' << s.x << ',' << s.y << '\n';
     }
-    f.flush();
-    if (!f) throw envkit::Error(path + ": cannot write");
+    f.close();
   }
   out.commit();
 }

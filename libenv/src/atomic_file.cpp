@@ -1,18 +1,20 @@
 #include <envkit/atomic_file.h>
 #include <envkit/error.h>
+#include <envkit/excerpt.h>
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
-#include <regex>
+#include <utility>
 
 namespace envkit {
 namespace fs = std::filesystem;
@@ -39,15 +41,32 @@ struct Slot {
 constinit std::array<Slot, kSlots> g_slots{};
 static_assert(std::atomic<int>::is_always_lock_free, "signal handler needs lock-free atomics");
 
-constexpr std::array<int, 3> kSignals = {SIGINT, SIGTERM, SIGHUP};
+// Every signal whose default action ends the process and that comes from outside it (kill, the terminal, a timer,
+// a closed pipe, a CPU limit), plus the real-time signals. Left out: SIGKILL and SIGSTOP (cannot be caught), the
+// faults and abort() (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGTRAP, SIGSYS, SIGABRT: the process's own state is then not
+// to be trusted, and sanitizers and debuggers own them), and SIGXFSZ (handled apart: the write fails instead).
+constexpr std::array<int, 14> kFixedSignals = {SIGHUP,  SIGINT,    SIGQUIT, SIGTERM, SIGUSR1, SIGUSR2, SIGPIPE,
+                                               SIGALRM, SIGVTALRM, SIGPROF, SIGXCPU, SIGIO,   SIGPWR,  SIGSTKFLT};
 
-/// False when this thread blocks one of kSignals (a worker a library started with every signal blocked): a signal
-/// handed on to it would never be taken.
+/// The signals cleaned up on (kFixedSignals and SIGRTMIN..SIGRTMAX), in a set.
+const sigset_t& cleanup_signals() {
+  static const sigset_t set = [] {
+    sigset_t s;
+    sigemptyset(&s);
+    for (int sig : kFixedSignals) sigaddset(&s, sig);
+    for (int sig = SIGRTMIN; sig <= SIGRTMAX; ++sig) sigaddset(&s, sig);
+    return s;
+  }();
+  return set;
+}
+
+/// False when this thread blocks one of the cleanup signals (a worker a library started with every signal blocked):
+/// a signal handed on to it would never be taken.
 bool takes_signals() {
   sigset_t mask;
   if (::pthread_sigmask(SIG_BLOCK, nullptr, &mask) != 0) return false;
-  for (int sig : kSignals)
-    if (sigismember(&mask, sig)) return false;
+  for (int sig = 1; sig < NSIG; ++sig)
+    if (sigismember(&cleanup_signals(), sig) == 1 && sigismember(&mask, sig) == 1) return false;
   return true;
 }
 
@@ -73,7 +92,8 @@ void unregister_temp(int slot) {
   g_slots[slot].state.store(kFree);
 }
 
-std::array<struct sigaction, kSignals.size()> g_previous{};
+// The action each cleanup signal had before (by signal number), restored before the signal is raised again.
+std::array<struct sigaction, NSIG> g_previous{};
 
 std::atomic<int> g_pending{0};
 // SIGXFSZ deliveries so far: a temp file written while one arrived is truncated and must not be committed.
@@ -83,11 +103,10 @@ static_assert(std::atomic<unsigned long>::is_always_lock_free, "signal handler n
 void remove_live_temps_and_reraise(int sig) {
   for (auto& slot : g_slots)
     if (slot.state.load() == kLive) ::unlink(slot.path);  // async-signal-safe
-  // Restore whatever was there before and re-raise it at once, unblocked, so that the process ends here: were it
-  // delivered only when this handler returns, the other threads would run on meanwhile and could create a temp
-  // file after the loop above removed the live ones.
-  for (std::size_t i = 0; i < kSignals.size(); ++i)
-    if (kSignals[i] == sig) ::sigaction(sig, &g_previous[i], nullptr);
+  // Restore the default action (the handler is only installed over it) and re-raise at once, unblocked, so that the
+  // process ends here by that signal: were it delivered only when this handler returns, the other threads would run
+  // on meanwhile and could create a temp file after the loop above removed the live ones.
+  ::sigaction(sig, &g_previous[std::size_t(sig)], nullptr);
   sigset_t just_this;
   sigemptyset(&just_this);
   sigaddset(&just_this, sig);
@@ -141,6 +160,16 @@ extern "C" void cleanup_on_signal(int sig) {
 
 extern "C" void note_file_size_limit(int) { g_xfsz.fetch_add(1); }  // write() then fails with EFBIG
 
+/// Installs `action` for `sig` only where the signal still has its default action: an ignored signal (nohup's
+/// SIGHUP, Python's SIGPIPE) stays ignored, and a handler someone else installed (Python's SIGINT, which raises
+/// KeyboardInterrupt; a profiler's SIGPROF; a sanitizer's) stays theirs.
+void install_over_default(int sig, const struct sigaction& action) {
+  struct sigaction& previous = g_previous[std::size_t(sig)];
+  if (::sigaction(sig, nullptr, &previous) != 0) return;
+  if ((previous.sa_flags & SA_SIGINFO) || previous.sa_handler != SIG_DFL) return;
+  ::sigaction(sig, &action, nullptr);
+}
+
 /// Holds signals for the duration of a group commit (see g_phase).
 class HeldSignals {
  public:
@@ -163,6 +192,42 @@ class HeldSignals {
 std::atomic<unsigned long> g_counter{0};
 
 std::string errno_text(int err) { return std::strerror(err); }
+
+// ---- the temp names this process made, for messages and for writers handed a temp path -----------------------
+struct TempName {
+  std::string temp, target;
+  bool live = true;
+};
+std::mutex g_names_mutex;
+std::vector<TempName> g_names;  // oldest first; finished ones are dropped beyond kRememberedNames
+constexpr std::size_t kRememberedNames = 1024;
+
+void remember_temp(const std::string& temp, const std::string& target) {
+  std::lock_guard<std::mutex> lock(g_names_mutex);
+  if (g_names.size() >= kRememberedNames)
+    if (auto it = std::find_if(g_names.begin(), g_names.end(), [](const TempName& n) { return !n.live; });
+        it != g_names.end())
+      g_names.erase(it);
+  g_names.push_back({temp, target, true});
+}
+
+/// Marks `temp` as finished (committed or removed); its name is still translated in messages.
+void retire_temp(const std::string& temp) {
+  std::lock_guard<std::mutex> lock(g_names_mutex);
+  for (TempName& n : g_names)
+    if (n.temp == temp) n.live = false;
+}
+
+bool is_live_temp(const std::string& path) {
+  std::lock_guard<std::mutex> lock(g_names_mutex);
+  return std::any_of(g_names.begin(), g_names.end(), [&](const TempName& n) { return n.live && n.temp == path; });
+}
+
+void replace_all(std::string& text, const std::string& from, const std::string& to) {
+  if (from.empty()) return;
+  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
+    text.replace(at, from.size(), to);
+}
 
 /// The file that will really be replaced: an existing symlink is followed so the link survives.
 fs::path resolve_target(const std::string& target) {
@@ -224,6 +289,7 @@ void discard(std::vector<Deferred>& files) {
   for (const Deferred& d : files) {
     ::unlink(d.temp.c_str());
     unregister_temp(d.slot);
+    retire_temp(d.temp);
   }
   files.clear();
 }
@@ -283,6 +349,7 @@ void commit_all(std::vector<Deferred>& files) {
   for (std::size_t i = 0; i < files.size(); ++i) {
     if (!done[i].backup.empty()) ::unlink(done[i].backup.c_str());
     unregister_temp(files[i].slot);
+    retire_temp(files[i].temp);
   }
   files.clear();
 }
@@ -291,7 +358,15 @@ void commit_all(std::vector<Deferred>& files) {
 
 AtomicOutput::AtomicOutput(std::string target) : target_(std::move(target)) {
   if (target_.empty()) fail("", "empty output path");
+  if (target_.find('\0') != std::string::npos) fail(excerpt(target_, 200), "the path contains a NUL character");
   install_temp_cleanup_on_signal();
+  if (is_live_temp(target_)) {
+    // A writer handed the temp file of an AtomicOutput that a caller holds: write into it, the caller renames it.
+    passthrough_ = true;
+    final_path_ = temp_ = target_;
+    xfsz_at_start_ = g_xfsz.load();
+    return;
+  }
   const fs::path final_path = resolve_target(target_);
   std::error_code ec;
   if (fs::is_directory(final_path, ec)) fail(target_, "is a directory");
@@ -299,6 +374,7 @@ AtomicOutput::AtomicOutput(std::string target) : target_(std::move(target)) {
   final_path_ = final_path.string();
   temp_ = temp_path_for(final_path).string();
   xfsz_at_start_ = g_xfsz.load();
+  remember_temp(temp_, target_);
   slot_ = register_temp(temp_);
 }
 
@@ -306,6 +382,7 @@ AtomicOutput::~AtomicOutput() {
   if (!committed_) {
     ::unlink(temp_.c_str());
     unregister_temp(slot_);
+    if (!passthrough_) retire_temp(temp_);
   }
 }
 
@@ -323,7 +400,11 @@ void AtomicOutput::commit() {
   const int sync_errno = errno;
   ::close(fd);
   if (sync_result != 0 && sync_errno != EINVAL && sync_errno != EROFS) give_up(errno_text(sync_errno));
-  if (g_xfsz.load() != xfsz_at_start_) give_up("file size limit exceeded (ulimit -f)");
+  if (g_xfsz.load() != xfsz_at_start_) give_up(errno_text(EFBIG) + " (the file size limit, ulimit -f)");
+  if (passthrough_) {
+    committed_ = true;  // the AtomicOutput that made the temp file renames it
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(g_group_mutex);
     if (g_group_depth > 0) {
@@ -336,6 +417,7 @@ void AtomicOutput::commit() {
   if (::rename(temp_.c_str(), final_path_.c_str()) != 0) give_up(errno_text(errno));
   committed_ = true;
   unregister_temp(slot_);
+  retire_temp(temp_);
   slot_ = -1;
 }
 
@@ -390,24 +472,96 @@ void check_output_path(const std::string& out, const std::vector<std::string>& i
 }
 
 std::string without_temp_names(const std::string& message) {
-  // The temp_path_for() scheme: "." + name (at most 200 bytes) + ".tmp-<pid>-<counter>" + the name's extension.
-  static const std::regex temp(R"(\.([^/\s"']+)\.tmp-[0-9]+-[0-9]+(\.[^./\s"']*)?)");
-  std::string out;
-  std::sregex_iterator it(message.begin(), message.end(), temp), end;
-  std::size_t last = 0;
-  for (; it != end; ++it) {
-    const std::smatch& m = *it;
-    std::string name = m[1].str();
-    const std::string ext = m[2].matched ? m[2].str() : std::string();
-    // The extension is repeated after the counter; a name without one has none there either.
-    if (!ext.empty() && (name.size() < ext.size() || name.compare(name.size() - ext.size(), ext.size(), ext) != 0))
-      name += ext;  // not the repeated extension: part of the name
-    out.append(message, last, std::size_t(m.position(0)) - last);
-    out += name;
-    last = std::size_t(m.position(0) + m.length(0));
+  std::vector<TempName> names;
+  {
+    std::lock_guard<std::mutex> lock(g_names_mutex);
+    names = g_names;
   }
-  out.append(message, last, std::string::npos);
+  // Longest first, so a temp name inside another (a writer handed a temp path) is translated after the outer one;
+  // full paths before bare file names.
+  std::sort(names.begin(), names.end(),
+            [](const TempName& a, const TempName& b) { return a.temp.size() > b.temp.size(); });
+  std::string out = message;
+  for (const TempName& n : names) replace_all(out, n.temp, n.target);
+  for (const TempName& n : names) replace_all(out, fs::path(n.temp).filename().string(), n.target);
   return out;
+}
+
+[[noreturn]] void fail_write(const std::string& target, int err) {
+  fail(target, "cannot write: " + errno_text(err != 0 ? err : EIO));
+}
+
+// ---- AtomicOutputStream -------------------------------------------------------------------------------
+namespace {
+
+/// A buffered streambuf onto a file descriptor that keeps the errno of the first failed write.
+class FdBuffer : public std::streambuf {
+ public:
+  explicit FdBuffer(int fd) : fd_(fd), buffer_(1 << 16) { setp(buffer_.data(), buffer_.data() + buffer_.size()); }
+  int error() const { return error_; }
+
+ protected:
+  int_type overflow(int_type ch) override {
+    if (!drain()) return traits_type::eof();
+    if (!traits_type::eq_int_type(ch, traits_type::eof())) {
+      *pptr() = traits_type::to_char_type(ch);
+      pbump(1);
+    }
+    return traits_type::not_eof(ch);
+  }
+  int sync() override { return drain() ? 0 : -1; }
+
+ private:
+  bool drain() {
+    const char* p = pbase();
+    while (error_ == 0 && p < pptr()) {
+      const ssize_t n = ::write(fd_, p, std::size_t(pptr() - p));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0)
+        error_ = n < 0 ? errno : EIO;
+      else
+        p += n;
+    }
+    setp(buffer_.data(), buffer_.data() + buffer_.size());
+    return error_ == 0;
+  }
+  int fd_;
+  int error_ = 0;
+  std::vector<char> buffer_;
+};
+
+}  // namespace
+
+struct AtomicOutputStream::Impl {
+  int fd = -1;
+  std::unique_ptr<FdBuffer> buffer;
+};
+
+AtomicOutputStream::AtomicOutputStream(const AtomicOutput& output)
+    : std::ostream(nullptr), impl_(std::make_unique<Impl>()), target_(output.target()) {
+  impl_->fd = ::open(output.temp_path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (impl_->fd < 0) fail_write(target_, errno);
+  impl_->buffer = std::make_unique<FdBuffer>(impl_->fd);
+  rdbuf(impl_->buffer.get());
+}
+
+AtomicOutputStream::~AtomicOutputStream() {
+  if (impl_->fd >= 0) {
+    impl_->buffer->pubsync();  // close() was skipped (an exception): the temp file is about to be removed anyway
+    ::close(impl_->fd);
+  }
+  rdbuf(nullptr);
+}
+
+void AtomicOutputStream::close() {
+  if (impl_->fd < 0) return;
+  flush();
+  const int fd = std::exchange(impl_->fd, -1);
+  const int close_result = ::close(fd);
+  const int close_errno = errno;
+  if (impl_->buffer->error() != 0) fail_write(target_, impl_->buffer->error());
+  if (!*this) fail_write(target_, EIO);
+  if (close_result != 0 && close_errno != EINTR) fail_write(target_, close_errno);
 }
 
 void check_distinct_outputs(const std::vector<std::string>& outputs) {
@@ -426,22 +580,17 @@ void install_temp_cleanup_on_signal() {
   std::call_once(once, [] {
     struct sigaction action {};
     action.sa_handler = cleanup_on_signal;
-    sigemptyset(&action.sa_mask);
-    for (int sig : kSignals) sigaddset(&action.sa_mask, sig);  // one cleanup at a time
+    action.sa_mask = cleanup_signals();  // one cleanup at a time
     action.sa_flags = 0;
-    for (std::size_t i = 0; i < kSignals.size(); ++i) {
-      ::sigaction(kSignals[i], nullptr, &g_previous[i]);
-      // An ignored signal (nohup's SIGHUP) must stay ignored: cleaning up would kill a write that goes on.
-      if (g_previous[i].sa_handler == SIG_IGN && !(g_previous[i].sa_flags & SA_SIGINFO)) continue;
-      ::sigaction(kSignals[i], &action, nullptr);
-    }
+    for (int sig = 1; sig < NSIG; ++sig)
+      if (sigismember(&cleanup_signals(), sig) == 1) install_over_default(sig, action);
     // The file size limit: its default action kills the process with the temp file left behind. Counted instead,
     // the write fails with EFBIG, the writer reports it, and commit() refuses a file written meanwhile.
     struct sigaction xfsz {};
     xfsz.sa_handler = note_file_size_limit;
     sigemptyset(&xfsz.sa_mask);
     xfsz.sa_flags = SA_RESTART;
-    ::sigaction(SIGXFSZ, &xfsz, nullptr);
+    install_over_default(SIGXFSZ, xfsz);
   });
 }
 

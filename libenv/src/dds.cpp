@@ -59,14 +59,14 @@ void write_dds(const std::string& path, const std::vector<const Image*>& levels,
   for (const Image* level : levels) packed.push_back(pack_texels(*level, options.format));
   AtomicOutput out(path);
   {
-    std::ofstream os(out.temp_path(), std::ios::binary);
+    AtomicOutputStream os(out);
     os.write(reinterpret_cast<const char*>(f.data()), std::streamsize(f.size()));
     for (int face = 0; face < options.faces; ++face)  // each face's whole mip chain, then the next face
       for (std::size_t m = 0; m < levels.size(); ++m) {
         const std::size_t face_bytes = packed[m].size() / std::size_t(options.faces);
         os.write(reinterpret_cast<const char*>(packed[m].data() + face_bytes * face), std::streamsize(face_bytes));
       }
-    if (!os) fail(path, "cannot write: " + std::string(std::strerror(errno)));
+    os.close();
   }
   out.commit();
 }

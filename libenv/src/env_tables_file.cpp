@@ -233,8 +233,7 @@ void EnvTables::save(const std::string& path) const {
 
   AtomicOutput out(path);
   {
-    std::ofstream f(out.temp_path(), std::ios::binary | std::ios::trunc);
-    if (!f) throw Error(path + ": cannot write: " + std::strerror(errno));
+    AtomicOutputStream f(out);
     static const char zeros[64] = {};
     std::size_t written = 0;
     const auto put = [&](const void* data, std::size_t n) {
@@ -249,8 +248,7 @@ void EnvTables::save(const std::string& path) const {
       for (const BlobWriter::Piece& piece : s.blob.pieces()) put(piece.data, piece.size);
     }
     pad();
-    f.flush();
-    if (!f) throw Error(path + ": cannot write: " + std::strerror(errno));
+    f.close();
   }
   out.commit();
 }

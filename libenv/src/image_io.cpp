@@ -58,8 +58,9 @@ std::string lower(std::string s) {
 
 /// Library messages can span lines and name envkit's temp file; users get one line naming their path.
 std::string condense(std::string text, const std::string& temp = "", const std::string& target = "") {
-  if (!temp.empty())
-    for (std::size_t pos; (pos = text.find(temp)) != std::string::npos;) text.replace(pos, temp.size(), target);
+  if (!temp.empty() && temp != target)  // equal when a writer was handed a temp path (see atomic_file.h)
+    for (std::size_t pos = text.find(temp); pos != std::string::npos; pos = text.find(temp, pos + target.size()))
+      text.replace(pos, temp.size(), target);
   for (char& c : text)
     if (c == '\n' || c == '\r' || c == '\t') c = ' ';
   std::string out;

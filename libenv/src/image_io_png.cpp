@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <csetjmp>
 #include <cstdint>
@@ -30,11 +31,15 @@ namespace {
 /// libpng's error message of the failing call, kept by the error callback before it longjmps.
 struct ErrorSink {
   char message[256] = "";
+  int error_number = 0;  // errno when the error was reported: why libpng's "Write Error" happened
 };
 
 [[noreturn]] void on_error(png_structp png, png_const_charp message) {
-  if (auto* sink = static_cast<ErrorSink*>(png_get_error_ptr(png)))
+  const int error_number = errno;
+  if (auto* sink = static_cast<ErrorSink*>(png_get_error_ptr(png))) {
     std::snprintf(sink->message, sizeof sink->message, "%s", message ? message : "libpng error");
+    sink->error_number = error_number;
+  }
   png_longjmp(png, 1);
 }
 
@@ -404,6 +409,8 @@ class PngBackend final : public ImageBackend {
     png_infop info = png ? png_create_info_struct(png) : nullptr;
     const bool ok = png && info && write_png(png, info, f.get(), w, chunks, text.data(), rows.data());
     png_destroy_write_struct(&png, &info);
+    // A failed fwrite() (a full disk) shows in the stream's error flag; its errno says why.
+    if (!ok && std::ferror(f.get()) && sink.error_number != 0) return std::strerror(sink.error_number);
     if (!ok) return sink.message[0] ? sink.message : "out of memory";
     if (std::fflush(f.get()) != 0 || std::ferror(f.get())) return std::string("write error: ") + std::strerror(errno);
     return "";

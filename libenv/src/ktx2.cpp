@@ -308,7 +308,7 @@ void write_ktx2(const std::string& path, const std::vector<const Image*>& levels
 
   AtomicOutput out(path);
   {
-    std::ofstream os(out.temp_path(), std::ios::binary);
+    AtomicOutputStream os(out);
     os.write(reinterpret_cast<const char*>(f.data()), std::streamsize(f.size()));
     std::size_t written = f.size();
     for (int m = int(level_count) - 1; m >= 0 && os; --m) {
@@ -318,7 +318,7 @@ void write_ktx2(const std::string& path, const std::vector<const Image*>& levels
       os.write(reinterpret_cast<const char*>(data.data()), std::streamsize(data.size()));
       written = level_at[m] + data.size();
     }
-    if (!os) fail(path, "cannot write: " + std::string(std::strerror(errno)));
+    os.close();
   }
   out.commit();
 }

@@ -1,6 +1,7 @@
 #include "json_lines.h"
 
 #include <envkit/error.h>
+#include <envkit/excerpt.h>
 
 #include <algorithm>
 #include <iterator>
@@ -9,6 +10,9 @@
 namespace envkit::render {
 
 namespace {
+
+// Longest parser message echoed whole.
+constexpr std::size_t kJsonReasonChars = 160;
 
 /// A char iterator that reports how far the parser has read (nlohmann reads through iterator copies).
 struct CountingIterator {
@@ -132,13 +136,16 @@ LineTrackedJson parse_json_with_lines(const std::string& text, const std::string
   } catch (const nlohmann::json::parse_error& e) {
     std::string message = e.what();
     // "[json.exception.parse_error.101] parse error at line 3, column 5: syntax error ..." -> keep the reason.
+    // The reason quotes what was last read (a whole string token, however long): cut, on one line.
     if (const std::size_t colon = message.find(": "); colon != std::string::npos) message = message.substr(colon + 2);
-    throw Error(name + ":" + std::to_string(line_at(text, e.byte == 0 ? 0 : e.byte - 1)) + ": malformed JSON: " + message);
+    throw Error(name + ":" + std::to_string(line_at(text, e.byte == 0 ? 0 : e.byte - 1)) +
+                ": malformed JSON: " + excerpt(message, kJsonReasonChars));
   } catch (const nlohmann::json::exception& e) {
     // Not a syntax error but a value the parser cannot hold (a number like 1e999 overflows a double).
     std::string message = e.what();
     if (const std::size_t bracket = message.find("] "); bracket != std::string::npos) message = message.substr(bracket + 2);
-    throw Error(name + ":" + std::to_string(line_at(text, position)) + ": invalid JSON value: " + message);
+    throw Error(name + ":" + std::to_string(line_at(text, position)) +
+                ": invalid JSON value: " + excerpt(message, kJsonReasonChars));
   }
   return result;
 }

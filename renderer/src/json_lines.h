@@ -19,7 +19,9 @@ struct LineTrackedJson {
 inline constexpr std::size_t kMaxJsonDepth = 64;
 
 /// Parses `text`; nesting deeper than kMaxJsonDepth throws Error("<name>:<line>: JSON nested deeper than 64
-/// levels"), a number out of double range Error("<name>:<line>: invalid JSON value: ..."); malformed JSON throws Error("<name>:<line>: malformed JSON: <parser message>").
+/// levels"), a number out of double range Error("<name>:<line>: invalid JSON value: ..."); malformed JSON throws
+/// Error("<name>:<line>: malformed JSON: <parser message>"), the parser's message cut by excerpt() (it quotes the
+/// last token read, which may be megabytes).
 LineTrackedJson parse_json_with_lines(const std::string& text, const std::string& name);
 
 }  // namespace envkit::render

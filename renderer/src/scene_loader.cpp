@@ -3,6 +3,7 @@
 #include <envkit/color.h>
 #include <envkit/convention.h>
 #include <envkit/error.h>
+#include <envkit/excerpt.h>
 #include <envkit/input_checks.h>
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
@@ -12,6 +13,7 @@
 #include <tiny_obj_loader.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -25,7 +27,30 @@ namespace {
 // Ray offsets (1e-6 relative) and the float meshes keep intersections exact to ~1e-6 of the scene's extent.
 constexpr double kMaxSceneCoordinate = 1e6;
 constexpr double kMinSphereRadius = 1e-4;
+// Longest file name a message echoes whole (longer ones are cut, see excerpt()).
+constexpr std::size_t kPathChars = 200;
 
+/// A key path ("materials.<name>.roughness") as shown in a message: each part between dots cut by excerpt(), so a
+/// 2 MB key or material name cannot make a 2 MB message, while the parts after it still show.
+std::string shown_field(const std::string& path) {
+  std::string out;
+  std::size_t from = 0;
+  for (;;) {
+    const std::size_t dot = path.find('.', from);
+    out += excerpt(std::string_view(path).substr(from, dot == std::string::npos ? std::string::npos : dot - from));
+    if (dot == std::string::npos) return out;
+    out += '.';
+    from = dot + 1;
+  }
+}
+
+/// A file name from the scene as shown in a message.
+std::string shown_path(const std::string& file) {
+  std::string shown = excerpt(file, kPathChars);
+  shown.insert(shown.begin(), '\'');
+  shown.push_back('\'');
+  return shown;
+}
 
 using nlohmann::json;
 
@@ -35,7 +60,8 @@ class Reader {
   Reader(const LineTrackedJson& doc, std::string file) : doc_(doc), file_(std::move(file)) {}
 
   [[noreturn]] void fail(const std::string& path, const std::string& problem) const {
-    throw Error(file_ + ":" + std::to_string(doc_.line_of(path)) + ": " + (path.empty() ? "" : path + ": ") + problem);
+    throw Error(file_ + ":" + std::to_string(doc_.line_of(path)) + ": " +
+                (path.empty() ? "" : shown_field(path) + ": ") + problem);
   }
 
   static std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
@@ -47,11 +73,11 @@ class Reader {
       if (!allowed.count(key)) {
         std::string list;
         for (const auto& k : allowed) list += (list.empty() ? "" : ", ") + k;
-        fail(join(path, key), "unknown key '" + key + "' (valid: " + list + ")");
+        fail(join(path, key), "unknown key '" + excerpt(key) + "' (valid: " + list + ")");
       }
   }
   const json& require(const json& object, const std::string& path, const std::string& key) const {
-    if (!object.contains(key)) fail(path, "missing key '" + key + "'");
+    if (!object.contains(key)) fail(join(path, key), "missing key '" + key + "'");  // the line of `path`
     return object.at(key);
   }
   double number(const json& v, const std::string& path) const {
@@ -70,6 +96,15 @@ class Reader {
   std::string string(const json& v, const std::string& path) const {
     if (!v.is_string()) fail(path, "expected a string");
     return v.get<std::string>();
+  }
+  /// A file name: a non-empty string without NUL characters (no file system takes them; cut at the NUL, the name
+  /// would silently name another file).
+  std::string file_name(const json& v, const std::string& path) const {
+    const std::string name = string(v, path);
+    if (name.empty()) fail(path, "empty file name");
+    if (name.find('\0') != std::string::npos)
+      fail(path, "file name " + shown_path(name) + " contains a NUL character (\\u0000)");
+    return name;
   }
   std::vector<double> numbers(const json& v, const std::string& path, std::size_t n) const {
     if (!v.is_array() || v.size() != n) fail(path, "expected an array of " + std::to_string(n) + " numbers");
@@ -136,7 +171,8 @@ std::unique_ptr<Material> parse_material(const Reader& r, const json& m, const s
       if (name == shadowing_name(Shadowing::Separable))
         shadowing = Shadowing::Separable;
       else if (name != shadowing_name(Shadowing::HeightCorrelated))
-        r.fail(Reader::join(path, "shadowing"), "unknown value '" + name + "' (valid: height-correlated, separable)");
+        r.fail(Reader::join(path, "shadowing"),
+               "unknown value '" + excerpt(name) + "' (valid: height-correlated, separable)");
     }
     // Default: gold (eta, k at ~630/532/465 nm).
     return make_conductor(r.colour(m, path, "eta", Vec3(0.143, 0.374, 1.442)),
@@ -154,13 +190,28 @@ std::unique_ptr<Material> parse_material(const Reader& r, const json& m, const s
     r.check_keys(m, path, {"type", "reflectance"});
     return make_mirror(r.colour(m, path, "reflectance", Vec3(1.0), 1.0));
   }
-  r.fail(Reader::join(path, "type"), "unknown material type '" + type + "' (valid: diffuse, conductor, plastic, mirror)");
+  r.fail(Reader::join(path, "type"),
+         "unknown material type '" + excerpt(type) + "' (valid: diffuse, conductor, plastic, mirror)");
+}
+
+/// Fails unless `file` is a regular file (a FIFO or device would block or never end), naming the scene, the line, the
+/// field and the file; `what` says what the file is for ("mesh file").
+void require_scene_file(const Reader& r, const std::string& path, const std::string& file, const std::string& what) {
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(file, ec);
+  if (st.type() == std::filesystem::file_type::not_found)
+    r.fail(path, what + " " + shown_path(file) + " does not exist");
+  if (ec) r.fail(path, what + " " + shown_path(file) + ": " + ec.message());  // a symlink loop, a denied directory
+  if (std::filesystem::is_directory(st)) r.fail(path, what + " " + shown_path(file) + " is a directory");
+  try {
+    require_regular_file(file);
+  } catch (const Error& err) {
+    r.fail(path, err.what());
+  }
 }
 
 TriangleMesh load_obj(const std::string& file, const Reader& r, const std::string& path) {
-  if (!std::filesystem::exists(file)) r.fail(path, "mesh file '" + file + "' does not exist");
-  if (std::filesystem::is_directory(file)) r.fail(path, "mesh file '" + file + "' is a directory, not an OBJ file");
-  require_regular_file(file);  // a FIFO or device would block or never end
+  require_scene_file(r, path, file, "mesh file");
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -230,7 +281,8 @@ EnvMap make_probe_map(const Reader& r, const json& e, const std::string& path, s
         probes::direction_from_elevation_azimuth(probes::radians(elevation), probes::radians(azimuth)),
         probes::radians(radius), r.colour(e, path, "radiance", Vec3(1e5)), r.colour(e, path, "sky", Vec3(0.5)));
   } else {
-    r.fail(Reader::join(path, "probe"), "unknown probe '" + kind + "' (valid: default, overcast, constant, sun)");
+    r.fail(Reader::join(path, "probe"),
+           "unknown probe '" + excerpt(kind) + "' (valid: default, overcast, constant, sun)");
   }
   description = "probe " + probe->describe();
   // Built directly: any W x H lat-long is a valid bake grid (make_envmap would insist on a 2:1 image file).
@@ -267,19 +319,22 @@ void load_environment(const Reader& r, const json& e, const std::string& base_di
   } else {
     for (const char* key : {"size", "radiance", "sky", "elevation_deg", "azimuth_deg", "radius_deg"})
       if (e.contains(key)) r.fail(Reader::join(path, key), "only valid with 'probe'");
-    image_path = resolve(base_dir, r.string(e.at("image"), "environment.image"));
-    if (e.contains("tables")) tables_path = resolve(base_dir, r.string(e.at("tables"), "environment.tables"));
+    image_path = resolve(base_dir, r.file_name(e.at("image"), "environment.image"));
+    if (e.contains("tables")) tables_path = resolve(base_dir, r.file_name(e.at("tables"), "environment.tables"));
     LoadOptions load;
     if (e.contains("convention")) load.convention = r.string(e.at("convention"), "environment.convention");
     try {
       map = load_envmap(image_path, load);
     } catch (const Error& err) {
       r.fail("environment.image", err.what());
+    } catch (const std::filesystem::filesystem_error& err) {
+      r.fail("environment.image", shown_path(image_path) + ": " + err.code().message());
     }
     out.environment_description = image_path;
     if (!bake && tables_path.empty())
       r.fail(path, "no 'tables' file for " + image_path + " (bake one with envbake, or pass --bake to bake in memory)");
   }
+  const std::string tables_field = has_probe ? "environment" : "environment.tables";
   try {
     std::string note;
     out.tables = load_or_bake_tables(map, has_probe ? std::string() : image_path,
@@ -287,7 +342,9 @@ void load_environment(const Reader& r, const json& e, const std::string& base_di
     if (!note.empty())
       out.notes.push_back((has_probe ? "probe '" + e.at("probe").get<std::string>() + "': " : std::string()) + note);
   } catch (const Error& err) {
-    r.fail(has_probe ? "environment" : "environment.tables", err.what());
+    r.fail(tables_field, err.what());
+  } catch (const std::filesystem::filesystem_error& err) {
+    r.fail(tables_field, shown_path(tables_path) + ": " + err.code().message());
   }
   out.light = std::make_unique<EnvironmentLight>(map, out.tables, rotation, intensity);
 }
@@ -344,7 +401,8 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
     if (material < 0) {
       std::string list;
       for (const auto& n : out.scene->material_names()) list += (list.empty() ? "" : ", ") + n;
-      r.fail(path + ".material", "unknown material '" + material_name + "' (defined: " + list + ")");
+      r.fail(path + ".material",
+             "unknown material '" + excerpt(material_name) + "' (defined: " + excerpt(list, 200) + ")");
     }
     if (type == "sphere") {
       r.check_keys(s, path, {"type", "material", "center", "radius"});
@@ -357,7 +415,7 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
       out.scene->add_sphere(centre, radius, material, path);
     } else if (type == "mesh") {
       r.check_keys(s, path, {"type", "material", "file"});
-      const std::string obj = resolve(base_dir, r.string(r.require(s, path, "file"), path + ".file"));
+      const std::string obj = resolve(base_dir, r.file_name(r.require(s, path, "file"), path + ".file"));
       TriangleMesh mesh = load_obj(obj, r, path + ".file");
       for (const Vec3& p : mesh.positions) r.check_point(p, path + ".file");
       try {
@@ -386,7 +444,7 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
         r.fail(path + ".triangles", message);
       }
     } else {
-      r.fail(path + ".type", "unknown shape type '" + type + "' (valid: sphere, mesh, triangles)");
+      r.fail(path + ".type", "unknown shape type '" + excerpt(type) + "' (valid: sphere, mesh, triangles)");
     }
   }
   out.scene->commit();
@@ -400,9 +458,13 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
 }
 
 LoadedScene load_scene_file(const std::string& path, const SceneLoadOptions& options) {
-  if (std::filesystem::exists(path)) require_regular_file(path);  // a FIFO or device would block or never end
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (st.type() == std::filesystem::file_type::not_found) fail(path, "no such scene file");
+  if (ec) fail(path, "cannot read the scene file: " + ec.message());
+  require_regular_file(path);  // a FIFO or device would block or never end
   std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, std::filesystem::exists(path) ? "cannot read the scene file" : "no such scene file");
+  if (!in) fail(path, "cannot read the scene file: " + std::string(std::strerror(errno)));
   std::ostringstream text;
   text << in.rdbuf();
   return load_scene_text(text.str(), path, options);

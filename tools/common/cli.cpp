@@ -6,17 +6,20 @@
 #include <envkit/cubemap.h>
 #include <envkit/env_sampling.h>
 #include <envkit/error.h>
+#include <envkit/excerpt.h>
 #include <envkit/filter.h>
 #include <envkit/image_io.h>
 #include <envkit/parameterization.h>
 #include <envkit/view.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <limits>
 #include <new>
@@ -28,6 +31,10 @@ namespace envkit::tools {
 namespace {
 
 std::string g_program = "envkit";
+
+// Longest error message printed whole: a value or key a message echoes cannot flood the terminal, and control
+// characters in it are escaped, so an error stays one line.
+constexpr std::size_t kMessageBytes = 2000;
 
 // A validator that runs a libenv parser and reports its Error message (already one line, names the value).
 template <class Parse>
@@ -50,6 +57,10 @@ std::string choices(const std::vector<std::string>& names) { return join(names, 
 
 int run_cli(CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
   g_program = app.get_name();
+  app.failure_message([](const CLI::App* a, const CLI::Error& e) {
+    const std::string full = CLI::FailureMessage::simple(a, e);  // e.what(), then "Run with --help ..."
+    return envkit::excerpt(e.what(), kMessageBytes) + full.substr(std::min(full.size(), std::strlen(e.what())));
+  });
   try {
     app.parse(argc, argv);
     return body();
@@ -59,7 +70,7 @@ int run_cli(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
   } catch (const std::bad_alloc&) {
     std::cerr << g_program << ": out of memory\n";
   } catch (const std::exception& e) {
-    std::cerr << g_program << ": " << envkit::without_temp_names(e.what()) << "\n";
+    std::cerr << g_program << ": " << envkit::excerpt(envkit::without_temp_names(e.what()), kMessageBytes) << "\n";
   }
   return kExitError;
 }

@@ -18,13 +18,27 @@
 /// Temp files are named `.<name>.tmp-<pid>-<counter><ext>` in the target's directory (same file system, so
 /// rename() is atomic; same extension, so extension-based format detection still picks the right writer).
 ///
-/// Signals: the first AtomicOutput installs handlers (install_temp_cleanup_on_signal()) for SIGINT, SIGTERM and
-/// SIGHUP that remove every live temp file and re-raise the signal (on the thread that registered the first live temp
-/// file, so that it cannot create its file after the removal), and one for SIGXFSZ (file size limit,
-/// `ulimit -f`) that lets the write fail with EFBIG instead of killing the process; a temp file written while
-/// SIGXFSZ arrived is never committed. A signal that arrives while an OutputGroup renames its files is held until
-/// the group has committed (or rolled back), so a group is never left half-committed. SIGKILL cannot be caught:
-/// it may leave a temp file behind (never a partial target).
+/// Signals: the first AtomicOutput installs a handler (install_temp_cleanup_on_signal()) that removes every live temp
+/// file and re-raises the signal with its default action, so the process still dies by that signal (exit status
+/// 128 + N in a shell). It is run on the thread that registered the first live temp file, so that thread cannot create
+/// its file after the removal. Handled: every signal whose default action ends the process and that comes from
+/// outside it: SIGHUP, SIGINT, SIGQUIT, SIGTERM, SIGUSR1, SIGUSR2, SIGPIPE, SIGALRM, SIGVTALRM, SIGPROF, SIGXCPU,
+/// SIGIO, SIGPWR, SIGSTKFLT and the real-time signals SIGRTMIN..SIGRTMAX. SIGXFSZ (file size limit, `ulimit -f`)
+/// instead lets the write fail with EFBIG rather than killing the process; a temp file written while SIGXFSZ arrived
+/// is never committed. A handler is installed only over a signal's default action: an ignored signal stays ignored
+/// (nohup) and a handler installed earlier stays in charge (Python's SIGINT raises KeyboardInterrupt; the temp file
+/// is then removed by its AtomicOutput's destructor). A signal that arrives while an OutputGroup renames its files is
+/// held until the group has committed (or rolled back), so a group is never left half-committed.
+/// Not handled, and may leave a temp file behind (never a partial target): SIGKILL and SIGSTOP (cannot be caught), and
+/// the faults and abort() (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGTRAP, SIGSYS, SIGABRT), where the process's own state
+/// is not to be trusted and sanitizers and debuggers keep their handlers.
+///
+/// Errors name the user's file, never a temp name: "<target>: cannot write: <strerror>" (ENOSPC, EFBIG, EACCES,
+/// EIO...). A writer handed the temp path of a live AtomicOutput (a tool that stages several outputs itself) writes
+/// into that file: its own AtomicOutput neither makes a second temp file nor renames, and without_temp_names()
+/// turns the temp name in its messages back into the target.
+#include <memory>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -43,13 +57,14 @@ class AtomicOutput {
 
   /// The path as given by the caller (use it in messages).
   const std::string& target() const { return target_; }
-  /// Where to write. Registered for removal on SIGINT/SIGTERM/SIGHUP.
+  /// Where to write. Registered for removal on the signals listed in the file comment.
   const std::string& temp_path() const { return temp_; }
 
   /// Flushes the temp file to disk and renames it over the target; inside an OutputGroup the rename is handed to
   /// the group instead (committed() is then true, the group owns the temp file).
-  /// Throws Error("<target>: cannot write: <reason>") if the temp file is missing, the file size limit was hit
-  /// while it was written, or the rename fails; the temp file is removed in that case.
+  /// Throws Error("<target>: cannot write: <strerror>") if the temp file is missing, the file size limit was hit
+  /// while it was written ("File too large (the file size limit, ulimit -f)"), fsync reports a failed write (a full
+  /// disk), or the rename fails; the temp file is removed in that case.
   void commit();
   bool committed() const { return committed_; }
 
@@ -60,6 +75,32 @@ class AtomicOutput {
   int slot_ = -1;          // signal-cleanup registry slot, -1 when not registered
   unsigned long xfsz_at_start_ = 0;
   bool committed_ = false;
+  bool passthrough_ = false;  // target_ is another AtomicOutput's temp file: write into it, do not rename
+};
+
+/// Throws Error("<target>: cannot write: <strerror(err)>"), the one wording of a failed write (EIO when err is 0).
+[[noreturn]] void fail_write(const std::string& target, int err);
+
+/// A buffered std::ostream onto an AtomicOutput's temp file that keeps the errno of the first failed write(), so
+/// the error names the user's file and the cause:
+///
+///   envkit::AtomicOutput out(path);
+///   envkit::AtomicOutputStream os(out);      // opens the temp file
+///   os << ...;                               // after a failed write, further output is dropped
+///   os.close();                              // flushes; throws Error("<path>: cannot write: <strerror>")
+///   out.commit();
+class AtomicOutputStream : public std::ostream {
+ public:
+  /// Opens (creates or truncates) out.temp_path(); throws Error("<target>: cannot write: <strerror>").
+  explicit AtomicOutputStream(const AtomicOutput& output);
+  ~AtomicOutputStream() override;
+  /// Flushes and closes the file; throws Error("<target>: cannot write: <strerror>") naming the first failure.
+  void close();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string target_;
 };
 
 /// All-or-nothing commit of several AtomicOutputs. While a group lives, AtomicOutput::commit() anywhere in the
@@ -93,9 +134,9 @@ class OutputGroup {
 ///    parent directory is missing or not writable (access(W_OK); note that root passes this check).
 void check_output_path(const std::string& out, const std::vector<std::string>& inputs, bool force);
 
-/// `message` with every AtomicOutput temp file name (`.<name>.tmp-<pid>-<n><ext>`) replaced by the target's name
-/// (`<name>`): writers' errors mention the file they were writing, which is the temp file, an internal name the
-/// user never asked for. Tools pass their error messages through it.
+/// `message` with every temp file name this process's AtomicOutputs made (as a path or a bare file name) replaced by
+/// its target as the caller gave it: writers' errors mention the file they were writing, which is the temp file, an
+/// internal name the user never asked for. Tools pass their error messages through it.
 std::string without_temp_names(const std::string& message);
 
 /// Refuses two outputs of one run that name the same file (the later would replace the earlier):
@@ -107,11 +148,11 @@ void check_distinct_outputs(const std::vector<std::string>& outputs);
 /// each one as check_output_path(out, inputs, force). Tools with several outputs pass all of them in one call.
 void check_outputs(const std::vector<std::string>& outputs, const std::vector<std::string>& inputs, bool force);
 
-/// Installs the SIGINT/SIGTERM/SIGHUP cleanup handlers (remove every live temp file, restore the previous handler,
-/// re-raise, so the process still dies with the signal or the previous handler runs) and the SIGXFSZ handler.
-/// Idempotent; AtomicOutput calls it, tools may call it early in main(). A signal that was ignored when this ran
-/// stays ignored (nohup). The registry holds up to 256 concurrent temp files; further ones are still removed by
-/// their destructors, just not on a signal.
+/// Installs the cleanup handler on the signals listed in the file comment (remove every live temp file, restore the
+/// default action, re-raise, so the process still dies by the signal) and the SIGXFSZ handler, each only where the
+/// signal has its default action when this runs (an ignored signal or another handler is left alone).
+/// Idempotent; AtomicOutput calls it, tools may call it early in main(). The registry holds up to 256 concurrent
+/// temp files; further ones are still removed by their destructors, just not on a signal.
 void install_temp_cleanup_on_signal();
 
 }  // namespace envkit
