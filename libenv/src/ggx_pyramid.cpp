@@ -165,7 +165,7 @@ double GgxPyramid::texel_radius(int size) { return std::atan(std::sqrt(2.0) / do
 
 GgxPyramid::GgxPyramid(const MapRef& src, int face_size)
     : channels_(src.image.channels), alpha_channel_(src.image.alpha_channel) {
-  if (face_size < 1 || face_size > 16384 || (face_size & (face_size - 1)) != 0)
+  if (face_size < 1 || face_size > kMaxFaceSize || (face_size & (face_size - 1)) != 0)
     throw Error("prefilter: source size must be a power of two up to 16384, not " + std::to_string(face_size));
   if (channels_ > 4) throw Error("prefilter: at most 4 channels");
   while ((1 << finest_) < face_size) ++finest_;

@@ -39,6 +39,7 @@ class GgxPyramid {
   GgxPyramid(const MapRef& src, int face_size);
 
   static constexpr int kMaxGroup = 16;
+  static constexpr int kMaxFaceSize = 16384;
 
   // What the walk needs for one lobe (alpha > 0) and accuracy, per pyramid level: thresholds on e = 1 - r . mean.
   // Made once per output level (walk()), not per direction.
