@@ -136,24 +136,30 @@ int full_chain_levels(int size) {
   return levels;
 }
 
-// The face size of a cube whose texels are no larger, on average, than the source's: its finest nodes hold about
-// one source texel each, so a finer cube would hold the same texels in more nodes.
+// The walk refines a node while its radius exceeds accuracy x 2 alpha, or, across the horizon, 0.25 accuracy /
+// alpha (prefilter.h): the smallest radius any level of the chain refines.
+double finest_refined_radius(const PrefilterOptions& options, int levels) {
+  double radius = kPi;
+  for (int m = 1; m < levels; ++m) {
+    const double alpha = level_alpha(options.mapping, m, levels);
+    radius = std::min(radius, options.accuracy * std::min(2.0 * alpha, 0.25 / alpha));
+  }
+  return radius;
+}
+
+// The largest face size whose cube has no more texels than the source: a finer cube would spend more nodes than
+// there are source texels, which a walk sums one by one more cheaply (GgxPyramid's texel lists).
 int source_cube_size_held(const MapRef& src) {
   int n = 1;
-  while (n < detail::GgxPyramid::kMaxFaceSize && 6.0 * double(n) * n < double(src.image.texel_count())) n *= 2;
+  while (2 * n <= detail::GgxPyramid::kMaxFaceSize && 6.0 * double(2 * n) * (2 * n) <= double(src.image.texel_count()))
+    n *= 2;
   return n;
 }
 
-// The summed cube resolves the sharpest lobe: the walk refines a node while its radius exceeds accuracy x 2 alpha,
-// or, across the horizon, 0.25 accuracy / alpha (prefilter.h), so the first face size whose texels are within both
-// for every level is all the walk can use; finer than the source holds, it would only cost memory and gathering
-// time. The output's size plays no part: a level's lobe may be much narrower than one of its texels.
-int default_source_size(const MapRef& src, const PrefilterOptions& options, int levels) {
-  double finest_radius = kPi;
-  for (int m = 1; m < levels; ++m) {
-    const double alpha = level_alpha(options.mapping, m, levels);
-    finest_radius = std::min(finest_radius, options.accuracy * std::min(2.0 * alpha, 0.25 / alpha));
-  }
+// The first face size whose texels are within the finest radius any level refines (all the walk can use), unless
+// the source holds fewer texels than that cube: then the source's size, and the walk refines the finest nodes into
+// their texels. The output's size plays no part: a level's lobe may be much narrower than one of its texels.
+int default_source_size(const MapRef& src, double finest_radius) {
   const int held = source_cube_size_held(src);
   int size = 1;
   while (size < held && detail::GgxPyramid::texel_radius(size) > finest_radius) size *= 2;
@@ -171,7 +177,8 @@ PrefilteredChain prefilter_ggx(const MapRef& src, const PrefilterOptions& option
   if (levels < 1 || levels > max_levels)
     throw Error("prefilter: " + std::to_string(levels) + " levels requested; a size of " +
                 std::to_string(options.size) + " has at most " + std::to_string(max_levels));
-  int source_size = options.source_size == 0 ? default_source_size(src, options, levels) : options.source_size;
+  const double finest_radius = finest_refined_radius(options, levels);
+  int source_size = options.source_size == 0 ? default_source_size(src, finest_radius) : options.source_size;
   if (source_size < 1 || (source_size & (source_size - 1)) != 0)
     throw Error("prefilter: source size must be a power of two, not " + std::to_string(source_size));
 
@@ -199,7 +206,7 @@ PrefilteredChain prefilter_ggx(const MapRef& src, const PrefilterOptions& option
   Image level0 = resample(src, *level0_param, options.to_world, area);
 
   std::optional<detail::GgxPyramid> pyramid;
-  if (levels > 1) pyramid.emplace(src, source_size);
+  if (levels > 1) pyramid.emplace(src, source_size, detail::GgxPyramid::texel_radius(source_size) > finest_radius);
   report(0.3);
 
   auto make_level = [&](Image image, std::unique_ptr<Parameterization> param, int m) {
