@@ -232,7 +232,7 @@ void GgxPyramid::gather(const MapRef& src, int face_size, bool keep_texels) {
         for (int x = 0; x < w; ++x) {
           const std::size_t index = std::size_t(y) * w + x;
           Vec3 d;
-          double o;
+          double o = 0.0;
           if (!source_texel(x, y, d, o)) continue;
           const Vec2 pos = cube.to_image(d);
           const int i = std::clamp(int(pos.x), 0, face_size - 1);
@@ -296,9 +296,9 @@ void GgxPyramid::gather(const MapRef& src, int face_size, bool keep_texels) {
     texels_.resize(order.size());
     tbb::parallel_for(std::size_t(0), order.size(), [&](std::size_t k) {
       const int x = int(order[k] % std::uint32_t(w)), y = int(order[k] / std::uint32_t(w));
-      Vec3 d;
-      double o;
-      source_texel(x, y, d, o);
+      Vec3 d(0.0);
+      double o = 0.0;
+      source_texel(x, y, d, o);  // listed, so it holds data
       Texel& t = texels_[k];
       t = Texel{{float(d.x), float(d.y), float(d.z)}, {}, float(o)};
       const float* px = src.image.pixels.data() + std::size_t(order[k]) * channels;
@@ -369,9 +369,9 @@ GgxPyramid::Walk GgxPyramid::walk(double alpha, double accuracy) const {
   Walk w;
   w.alpha = alpha;
   const double spread = 2.0 * alpha;
-  // A second-order expansion over a node wider than the lobe would be wrong; narrower finest nodes take the
-  // second-order term like every other node.
-  // Where texels are kept, a finest node refines into them like any other node into its children.
+  // A second-order expansion over a node wider than the lobe would be wrong. Where texels are kept, a finest node
+  // refines into them by the same rule as any node into its children; without, finest nodes wider than the lobe
+  // act as points, and narrower ones take the second-order term like every other node.
   const bool texels = !texels_.empty();
   w.finest_points = !texels && radius_[finest_] > accuracy * spread;
   // Per level:

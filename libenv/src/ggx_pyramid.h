@@ -47,8 +47,9 @@ class GgxPyramid {
   // Made once per output level (walk()), not per direction.
   struct Walk {
     double alpha = 0.0;
-    bool finest_points = false;  // finest nodes wider than the lobe's peak act as points at their unit centroids
-                                 // (no texels kept); with texels kept they refine into them instead
+    // Finest nodes wider than the lobe's peak act as points at their unit centroids (only without kept texels,
+    // which they refine into instead).
+    bool finest_points = false;
     std::array<float, 32> skip_above{}, straddle_above{}, refine_below{};
     std::array<bool, 32> horizon_refine{};
   };
