@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <ctime>
 
+#include "../libenv/src/ggx_pyramid.h"
 #include "prefilter_support.h"
 
 using namespace envkit;
@@ -189,6 +190,25 @@ TEST(Prefilter, CoarseSourceCubeRefinesIntoTexels) {
   const LevelErrors e = compare_with_reference(sunny, chain, 200);
   print("sun, 8^2 source cube", e, chain);
   for (std::size_t i = 0; i < e.rms.size(); ++i) EXPECT_LE(worst_channel(e.rms[i]), 0.005) << "level " << i + 1;
+}
+
+// The unreal mapping's level 1 (alpha about 1e-3) is sharper than the source's texels, so the lobe alone would ask
+// for a cube as fine as the source; the default cube stops where its pyramid reaches 4 times the source's bytes
+// (a 256 x 128 RGB map: 32^2), and the texel lists keep the sharp levels exact over it.
+TEST(Prefilter, SourceCubeMemoryCappedBySourceBytes) {
+  const EnvMap sunny = textured_sky(256, 1e4f);
+  PrefilterOptions o;
+  o.size = 64;
+  o.mapping = RoughnessMapping::Unreal;
+  const PrefilteredChain chain = prefilter_ggx(sunny.ref(), o);
+  EXPECT_EQ(chain.source_size, 32);
+  const double source_bytes = double(sunny.image.texel_count()) * sunny.image.channels * sizeof(float);
+  EXPECT_LE(detail::GgxPyramid::peak_bytes(chain.source_size), 4.0 * source_bytes);
+  EXPECT_GT(detail::GgxPyramid::peak_bytes(2 * chain.source_size), 4.0 * source_bytes);
+  const LevelErrors e = compare_with_reference(sunny, chain, 200);
+  print("sun, unreal mapping, capped source cube", e, chain);
+  for (std::size_t i = 0; i < e.rms.size(); ++i)
+    EXPECT_LE(worst_channel(e.rms[i]), 0.005) << "level " << i + 1 << " alpha " << chain.alpha[i + 1];
 }
 
 // The table of docs/PREFILTER.md ("Method and the accuracy knob"): relative RMS per level (worst channel) and time

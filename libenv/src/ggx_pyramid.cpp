@@ -159,9 +159,25 @@ Float4 quad_form(const Float4 (&m)[6], Float4 x, Float4 y, Float4 z) {
                        2.0f * (x * y * m[3] + x * z * m[4] + y * z * m[5]));
 }
 
+// A node's sums over its texels, in float: a node holds a few dozen texels, and the directions enter as offsets
+// from the node's centre, whose moments keep float's digits (raw moments of d would lose them to the
+// subtraction of the mean below). Half the memory of doubles, which a big gather pays for in page faults.
+struct Acc {
+  std::array<float, 4> flux;
+  float omega, weight;
+  std::array<float, 3> flux_sum, omega_sum;  // of (d - centre), weighted
+  std::array<float, 6> flux_m2, omega_m2;    // of (d - centre)(d - centre)^T, weighted
+};
+
 }  // namespace
 
 double GgxPyramid::texel_radius(int size) { return std::atan(std::sqrt(2.0) / double(size)); }
+
+double GgxPyramid::peak_bytes(int face_size) {
+  // Every level's families (a geometric series: 4/3 of the finest level's) and the gather's sums per finest node.
+  const double finest_nodes = 6.0 * double(face_size) * double(face_size);
+  return finest_nodes * (sizeof(NodeFamily) / 4.0 * 4.0 / 3.0 + sizeof(Acc));
+}
 
 GgxPyramid::GgxPyramid(const MapRef& src, int face_size, bool keep_texels)
     : channels_(src.image.channels), alpha_channel_(src.image.alpha_channel) {
@@ -185,15 +201,6 @@ void GgxPyramid::gather(const MapRef& src, int face_size, bool keep_texels) {
   const TexelDirections dirs(src.param);
   const SolidAngleTable omega(src.param);
   const TexelSource coverage(src.image, src.param);
-  // A node's sums over its texels, in float: a node holds a few dozen texels, and the directions enter as offsets
-  // from the node's centre, whose moments keep float's digits (raw moments of d would lose them to the
-  // subtraction of the mean below). Half the memory of doubles, which a big gather pays for in page faults.
-  struct Acc {
-    std::array<float, 4> flux;
-    float omega, weight;
-    std::array<float, 3> flux_sum, omega_sum;  // of (d - centre), weighted
-    std::array<float, 6> flux_m2, omega_m2;    // of (d - centre)(d - centre)^T, weighted
-  };
   // The centre of a finest node: the centre of its texel on the gathering cube.
   auto centre_of = [&](int i, int row) {
     Vec3 c;

@@ -66,6 +66,9 @@ class GgxPyramid {
   // Bound on the angular radius of a texel of a cube of face size `size` about its centre (radians).
   static double texel_radius(int size);
 
+  // Bytes the pyramid of face size `face_size` holds at its peak (while gathering), without the texel lists.
+  static double peak_bytes(int face_size);
+
  private:
   // One source texel under a finest node: its unit direction (world frame), flux per channel and solid angle.
   struct Texel {

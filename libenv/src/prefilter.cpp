@@ -147,22 +147,28 @@ double finest_refined_radius(const PrefilterOptions& options, int levels) {
   return radius;
 }
 
-// The largest face size whose cube has no more texels than the source: a finer cube would spend more nodes than
-// there are source texels, which a walk sums one by one more cheaply (GgxPyramid's texel lists).
-int source_cube_size_held(const MapRef& src) {
+// The summed cube's pyramid stays within this many times the source image's own bytes. A cube coarser than the
+// lobes need costs walk time only, never accuracy: the walk refines its finest nodes into their source texels.
+constexpr double kSourceCubeBytesPerSourceByte = 4.0;
+
+// The largest face size whose pyramid keeps to that budget. It also holds fewer finest nodes than the source has
+// texels (a node costs more bytes than a texel's budget), so the cube is never finer than the source.
+int source_cube_size_cap(const MapRef& src) {
+  const double source_bytes = double(src.image.texel_count()) * src.image.channels * sizeof(float);
   int n = 1;
-  while (2 * n <= detail::GgxPyramid::kMaxFaceSize && 6.0 * double(2 * n) * (2 * n) <= double(src.image.texel_count()))
+  while (2 * n <= detail::GgxPyramid::kMaxFaceSize &&
+         detail::GgxPyramid::peak_bytes(2 * n) <= kSourceCubeBytesPerSourceByte * source_bytes)
     n *= 2;
   return n;
 }
 
 // The first face size whose texels are within the finest radius any level refines (all the walk can use), unless
-// the source holds fewer texels than that cube: then the source's size, and the walk refines the finest nodes into
-// their texels. The output's size plays no part: a level's lobe may be much narrower than one of its texels.
+// the memory cap stops it first: then the walk refines the finest nodes into their texels. The output's size plays
+// no part: a level's lobe may be much narrower than one of its texels.
 int default_source_size(const MapRef& src, double finest_radius) {
-  const int held = source_cube_size_held(src);
+  const int cap = source_cube_size_cap(src);
   int size = 1;
-  while (size < held && detail::GgxPyramid::texel_radius(size) > finest_radius) size *= 2;
+  while (size < cap && detail::GgxPyramid::texel_radius(size) > finest_radius) size *= 2;
   return size;
 }
 

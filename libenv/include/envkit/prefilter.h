@@ -35,7 +35,7 @@
 /// node contributes w(E c) + w''(E c) Var(c) / 2 (c = r.l, second-order exact
 /// over the node) times its flux, and the same rule with the solid-angle moments
 /// to the normalisation. Where the summed cube is coarser than the sharpest
-/// lobe needs (it is never finer than the source: PrefilterOptions::
+/// lobe needs (its memory is capped by the source's: PrefilterOptions::
 /// source_size), its finest nodes keep the list of their source texels and
 /// refine into them, each a point at its own direction as in the brute-force
 /// sum, so a single hot texel (a sun) lands at its own direction at every
@@ -103,10 +103,13 @@ struct PrefilterOptions {
   /// Face size of the summed source cube (a power of two, at most 16384); 0 =
   /// the first whose texel radius is within accuracy x 2 alpha of the sharpest
   /// level and within 0.25 accuracy / alpha of the roughest (the walk never
-  /// refines finer nodes), but no finer than the largest cube with at most as
-  /// many texels as the source (6 n^2 <= source texels). The output size plays
-  /// no part. Finest nodes wider than the walk needs (a cube coarser than the
-  /// lobe, by this cap or asked for here) refine into their source texels.
+  /// refines finer nodes), but no finer than the largest cube whose pyramid
+  /// (about 230 bytes per finest node while gathering) takes at most 4 times
+  /// the source image's own bytes (float x channels per texel), which also
+  /// keeps it coarser than the source. The output size plays no part. Finest
+  /// nodes wider than the walk needs (a cube coarser than the lobe, by this cap
+  /// or asked for here) refine into their source texels: exact at any cube
+  /// size, a coarser cube costing walk time on the sharpest levels only.
   int source_size = 0;
   ProgressFn progress;
 };
