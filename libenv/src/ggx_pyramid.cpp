@@ -159,13 +159,29 @@ Float4 quad_form(const Float4 (&m)[6], Float4 x, Float4 y, Float4 z) {
                        2.0f * (x * y * m[3] + x * z * m[4] + y * z * m[5]));
 }
 
+// A node's sums over its texels, in float: a node holds a few dozen texels, and the directions enter as offsets
+// from the node's centre, whose moments keep float's digits (raw moments of d would lose them to the
+// subtraction of the mean below). Half the memory of doubles, which a big gather pays for in page faults.
+struct Acc {
+  std::array<float, 4> flux;
+  float omega, weight;
+  std::array<float, 3> flux_sum, omega_sum;  // of (d - centre), weighted
+  std::array<float, 6> flux_m2, omega_m2;    // of (d - centre)(d - centre)^T, weighted
+};
+
 }  // namespace
 
 double GgxPyramid::texel_radius(int size) { return std::atan(std::sqrt(2.0) / double(size)); }
 
-GgxPyramid::GgxPyramid(const MapRef& src, int face_size)
+double GgxPyramid::peak_bytes(int face_size) {
+  // Every level's families (a geometric series: 4/3 of the finest level's) and the gather's sums per finest node.
+  const double finest_nodes = 6.0 * double(face_size) * double(face_size);
+  return finest_nodes * (sizeof(NodeFamily) / 4.0 * 4.0 / 3.0 + sizeof(Acc));
+}
+
+GgxPyramid::GgxPyramid(const MapRef& src, int face_size, bool keep_texels)
     : channels_(src.image.channels), alpha_channel_(src.image.alpha_channel) {
-  if (face_size < 1 || face_size > 16384 || (face_size & (face_size - 1)) != 0)
+  if (face_size < 1 || face_size > kMaxFaceSize || (face_size & (face_size - 1)) != 0)
     throw Error("prefilter: source size must be a power of two up to 16384, not " + std::to_string(face_size));
   if (channels_ > 4) throw Error("prefilter: at most 4 channels");
   while ((1 << finest_) < face_size) ++finest_;
@@ -174,33 +190,35 @@ GgxPyramid::GgxPyramid(const MapRef& src, int face_size)
     levels_[k].resize(families_at(k));
     radius_.push_back(texel_radius(1 << k));
   }
-  gather(src, face_size);
+  gather(src, face_size, keep_texels);
   sum_upward();
 }
 
-void GgxPyramid::gather(const MapRef& src, int face_size) {
+void GgxPyramid::gather(const MapRef& src, int face_size, bool keep_texels) {
   const CubeMap cube(face_size, CubeLayout::VerticalStrip, CubeBasis::GL, TexelGrid::Centre);
   const int w = src.image.width, h = src.image.height, channels = src.image.channels;
   const int alpha_channel = src.image.alpha_channel;
   const TexelDirections dirs(src.param);
   const SolidAngleTable omega(src.param);
   const TexelSource coverage(src.image, src.param);
-  // A node's sums over its texels, in float: a node holds a few dozen texels, and the directions enter as offsets
-  // from the node's centre, whose moments keep float's digits (raw moments of d would lose them to the
-  // subtraction of the mean below). Half the memory of doubles, which a big gather pays for in page faults.
-  struct Acc {
-    std::array<float, 4> flux;
-    float omega, weight;
-    std::array<float, 3> flux_sum, omega_sum;  // of (d - centre), weighted
-    std::array<float, 6> flux_m2, omega_m2;    // of (d - centre)(d - centre)^T, weighted
-  };
   // The centre of a finest node: the centre of its texel on the gathering cube.
   auto centre_of = [&](int i, int row) {
     Vec3 c;
     cube.to_direction(Vec2(i + 0.5, row + 0.5), c);
     return c;
   };
+  // Source texel (x, y) as the gather sees it: its unit direction in the world frame and exact solid angle; false
+  // where the map holds no data.
+  auto source_texel = [&](int x, int y, Vec3& d, double& o) {
+    if (!coverage.covered(std::size_t(y) * w + x) || !dirs.centre(x, y, d)) return false;
+    o = omega(x, y);
+    if (!(o > 0.0)) return false;
+    d = apply(src.to_world, d).normalized();
+    return true;
+  };
   const std::uint32_t face_nodes = std::uint32_t(face_size) * std::uint32_t(face_size);
+  // With keep_texels, the finest node of every source texel (UINT32_MAX without data), for the texel lists.
+  std::vector<std::uint32_t> node_of(keep_texels ? std::size_t(w) * h : 0, UINT32_MAX);
   // Source rows in fixed bands, each band gathering into its own run-length list; bands merge in order, so the sums
   // do not depend on the thread count. Chunks of bands at a time bound the memory of the lists, and the chunks
   // reuse the same lists (fresh ones would fault in new pages for every chunk).
@@ -221,15 +239,14 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
         for (int x = 0; x < w; ++x) {
           const std::size_t index = std::size_t(y) * w + x;
           Vec3 d;
-          if (!coverage.covered(index) || !dirs.centre(x, y, d)) continue;
-          const double o = omega(x, y);
-          if (!(o > 0.0)) continue;
-          d = apply(src.to_world, d).normalized();
+          double o = 0.0;
+          if (!source_texel(x, y, d, o)) continue;
           const Vec2 pos = cube.to_image(d);
           const int i = std::clamp(int(pos.x), 0, face_size - 1);
           const int row = std::clamp(int(pos.y), 0, 6 * face_size - 1);
           const std::uint32_t node =
               std::uint32_t(row / face_size) * face_nodes + morton(std::uint32_t(i), std::uint32_t(row % face_size));
+          if (keep_texels) node_of[index] = node;
           if (node != last) {
             out.push_back({node, Acc{}});
             last = node;
@@ -273,6 +290,27 @@ void GgxPyramid::gather(const MapRef& src, int face_size) {
         }
       }
     }
+  }
+  if (keep_texels) {
+    // Counting sort by node, in source order within a node: the lists do not depend on the thread count.
+    first_texel_.assign(acc.size() + 1, 0);
+    for (const std::uint32_t node : node_of)
+      if (node != UINT32_MAX) ++first_texel_[node + 1];
+    for (std::size_t n = 0; n < acc.size(); ++n) first_texel_[n + 1] += first_texel_[n];
+    std::vector<std::uint32_t> slot(first_texel_.begin(), first_texel_.end() - 1), order(first_texel_.back());
+    for (std::size_t index = 0; index < node_of.size(); ++index)
+      if (node_of[index] != UINT32_MAX) order[slot[node_of[index]]++] = std::uint32_t(index);
+    texels_.resize(order.size());
+    tbb::parallel_for(std::size_t(0), order.size(), [&](std::size_t k) {
+      const int x = int(order[k] % std::uint32_t(w)), y = int(order[k] / std::uint32_t(w));
+      Vec3 d(0.0);
+      double o = 0.0;
+      source_texel(x, y, d, o);  // listed, so it holds data
+      Texel& t = texels_[k];
+      t = Texel{{float(d.x), float(d.y), float(d.z)}, {}, float(o)};
+      const float* px = src.image.pixels.data() + std::size_t(order[k]) * channels;
+      for (int c = 0; c < channels; ++c) t.flux[c] = float(double(px[c]) * o);
+    });
   }
   // Mean offsets and central moments from the offsets' sums, in double.
   auto mean_offset = [](const std::array<float, 3>& sum, double weight) {
@@ -338,9 +376,11 @@ GgxPyramid::Walk GgxPyramid::walk(double alpha, double accuracy) const {
   Walk w;
   w.alpha = alpha;
   const double spread = 2.0 * alpha;
-  // A second-order expansion over a node wider than the lobe would be wrong; narrower finest nodes take the
-  // second-order term like every other node.
-  w.finest_points = radius_[finest_] > accuracy * spread;
+  // A second-order expansion over a node wider than the lobe would be wrong. Where texels are kept, a finest node
+  // refines into them by the same rule as any node into its children; without, finest nodes wider than the lobe
+  // act as points, and narrower ones take the second-order term like every other node.
+  const bool texels = !texels_.empty();
+  w.finest_points = !texels && radius_[finest_] > accuracy * spread;
   // Per level:
   // - skip: wholly below the horizon of r (every point of a node lies within 2 rho of its mean): c < -sin(2 rho);
   // - straddles: across the horizon, where the weight has its kink (no second-order term there);
@@ -356,8 +396,9 @@ GgxPyramid::Walk GgxPyramid::walk(double alpha, double accuracy) const {
     w.straddle_above[k] = float(1.0 - edge);
     const double q = radius_[k] / accuracy, q2 = q * q;
     const double limit = std::pow(q2 * q2 * q2 * spread, 1.0 / 7.0) - spread;  // t < limit + spread
-    w.refine_below[k] = k < finest_ && limit > 0.0 ? float(0.5 * limit * limit) : -1.0f;
-    w.horizon_refine[k] = k < finest_ && radius_[k] > 0.25 * accuracy / alpha;
+    const bool refinable = k < finest_ || texels;
+    w.refine_below[k] = refinable && limit > 0.0 ? float(0.5 * limit * limit) : -1.0f;
+    w.horizon_refine[k] = refinable && radius_[k] > 0.25 * accuracy / alpha;
   }
   return w;
 }
@@ -384,6 +425,24 @@ void GgxPyramid::filter(const Walk& walk, std::span<const Vec3> r, std::span<flo
   int top = 0;
   stack[top++] = {0, 1};
   stack[top++] = {0, 0};
+  // The texels of a finest node, four at a time in the lanes, each a point at its own direction (the brute-force
+  // sum's own terms); lanes past the last texel hold nothing.
+  auto sum_texels = [&](std::uint32_t node) {
+    for (std::uint32_t k = first_texel_[node]; k < first_texel_[node + 1]; k += 4) {
+      Float4 m[3] = {}, flux[4] = {}, omega = {};
+      for (std::uint32_t q = 0; q < 4 && k + q < first_texel_[node + 1]; ++q) {
+        const Texel& tx = texels_[k + q];
+        for (int a = 0; a < 3; ++a) m[a][q] = tx.d[a];
+        for (int c = 0; c < channels_; ++c) flux[c][q] = tx.flux[c];
+        omega[q] = tx.omega;
+      }
+      for (int t = 0; t < n; ++t) {
+        const Float4 wt = lobe.weight(one_minus_dot(m, Float4{}, dir[t].x, dir[t].y, dir[t].z));
+        for (int c = 0; c < channels_; ++c) acc[t][c] += wt * flux[c];
+        weight[t] += wt * omega;
+      }
+    }
+  };
   std::array<Float4, kMaxGroup> eo;
   std::array<Int4, kMaxGroup> visible, straddles;
   while (top > 0) {
@@ -427,7 +486,10 @@ void GgxPyramid::filter(const Walk& walk, std::span<const Vec3> r, std::span<flo
     for (int q = 0; q < 4; ++q)
       if (refined & (1 << q)) {
         const std::uint32_t child = it.family * 4 + std::uint32_t(q);
-        if (child < levels_[it.level + 1].size()) stack[top++] = {it.level + 1, child};
+        if (it.level == finest_)
+          sum_texels(child);
+        else if (child < levels_[it.level + 1].size())
+          stack[top++] = {it.level + 1, child};
       }
   }
   for (int t = 0; t < n; ++t) {

@@ -35,16 +35,21 @@ struct alignas(16) NodeFamily {
 class GgxPyramid {
  public:
   // Gathers `src` (world frame by src.to_world) into a cube of face_size (a power of two, at most 16384) by the
-  // cube texel that holds each source texel's centre, then sums upward.
-  GgxPyramid(const MapRef& src, int face_size);
+  // cube texel that holds each source texel's centre, then sums upward. With keep_texels the source texels also
+  // stay listed under their finest node, so that a walk can refine a finest node into its texels (for lobes
+  // narrower than the cube's texels); without, such nodes act as points at their centroids.
+  GgxPyramid(const MapRef& src, int face_size, bool keep_texels = false);
 
   static constexpr int kMaxGroup = 16;
+  static constexpr int kMaxFaceSize = 16384;
 
   // What the walk needs for one lobe (alpha > 0) and accuracy, per pyramid level: thresholds on e = 1 - r . mean.
   // Made once per output level (walk()), not per direction.
   struct Walk {
     double alpha = 0.0;
-    bool finest_points = false;  // finest nodes wider than the lobe's peak act as points at their unit centroids
+    // Finest nodes wider than the lobe's peak act as points at their unit centroids (only without kept texels,
+    // which they refine into instead).
+    bool finest_points = false;
     std::array<float, 32> skip_above{}, straddle_above{}, refine_below{};
     std::array<bool, 32> horizon_refine{};
   };
@@ -61,8 +66,18 @@ class GgxPyramid {
   // Bound on the angular radius of a texel of a cube of face size `size` about its centre (radians).
   static double texel_radius(int size);
 
+  // Bytes the pyramid of face size `face_size` holds at its peak (while gathering), without the texel lists.
+  static double peak_bytes(int face_size);
+
  private:
-  void gather(const MapRef& src, int face_size);
+  // One source texel under a finest node: its unit direction (world frame), flux per channel and solid angle.
+  struct Texel {
+    float d[3];
+    float flux[4];
+    float omega;
+  };
+
+  void gather(const MapRef& src, int face_size, bool keep_texels);
   void sum_upward();
 
   int channels_;
@@ -73,6 +88,10 @@ class GgxPyramid {
   // write every lane, on every core.
   std::vector<std::vector<NodeFamily, UninitialisedAllocator<NodeFamily>>> levels_;
   std::vector<double> radius_;                   // texel_radius(2^k)
+  // With keep_texels: the texels of finest node n (face * 4^finest + Morton(i, j)) are
+  // texels_[first_texel_[n] .. first_texel_[n + 1]), in source order; both empty without.
+  std::vector<std::uint32_t> first_texel_;
+  std::vector<Texel> texels_;
 };
 
 }  // namespace envkit::detail

@@ -136,6 +136,42 @@ int full_chain_levels(int size) {
   return levels;
 }
 
+// The walk refines a node while its radius exceeds accuracy x 2 alpha, or, across the horizon, 0.25 accuracy /
+// alpha (prefilter.h): the smallest radius any level of the chain refines.
+double finest_refined_radius(const PrefilterOptions& options, int levels) {
+  double radius = kPi;
+  for (int m = 1; m < levels; ++m) {
+    const double alpha = level_alpha(options.mapping, m, levels);
+    radius = std::min(radius, options.accuracy * std::min(2.0 * alpha, 0.25 / alpha));
+  }
+  return radius;
+}
+
+// The summed cube's pyramid stays within this many times the source image's own bytes. A cube coarser than the
+// lobes need costs walk time only, never accuracy: the walk refines its finest nodes into their source texels.
+constexpr double kSourceCubeBytesPerSourceByte = 4.0;
+
+// The largest face size whose pyramid keeps to that budget. It also holds fewer finest nodes than the source has
+// texels (a node costs more bytes than a texel's budget), so the cube is never finer than the source.
+int source_cube_size_cap(const MapRef& src) {
+  const double source_bytes = double(src.image.texel_count()) * src.image.channels * sizeof(float);
+  int n = 1;
+  while (2 * n <= detail::GgxPyramid::kMaxFaceSize &&
+         detail::GgxPyramid::peak_bytes(2 * n) <= kSourceCubeBytesPerSourceByte * source_bytes)
+    n *= 2;
+  return n;
+}
+
+// The first face size whose texels are within the finest radius any level refines (all the walk can use), unless
+// the memory cap stops it first: then the walk refines the finest nodes into their texels. The output's size plays
+// no part: a level's lobe may be much narrower than one of its texels.
+int default_source_size(const MapRef& src, double finest_radius) {
+  const int cap = source_cube_size_cap(src);
+  int size = 1;
+  while (size < cap && detail::GgxPyramid::texel_radius(size) > finest_radius) size *= 2;
+  return size;
+}
+
 }  // namespace
 
 PrefilteredChain prefilter_ggx(const MapRef& src, const PrefilterOptions& options) {
@@ -147,20 +183,8 @@ PrefilteredChain prefilter_ggx(const MapRef& src, const PrefilterOptions& option
   if (levels < 1 || levels > max_levels)
     throw Error("prefilter: " + std::to_string(levels) + " levels requested; a size of " +
                 std::to_string(options.size) + " has at most " + std::to_string(max_levels));
-  // The walk never refines a node whose radius is within accuracy x 2 alpha, nor one across the horizon within
-  // 0.25 accuracy / alpha (prefilter.h): a summed cube finer than every level needs would only cost memory and
-  // gathering time.
-  double finest_radius = kPi;
-  for (int m = 1; m < levels; ++m) {
-    const double alpha = level_alpha(options.mapping, m, levels);
-    finest_radius = std::min(finest_radius, options.accuracy * std::min(2.0 * alpha, 0.25 / alpha));
-  }
-  int source_size = options.source_size;
-  if (source_size == 0) {
-    source_size = 1;
-    while (source_size < options.size && detail::GgxPyramid::texel_radius(source_size) > finest_radius)
-      source_size *= 2;
-  }
+  const double finest_radius = finest_refined_radius(options, levels);
+  int source_size = options.source_size == 0 ? default_source_size(src, finest_radius) : options.source_size;
   if (source_size < 1 || (source_size & (source_size - 1)) != 0)
     throw Error("prefilter: source size must be a power of two, not " + std::to_string(source_size));
 
@@ -188,7 +212,7 @@ PrefilteredChain prefilter_ggx(const MapRef& src, const PrefilterOptions& option
   Image level0 = resample(src, *level0_param, options.to_world, area);
 
   std::optional<detail::GgxPyramid> pyramid;
-  if (levels > 1) pyramid.emplace(src, source_size);
+  if (levels > 1) pyramid.emplace(src, source_size, detail::GgxPyramid::texel_radius(source_size) > finest_radius);
   report(0.3);
 
   auto make_level = [&](Image image, std::unique_ptr<Parameterization> param, int m) {

@@ -34,11 +34,13 @@
 /// directions, so that Var(c) = r^T C r carries no cancellation; a visited
 /// node contributes w(E c) + w''(E c) Var(c) / 2 (c = r.l, second-order exact
 /// over the node) times its flux, and the same rule with the solid-angle moments
-/// to the normalisation; finest nodes wider than accuracy x 2 alpha act as
-/// points at their centroids, so a
-/// single hot texel (a sun) lands at its own direction at every level.
-/// `accuracy` is the speed/accuracy
-/// knob (see docs/PREFILTER.md for measured errors).
+/// to the normalisation. Where the summed cube is coarser than the sharpest
+/// lobe needs (its memory is capped by the source's: PrefilterOptions::
+/// source_size), its finest nodes keep the list of their source texels and
+/// refine into them, each a point at its own direction as in the brute-force
+/// sum, so a single hot texel (a sun) lands at its own direction at every
+/// level. `accuracy` is the speed/accuracy knob (see docs/PREFILTER.md for
+/// measured errors).
 ///
 /// Roughness mappings (perceptual roughness r_m of level m of M, alpha = r_m^2
 /// in all three):
@@ -94,13 +96,20 @@ struct PrefilterOptions {
   /// identity = envkit's and GL's frame).
   Mat3 to_world = identity3();
   /// Refinement threshold (radians per radian): smaller is slower (cost ~ 1 /
-  /// accuracy^2) and more exact. 0.2 keeps smooth maps and a 1e6 sun within
-  /// 0.5% relative RMS of the brute-force sum (docs/PREFILTER.md).
+  /// accuracy^2) and more exact. 0.2 keeps every level of chains of 8^2 to
+  /// 256^2 within 0.5% relative RMS of the brute-force sum, on smooth maps,
+  /// textured ones and a sun (docs/PREFILTER.md has the table per accuracy).
   double accuracy = 0.2;
   /// Face size of the summed source cube (a power of two, at most 16384); 0 =
-  /// the smallest power of two >= size, or, if smaller, the first whose texel
-  /// radius is within accuracy x 2 alpha of the sharpest level and within
-  /// 0.25 accuracy / alpha of the roughest (finer nodes would never be visited).
+  /// the first whose texel radius is within accuracy x 2 alpha of the sharpest
+  /// level and within 0.25 accuracy / alpha of the roughest (the walk never
+  /// refines finer nodes), but no finer than the largest cube whose pyramid
+  /// (about 230 bytes per finest node while gathering) takes at most 4 times
+  /// the source image's own bytes (float x channels per texel), which also
+  /// keeps it coarser than the source. The output size plays no part. Finest
+  /// nodes wider than the walk needs (a cube coarser than the lobe, by this cap
+  /// or asked for here) refine into their source texels: exact at any cube
+  /// size, a coarser cube costing walk time on the sharpest levels only.
   int source_size = 0;
   ProgressFn progress;
 };
