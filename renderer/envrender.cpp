@@ -5,6 +5,7 @@
 #include <envkit/render/integrator.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
+#include <envkit/request_limits.h>
 #include <envkit/sun_split.h>
 
 #include <algorithm>
@@ -94,6 +95,11 @@ int run(const Args& a) {
     // The scene format's limit, checked before the scene is loaded and anything is allocated.
     if (load.width < 1 || load.height < 1 || load.width > 16384 || load.height > 16384)
       throw CLI::ValidationError("--resolution", "'" + a.resolution + "': width and height must be in [1, 16384]");
+    try {
+      check_render_size(load.width, load.height);
+    } catch (const envkit::RequestTooLarge& e) {
+      throw CLI::ValidationError("--resolution", "'" + a.resolution + "': " + e.what());
+    }
   }
   LoadedScene scene = a.scene.empty() ? make_default_scene(load) : load_scene_file(a.scene, load);
   // The environment image (its six faces for a '%' pattern) is an input too: never replace it. The loader names it
