@@ -130,7 +130,7 @@ def test_shapes_and_large_arrays(baked):
         t.sample(u, out=(out[0], np.empty(5), out[2]))
     with pytest.raises(envkit.Error, match="wrong dtype"):
         t.sample(u, out=(out[0], out[1], np.empty((70000, 2))))
-    with pytest.raises(envkit.Error, match=r"\(\.\.\., 2\)"):
+    with pytest.raises(ValueError, match=r"^u: .*\(\.\.\., 2\)"):
         t.sample(np.zeros((4, 3)))
     # The density integrates to 1: it is constant per texel of the bake grid, so sum(pdf(centre) x Omega) = 1.
     grid_map = envkit.EnvMap(np.zeros((t.height, t.width, 1), np.float32), parameterization="latlong")
