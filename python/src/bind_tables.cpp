@@ -55,7 +55,14 @@ TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::st
   const bool in_memory = map.name.size() >= 2 && map.name.front() == '<' && map.name.back() == '>';
   std::string hash = source_hash;
   if (hash.empty()) hash = in_memory ? image_content_hash(map.map.image) : file_content_hash(face_paths(map.name));
-  return std::make_shared<const EnvTables>(EnvTables::bake(map.map, b, path, hash));
+  try {
+    return std::make_shared<const EnvTables>(EnvTables::bake(map.map, b, path, hash));
+  } catch (const Error& e) {
+    // An importance resolution finer than the bake grid (known only once the grid is chosen) is a bad argument.
+    if (resolution && std::string(e.what()).find("resolution") != std::string::npos)
+      throw py::value_error(std::string("resolution: ") + e.what());
+    throw;
+  }
 }
 
 const SphericalDistribution& distribution(const EnvTables& t, const std::string& method, bool compensated,
