@@ -21,6 +21,13 @@ namespace {
 constexpr int kMaxCheckerCells = 1 << 16;
 
 using probes::Probe;
+
+/// A radiance argument: 3 finite numbers >= 0 (probes::valid_radiance), else ValueError naming it.
+Vec3 radiance_arg(const py::handle& value, const std::string& name) {
+  const Vec3 v = to_vec3(value, name);
+  if (!probes::valid_radiance(v)) throw py::value_error(name + ": a radiance must be finite and >= 0");
+  return v;
+}
 using ProbePtr = std::shared_ptr<Probe>;
 
 py::array radiance(const Probe& p, const py::object& input) {
@@ -109,7 +116,7 @@ texel the exact average over its solid angle (small features such as a sun keep 
   m.def(
       "constant",
       [](const py::object& radiance) -> ProbePtr {
-        return std::make_shared<probes::ConstantProbe>(to_vec3(radiance, "radiance"));
+        return std::make_shared<probes::ConstantProbe>(radiance_arg(radiance, "radiance"));
       },
       py::arg("radiance"), "L = radiance everywhere; power 4 pi L.");
   m.def(
@@ -131,7 +138,7 @@ texel the exact average over its solid angle (small features such as a sun keep 
       "sun",
       [](const py::object& direction, double radius_deg, const py::object& sun, const py::object& sky) -> ProbePtr {
         return std::make_shared<probes::SunProbe>(to_vec3(direction, "direction"), probes::radians(radius_deg),
-                                                  to_vec3(sun, "sun"), to_vec3(sky, "sky"));
+                                                  radiance_arg(sun, "sun"), radiance_arg(sky, "sky"));
       },
       py::arg("direction"), py::arg("radius_deg"), py::arg("sun"), py::arg("sky"),
       "A sun disk of angular radius radius_deg and radiance sun over a uniform "
@@ -141,7 +148,7 @@ texel the exact average over its solid angle (small features such as a sun keep 
       [](const py::object& n_theta, const py::object& n_phi, const py::object& a, const py::object& b) -> ProbePtr {
         return std::make_shared<probes::CheckerProbe>(int_arg(n_theta, "n_theta", 1, kMaxCheckerCells),
                                                       int_arg(n_phi, "n_phi", 1, kMaxCheckerCells),
-                                                      to_vec3(a, "colour_a"), to_vec3(b, "colour_b"));
+                                                      radiance_arg(a, "colour_a"), radiance_arg(b, "colour_b"));
       },
       py::arg("n_theta") = 8, py::arg("n_phi") = 16, py::arg("colour_a") = std::vector<double>{0.8, 0.8, 0.8},
       py::arg("colour_b") = std::vector<double>{0.1, 0.1, 0.1}, "n_theta x n_phi cells of two colours.");
@@ -153,7 +160,7 @@ texel the exact average over its solid angle (small features such as a sun keep 
         s.sun_elevation_deg = elevation_deg;
         s.sun_azimuth_deg = azimuth_deg;
         s.sun_radius_deg = radius_deg;
-        if (!sun_radiance.is_none()) s.sun_radiance = to_vec3(sun_radiance, "sun_radiance");
+        if (!sun_radiance.is_none()) s.sun_radiance = radiance_arg(sun_radiance, "sun_radiance");
         if (!probes::valid_radiance(s.sun_radiance)) throw Error("sun_radiance: must be finite and >= 0");
         if (!(radius_deg > 0.0 && radius_deg <= 90.0)) throw Error("radius_deg: must be in (0, 90]");
         if (!(cloud_cover >= 0.0 && cloud_cover <= 1.0)) throw Error("cloud_cover: must be in [0, 1]");
