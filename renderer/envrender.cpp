@@ -5,6 +5,7 @@
 #include <envkit/render/integrator.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
+#include <envkit/request_limits.h>
 #include <envkit/sun_split.h>
 
 #include <algorithm>
@@ -91,6 +92,7 @@ int run(const Args& a) {
     const tools::ImageSize size = tools::parse_image_size("--resolution", a.resolution, 16384);
     load.width = size.width;
     load.height = size.height;
+    tools::check_request("--resolution", a.resolution, [&] { check_render_size(load.width, load.height); });
   }
   LoadedScene scene = a.scene.empty() ? make_default_scene(load) : load_scene_file(a.scene, load);
   // The environment image (its six faces for a '%' pattern) is an input too: never replace it. The loader names it

@@ -10,6 +10,7 @@
 #include <envkit/image_io.h>
 #include <envkit/ktx2.h>
 #include <envkit/prefilter.h>
+#include <envkit/request_limits.h>
 #include <envkit/sh.h>
 
 #include <algorithm>
@@ -102,10 +103,10 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--sh-window", o.sh_window, "SH windowing against ringing: none|hanning|lanczos")
       ->check(CLI::IsMember({"none", "hanning", "lanczos"}))
       ->capture_default_str();
-  app.add_option("--irradiance-size", o.irradiance_size, "face size of the irradiance map")
+  app.add_option("--irradiance-size", o.irradiance_size, "face size of the irradiance map (at most 512)")
       ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
-  app.add_option("--lut-size", o.lut_size, "DFG LUT width and height")
+  app.add_option("--lut-size", o.lut_size, "DFG LUT width and height (at most 1024)")
       ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
   app.add_option("--lut-layout", o.lut_layout, "DFG channels: scale-bias (R=A, G=B) or filament (R=B, G=A+B)")
@@ -185,8 +186,20 @@ void check_combinations(const Options& o, bool format_given) {
     throw CLI::ValidationError("--format", "applies to .ktx2 and .dds outputs only (OpenEXR outputs hold floats)");
 }
 
+/// Refuses, before the input is read, outputs whose size would exhaust memory or take minutes for no visible gain.
+void check_sizes(const Options& o) {
+  if (!o.out.empty())
+    tools::check_request("--size", std::to_string(o.size), [&] { envkit::check_prefilter_size(o.size, o.octahedral); });
+  if (!o.irradiance.empty())
+    tools::check_request("--irradiance-size", std::to_string(o.irradiance_size),
+                         [&] { envkit::check_irradiance_size(o.irradiance_size, o.octahedral); });
+  if (!o.lut.empty())
+    tools::check_request("--lut-size", std::to_string(o.lut_size), [&] { envkit::check_dfg_lut_size(o.lut_size); });
+}
+
 int run(Options& o, bool format_given) {
   check_combinations(o, format_given);
+  check_sizes(o);
   envkit::install_temp_cleanup_on_signal();
   const std::vector<std::string> inputs = tools::input_paths(o.in.path);
   const int levels = o.levels == 0 ? full_levels(o.size) : o.levels;

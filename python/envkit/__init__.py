@@ -116,6 +116,5 @@ def render(
         path = _os.fspath(scene)
     return _envkit._render(
         path, text, base, spp, strategy, light_method, heuristic, bsdf_samples, light_samples, sun_samples,
-        max_depth, seed, width, height, bake,
-        tuple(crop) if crop is not None else None,
+        max_depth, seed, width, height, bake, crop,
     )

@@ -204,19 +204,50 @@ def _recorded(options):
     return {k: v for k, v in options.items() if k not in ("force",)}
 
 
-def find_inputs(in_dir, patterns=None):
+def output_names(stem, to):
+    """File names of every output a run converting to `to` can write for an input named STEM.EXT (with or without
+    the optional steps)."""
+    return ["%s.%s.exr" % (stem, to), "%s.manifest.json" % stem, "%s.envtbl" % stem, "%s.prefiltered.ktx2" % stem]
+
+
+def _recorded_outputs(out_dir):
+    """Real paths of every output recorded by the manifests in out_dir."""
+    recorded = set()
+    for m in glob.glob(os.path.join(glob.escape(out_dir), "*.manifest.json")):
+        try:
+            with open(m) as f:
+                outputs = json.load(f).get("outputs", {})
+        except (OSError, ValueError, AttributeError):
+            continue
+        if isinstance(outputs, dict):
+            recorded.update(os.path.realpath(p) for p in outputs)
+    return recorded
+
+
+def find_inputs(in_dir, patterns=None, out_dir=None, to="latlong"):
+    """The input maps of in_dir (not its subfolders, so an out_dir inside in_dir is never read): files with a map
+    extension, or matching `patterns`. With out_dir, outputs of a batch are never inputs, also when out_dir is
+    in_dir: files recorded by a manifest of out_dir (earlier runs, any options), and, when out_dir is in_dir, files
+    named as this run's outputs of another input (STEM.<to>.exr, STEM.envtbl, ...: a run killed before its
+    manifest)."""
     names = sorted(os.listdir(in_dir))
-    out = []
+    candidates = []
     for n in names:
         p = os.path.join(in_dir, n)
         if n.startswith(".") or not os.path.isfile(p):
             continue
         if patterns:
             if any(fnmatch.fnmatch(n, pat) for pat in patterns):
-                out.append(p)
+                candidates.append(p)
         elif os.path.splitext(n)[1].lower() in EXTENSIONS:
-            out.append(p)
-    return out
+            candidates.append(p)
+    if out_dir is None or not os.path.isdir(out_dir):
+        return candidates
+    recorded = _recorded_outputs(out_dir)
+    same_dir = os.path.realpath(in_dir) == os.path.realpath(out_dir)
+    stems = {os.path.splitext(os.path.basename(p))[0] for p in candidates}
+    outputs = {n for stem in stems for n in output_names(stem, to)} if same_dir else set()
+    return [p for p in candidates if os.path.realpath(p) not in recorded and os.path.basename(p) not in outputs]
 
 
 def default_options(**overrides):
@@ -271,8 +302,55 @@ def run(inputs, out_dir, client, options, progress=None):
     return results
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors: "envkit.batch: <message> (see --help)", exit status 2."""
+
+    def error(self, message):
+        sys.stderr.write("envkit.batch: %s (see --help)\n" % message)
+        sys.exit(2)
+
+
+def _count(lo, hi):
+    """An argparse type: an integer in [lo, hi], refused with the range otherwise."""
+
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError("'%s' is not an integer" % text) from None
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError("%d is outside [%d, %d]" % (v, lo, hi))
+        return v
+
+    parse.__name__ = "integer"
+    return parse
+
+
+class UsageError(Exception):
+    """A problem with the command line found after parsing (exit status 2)."""
+
+
+class OutputError(Exception):
+    """OUT_DIR cannot be created or written (exit status 1)."""
+
+
+def check_out_dir(out_dir):
+    """Refuses, before any work, an OUT_DIR that is not a folder (UsageError) or cannot be created or written
+    (OutputError), each with a one-line message."""
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise UsageError("OUT_DIR %s: exists and is not a directory" % out_dir)
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+        # A probe file: permissions alone do not tell (root ignores them, a read-only mount does not show).
+        fd, probe = tempfile.mkstemp(prefix=".envkit-batch-probe-", dir=out_dir)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise OutputError("OUT_DIR %s: cannot write: %s" % (out_dir, e.strerror or e)) from None
+
+
 def _parse_args(argv):
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="python3 -m envkit.batch",
         description="Converts and bakes every environment map of a folder on a dask.distributed cluster.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -288,13 +366,14 @@ and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 u
     p.add_argument("out_dir", metavar="OUT_DIR")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--scheduler", metavar="ADDR", help="address of a running dask scheduler")
-    g.add_argument("--workers", type=int, default=2, metavar="N", help="LocalCluster worker processes (default 2)")
-    p.add_argument("--threads-per-worker", type=int, default=1, metavar="T",
+    g.add_argument("--workers", type=_count(1, 1024), default=2, metavar="N",
+                   help="LocalCluster worker processes, 1 to 1024 (default 2)")
+    p.add_argument("--threads-per-worker", type=_count(1, 1024), default=1, metavar="T",
                    help="dask threads per LocalCluster worker (each file still uses oneTBB inside)")
     p.add_argument("--pattern", action="append", metavar="GLOB",
                    help="input file names to take (default: .exr .hdr .pfm .tif .png .jpg)")
     p.add_argument("--to", default="latlong", metavar="KIND", help="output parameterization (default latlong)")
-    p.add_argument("--size", type=int, default=0, metavar="N", help="natural size N (default: the input's density)")
+    p.add_argument("--size", type=_count(0, 1 << 18), default=0, metavar="N", help="natural size N (default: the input's density)")
     p.add_argument("--filter", default="area", help="resampling filter (default area)")
     p.add_argument("--convention", metavar="C", help="output convention (default: the input's)")
     p.add_argument("--rotate", metavar="R", help="yaw,pitch,roll in degrees or 9 matrix entries")
@@ -306,7 +385,7 @@ and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 u
     p.add_argument("--no-bake", action="store_true", help="do not bake tables")
     p.add_argument("--importance", default="luminance", help="luminance, average or max")
     p.add_argument("--bake-grid", default="latlong", help="latlong, octahedral or healpix")
-    p.add_argument("--bake-size", type=int, default=0, metavar="N", help="bake grid size N (default natural)")
+    p.add_argument("--bake-size", type=_count(0, 1 << 18), default=0, metavar="N", help="bake grid size N (default natural)")
     p.add_argument("--tables", default="hierarchical", help="any of cdf,alias,hierarchical,compensated,sun (default: as envbake)")
     p.add_argument("--prefilter", action="store_true", help="also prefilter (when this envkit has the step)")
     p.add_argument("--force", action="store_true", help="redo every file, up to date or not")
@@ -319,17 +398,25 @@ and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 u
         p.error("nothing to do: --no-convert and --no-bake")
     if not os.path.isdir(a.in_dir):
         p.error("IN_DIR %s: not a directory" % a.in_dir)
+    try:
+        check_out_dir(a.out_dir)
+    except UsageError as e:
+        p.error(str(e))
     return a
 
 
 def main(argv=None):
-    a = _parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        a = _parse_args(sys.argv[1:] if argv is None else argv)
+    except OutputError as e:
+        print("envkit.batch: %s" % e, file=sys.stderr)
+        return 1
     options = default_options(
         convert=not a.no_convert, to=a.to, size=a.size, filter=a.filter, convention=a.convention, rotate=a.rotate,
         half=a.half, compression=a.compression, bake=not a.no_bake, importance=a.importance,
         bake_grid=a.bake_grid, bake_size=a.bake_size, tables=[t for t in a.tables.split(",") if t],
         prefilter=a.prefilter, force=a.force, **{"from": a.from_, "from_convention": a.from_convention})
-    inputs = find_inputs(a.in_dir, a.pattern)
+    inputs = find_inputs(a.in_dir, a.pattern, a.out_dir, a.to)
     if not inputs:
         print("envkit.batch: %s: no input maps" % a.in_dir, file=sys.stderr)
         return 1

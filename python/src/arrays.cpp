@@ -9,6 +9,8 @@
 #include <memory>
 #include <span>
 
+#include "args.h"
+
 namespace envkit::python {
 
 py::array image_view(const Image& image, py::handle owner) {
@@ -36,51 +38,47 @@ std::shared_ptr<const void> lend(const py::array& array) {
 
 }  // namespace
 
-Image image_from_array(const py::array& input, const std::string& path) {
+Image image_from_array(const py::handle& value, const std::string& name) {
+  const py::array input = real_array(value, name);
+  if (input.ndim() != 2 && input.ndim() != 3)
+    throw py::value_error(name + ": expected an H x W x C (or H x W) array, got " + std::to_string(input.ndim()) +
+                          " dimensions");
+  const py::ssize_t h = input.shape(0), w = input.shape(1), c = input.ndim() == 3 ? input.shape(2) : 1;
+  if (h < 1 || w < 1) throw py::value_error(name + ": empty image");
+  if (c < 1 || c > 4) throw py::value_error(name + ": " + std::to_string(c) + " channels (envkit handles 1 to 4)");
+  // A strided or broadcast view may be far larger than the memory behind it: its float copy is checked first.
+  check_size_arg(name, "an image", w, h, double(c) * sizeof(float));
   // float32 (native byte order), C-contiguous, aligned and writable: the image borrows the array's floats; anything
-  // else is converted once.
+  // else (other dtypes, strided views, read-only arrays, which the image's writable view must not alias) is
+  // converted once into a fresh float32 copy.
   const bool borrowable = py::isinstance<py::array_t<float>>(input) && (input.flags() & py::array::c_style) &&
                           (input.flags() & py::detail::npy_api::NPY_ARRAY_ALIGNED_) && input.writeable();
-  FloatArray a;
-  if (borrowable) {
-    a = py::reinterpret_borrow<FloatArray>(input);
-  } else {
-    // A fresh float32 copy (also of a read-only float32 array, which the image's writable view must not alias).
-    try {
-      a = py::module_::import("numpy").attr("array")(input, py::arg("dtype") = "float32", py::arg("order") = "C",
-                                                     py::arg("copy") = true);
-    } catch (const py::error_already_set&) {
-      fail(path, "expected an array of real numbers");
-    }
-  }
-  if (!a) fail(path, "expected an array of real numbers");
-  if (a.ndim() != 2 && a.ndim() != 3)
-    fail(path, "expected an H x W x C (or H x W) array, got " + std::to_string(a.ndim()) + " dimensions");
-  const int h = static_cast<int>(a.shape(0)), w = static_cast<int>(a.shape(1));
-  const int c = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
-  if (h < 1 || w < 1) fail(path, "empty image");
-  if (c < 1 || c > 4) fail(path, std::to_string(c) + " channels (envkit handles 1 to 4)");
+  const FloatArray a = borrowable
+                           ? py::reinterpret_borrow<FloatArray>(input)
+                           : FloatArray(py::module_::import("numpy").attr("array")(
+                                 input, py::arg("dtype") = "float32", py::arg("order") = "C", py::arg("copy") = true));
   const std::size_t n = std::size_t(h) * std::size_t(w) * std::size_t(c);
   if (const std::size_t bad = count_nonfinite(std::span<const float>(a.data(), n)).total(); bad > 0)
-    fail(path, std::to_string(bad) + " non-finite values");
+    throw py::value_error(name + ": " + std::to_string(bad) + " non-finite values");
   Image image;
-  image.width = w;
-  image.height = h;
-  image.channels = c;
-  image.channel_names = default_channel_names(c);
-  image.alpha_channel = (c == 2 || c == 4) ? c - 1 : -1;
+  image.width = static_cast<int>(w);
+  image.height = static_cast<int>(h);
+  image.channels = static_cast<int>(c);
+  image.channel_names = default_channel_names(image.channels);
+  image.alpha_channel = (c == 2 || c == 4) ? image.channels - 1 : -1;
   // a is the caller's array when borrowable, else the converted copy, which the image then keeps alive instead.
   image.pixels = PixelBuffer::borrow(const_cast<float*>(a.data()), n, lend(a));
   return image;
 }
 
-DoubleArray vectors(const py::handle& input, int k, const char* what, std::size_t& count) {
-  DoubleArray a = DoubleArray::ensure(input);
-  if (!a) throw Error(std::string(what) + ": expected an array of real numbers");
-  if (a.ndim() < 1 || a.shape(a.ndim() - 1) != k)
-    throw Error(std::string(what) + ": expected an array of shape (..., " + std::to_string(k) + ")");
-  count = static_cast<std::size_t>(a.size()) / static_cast<std::size_t>(k);
-  return a;
+DoubleArray vectors(const py::handle& value, int k, const std::string& name, std::size_t& count) {
+  const py::array input = real_array(value, name);
+  if (input.ndim() < 1 || input.shape(input.ndim() - 1) != k)
+    throw py::value_error(name + ": expected an array of shape (..., " + std::to_string(k) + ")");
+  count = static_cast<std::size_t>(input.size()) / static_cast<std::size_t>(k);
+  // The contiguous double copy (and the caller's result of about as many bytes) of a possibly broadcast view.
+  check_size_arg(name, "an array of vectors", static_cast<long long>(count), 1, 2.0 * k * sizeof(double));
+  return DoubleArray::ensure(input);
 }
 
 std::vector<py::ssize_t> result_shape(const py::array& input, int k_out) {
@@ -89,10 +87,14 @@ std::vector<py::ssize_t> result_shape(const py::array& input, int k_out) {
   return shape;
 }
 
-Vec3 to_vec3(const py::handle& value, const char* what) {
-  const DoubleArray a = DoubleArray::ensure(value);
-  if (!a || a.size() != 3) throw Error(std::string(what) + ": expected 3 numbers");
-  return Vec3(a.data()[0], a.data()[1], a.data()[2]);
+Vec3 to_vec3(const py::handle& value, const std::string& name) {
+  const py::array input = real_array(value, name);
+  if (input.size() != 3) throw py::value_error(name + ": expected 3 numbers");
+  const DoubleArray a = DoubleArray::ensure(input);
+  const Vec3 v(a.data()[0], a.data()[1], a.data()[2]);
+  if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+    throw py::value_error(name + ": expected 3 finite numbers");
+  return v;
 }
 
 py::tuple from_vec3(const Vec3& v) { return py::make_tuple(v.x, v.y, v.z); }

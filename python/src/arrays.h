@@ -26,23 +26,22 @@ py::array image_view(const Image& image, py::handle owner);
 /// Moves `image` into a heap object owned by the returned array (no copy of the
 /// pixels).
 py::array image_array(Image&& image);
-/// An (H, W, C) or (H, W) array (any real dtype) as a float image; C in 1..4,
-/// names Y/YA/RGB/RGBA, alpha last for 2 and 4 channels. A writable
-/// C-contiguous float32 array is not copied: the image borrows its floats (a
-/// view: writes show on both sides) and keeps it alive; any other array is
-/// converted once. Throws envkit::Error naming `path` for non-finite values or
-/// bad shapes.
-Image image_from_array(const py::array& array, const std::string& path);
+/// An (H, W, C) or (H, W) array (any real dtype, any strides) given as argument `name` as a float image; C in 1..4,
+/// names Y/YA/RGB/RGBA, alpha last for 2 and 4 channels. A writable C-contiguous float32 array is not copied: the
+/// image borrows its floats (a view: writes show on both sides) and keeps it alive; any other array is converted
+/// once. Raises TypeError naming `name` for non-real dtypes, ValueError for bad shapes, non-finite values or an
+/// image too large for memory.
+Image image_from_array(const py::handle& array, const std::string& name);
 
-/// A (..., K) array as contiguous doubles; `count` receives the number of
-/// K-vectors. Throws Error naming `what` when the last axis is not K.
-DoubleArray vectors(const py::handle& array, int k, const char* what, std::size_t& count);
+/// A (..., K) array of real numbers given as argument `name` as contiguous doubles; `count` receives the number of
+/// K-vectors. TypeError / ValueError naming `name` as image_from_array.
+DoubleArray vectors(const py::handle& array, int k, const std::string& name, std::size_t& count);
 /// Shape of the result for an input of shape (..., K_in) and K_out values per
 /// vector (0: drop the axis).
 std::vector<py::ssize_t> result_shape(const py::array& input, int k_out);
 
-/// Vec3 from a 3-sequence.
-Vec3 to_vec3(const py::handle& value, const char* what);
+/// Vec3 from 3 finite real numbers given as argument `name` (TypeError / ValueError naming it otherwise).
+Vec3 to_vec3(const py::handle& value, const std::string& name);
 py::tuple from_vec3(const Vec3& v);
 
 /// Runs f(begin, end) over [0, n), in parallel (oneTBB) for large n and

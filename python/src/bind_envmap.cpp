@@ -23,6 +23,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "args.h"
 #include "arrays.h"
 #include "bindings.h"
 #include "envmap_object.h"
@@ -89,7 +90,7 @@ Ptr from_file(const std::string& path, const std::optional<std::string>& paramet
   return p;
 }
 
-Ptr from_array(const py::array& array, const std::optional<std::string>& parameterization,
+Ptr from_array(const py::object& array, const std::optional<std::string>& parameterization,
                const std::optional<std::string>& convention, const std::optional<std::string>& layout,
                const py::object& view, const std::optional<std::pair<double, double>>& ball_centre,
                const std::optional<double>& ball_radius) {
@@ -97,7 +98,13 @@ Ptr from_array(const py::array& array, const std::optional<std::string>& paramet
   Detection d;
   const LoadOptions o =
       load_options(parameterization, convention, layout, ViewArgs{view}, BallArgs{ball_centre, ball_radius});
-  p->map = make_envmap(image_from_array(array, p->name), p->name, o, &d);
+  Image image = image_from_array(array, "array");
+  try {
+    p->map = make_envmap(std::move(image), p->name, o, &d);
+  } catch (const Error& e) {
+    // The array's shape fits no parameterization (or not the one given): a bad argument value.
+    throw py::value_error(std::string("array: ") + e.what());
+  }
   if (d.kind == Kind::CubeMap) p->layout = d.layout;
   return p;
 }
@@ -110,11 +117,15 @@ py::array mat3_array(const Mat3& m) {
   return out;
 }
 
+/// Bytes per output texel of a conversion, as envconvert's --size check counts them.
+constexpr double kConvertBytesPerTexel = 32.0;
+
 /// The resampling envconvert does: `src` (optionally rotated on top of its own
 /// orientation) onto a new map laid out by spec_at(N), N = size or (size 0) the
-/// natural size that keeps about the source's texel density.
-Ptr resample_to(const PyEnvMap& src, Kind kind, int size, const std::string& filter, const Convention& conv,
-                std::optional<CubeLayout> layout, const py::object& rotate,
+/// natural size that keeps about the source's texel density. `size_name`: the
+/// argument that gave the size, named when the output is too large.
+Ptr resample_to(const PyEnvMap& src, Kind kind, int size, const std::string& size_name, const std::string& filter,
+                const Convention& conv, std::optional<CubeLayout> layout, const py::object& rotate,
                 const std::function<ParamSpec(int)>& spec_at) {
   const Filter f = parse_filter(filter);
   const Mat3 to_world = rotated(src.map.to_world(), rotate);
@@ -123,7 +134,10 @@ Ptr resample_to(const PyEnvMap& src, Kind kind, int size, const std::string& fil
   {
     py::gil_scoped_release release;
     const int n = size > 0 ? size : matching_natural_size(data_texel_count(src.map.image, *src.map.param), spec_at);
-    out->map.param = make_parameterization(spec_at(n));
+    const ParamSpec spec = spec_at(n);
+    // Output, resampling weights and the float copy the writers make: envconvert's budget per texel.
+    check_size_arg(size_name, kind_name(kind) + " output", spec.width, spec.height, kConvertBytesPerTexel);
+    out->map.param = make_parameterization(spec);
     out->map.convention = conv.name;
     ResampleOptions ro;
     ro.filter = f;
@@ -157,8 +171,10 @@ std::function<ParamSpec(int)> same_kind_spec(const PyEnvMap& p) {
 /// nside= for HEALPix (--size N_side).
 Ptr convert(const PyEnvMap& p, const std::string& to, const py::object& size_arg, const std::string& filter,
             const std::optional<std::string>& convention, const py::object& rotate,
-            const std::optional<std::string>& layout_arg, const ViewArgs& view_args,
-            const std::optional<double>& aspect_arg, const std::optional<int>& nside) {
+            const std::optional<std::string>& layout_arg, const ViewArgs& view_args, const py::object& aspect_obj,
+            const py::object& nside_obj) {
+  const std::optional<double> aspect_arg = optional_real_arg(aspect_obj, "aspect", 1e-3, 1e3);
+  const std::optional<int> nside = optional_int_arg(nside_obj, "nside", 1, int(kMaxSizeArg));
   const Kind kind = parse_kind(to);
   const Convention& conv = envkit::convention(convention ? *convention : p.map.convention);
   std::optional<CubeLayout> layout;
@@ -172,20 +188,17 @@ Ptr convert(const PyEnvMap& p, const std::string& to, const py::object& size_arg
   int size = 0;
   std::optional<int> height;  // size=(w, h): the view's height as given
   if (py::isinstance<py::tuple>(size_arg) || py::isinstance<py::list>(size_arg)) {
-    const auto wh = size_arg.cast<std::pair<int, int>>();
-    if (!view) throw Error("size: (width, height) applies to camera views; give N for " + kind_name(kind));
-    if (aspect_arg) throw Error("size: give either size=(width, height) or aspect, not both");
-    if (wh.first < 1 || wh.second < 1) throw Error("size: width and height must be >= 1");
+    const auto wh = int_pair_arg(size_arg, "size", 1, int(kMaxSizeArg));
+    if (!view) throw py::value_error("size: (width, height) applies to camera views; give N for " + kind_name(kind));
+    if (aspect_arg) throw py::value_error("size: give either size=(width, height) or aspect, not both");
     size = wh.first;
     height = wh.second;
   } else {
-    size = size_arg.cast<int>();
-    if (size < 0) throw Error("size: must be >= 0 (0: about the input's texel density)");
+    size = int_arg(size_arg, "size", 0, int(kMaxSizeArg));  // 0: about the input's texel density
   }
   if (nside) {
-    if (kind != Kind::HEALPix) throw Error("nside: applies to healpix only");
-    if (size > 0) throw Error("nside: give either size or nside, not both");
-    if (*nside < 1) throw Error("nside: must be >= 1");
+    if (kind != Kind::HEALPix) throw py::value_error("nside: applies to healpix only");
+    if (size > 0) throw py::value_error("nside: give either size or nside, not both");
     size = *nside;
   }
   std::function<ParamSpec(int)> spec_at;
@@ -196,8 +209,6 @@ Ptr convert(const PyEnvMap& p, const std::string& to, const py::object& size_arg
       return d;
     }());
     const double aspect = aspect_arg.value_or(1.0);
-    if (!(aspect >= 1e-3 && aspect <= 1e3))
-      throw Error("aspect: " + std::to_string(aspect) + " is outside [0.001, 1000]");
     spec_at = [=, &conv](int n) {
       ParamSpec s = view_spec(kind, n, aspect, v, conv);
       if (height) s.height = *height;
@@ -206,18 +217,18 @@ Ptr convert(const PyEnvMap& p, const std::string& to, const py::object& size_arg
   } else {
     spec_at = [=, &conv](int n) { return spec_for(kind, n, conv, layout); };
   }
-  return resample_to(p, kind, size, filter, conv, layout, rotate, spec_at);
+  return resample_to(p, kind, size, nside ? "nside" : "size", filter, conv, layout, rotate, spec_at);
 }
 
 /// A map of zeros laid out like envconvert's output of `kind` at natural size N: allocated by envkit, so that
 /// filling .data in place is the way to build a large map without an input copy.
-Ptr blank(int size, const std::string& parameterization, int channels, const std::optional<std::string>& convention,
-          const std::optional<std::string>& layout, const py::object& view) {
+Ptr blank(const py::object& size_arg, const std::string& parameterization, const py::object& channels_arg,
+          const std::optional<std::string>& convention, const std::optional<std::string>& layout,
+          const py::object& view) {
+  const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
+  const int channels = int_arg(channels_arg, "channels", 1, 4);
   const Kind kind = parse_kind(parameterization);
   const Convention& conv = envkit::convention(convention.value_or("envkit"));
-  if (size < 1) throw Error("blank: size must be >= 1");
-  if (channels < 1 || channels > 4)
-    throw Error("blank: " + std::to_string(channels) + " channels (envkit handles 1 to 4)");
   std::optional<CubeLayout> l;
   if (layout) l = parse_layout(*layout);
   const std::optional<ViewParams> v = view_params(ViewArgs{view}, kind);
@@ -230,6 +241,7 @@ Ptr blank(int size, const std::string& parameterization, int channels, const std
   }()),
                                                         conv)
                                             : spec_for(kind, size, conv, l);
+  check_size_arg("size", kind_name(kind) + " map", spec.width, spec.height, double(channels) * sizeof(float));
   auto p = std::make_shared<PyEnvMap>();
   p->map.param = make_parameterization(spec);
   p->map.convention = conv.name;
@@ -373,7 +385,7 @@ bool usable_direction(const double* d) {
 
 py::array texel_of(const PyEnvMap& p, const py::object& input) {
   std::size_t n = 0;
-  const DoubleArray in = vectors(input, 3, "texel_of", n);
+  const DoubleArray in = vectors(input, 3, "directions", n);
   py::array_t<double> out(result_shape(in, 2));
   const double* d = in.data();
   double* o = out.mutable_data();
@@ -392,7 +404,7 @@ py::array texel_of(const PyEnvMap& p, const py::object& input) {
       o[2 * k + 1] = pos.y;
     }
   }
-  if (bad > 0) throw Error("texel_of: " + std::to_string(bad) + " zero or non-finite directions");
+  if (bad > 0) throw py::value_error("directions: " + std::to_string(bad) + " zero or non-finite directions");
   return out;
 }
 
@@ -403,7 +415,7 @@ py::array lookup(const PyEnvMap& p, const py::object& input, const std::string& 
         "lookup: the area filter integrates over texels; use nearest, "
         "bilinear or bicubic");
   std::size_t n = 0;
-  const DoubleArray in = vectors(input, 3, "lookup", n);
+  const DoubleArray in = vectors(input, 3, "directions", n);
   const int c = p.map.image.channels;
   py::array_t<float> out(result_shape(in, c));
   const double* d = in.data();
@@ -425,7 +437,7 @@ py::array lookup(const PyEnvMap& p, const py::object& input, const std::string& 
       }
     });
   }
-  if (bad > 0) throw Error("lookup: " + std::to_string(bad.load()) + " zero or non-finite directions");
+  if (bad > 0) throw py::value_error("directions: " + std::to_string(bad.load()) + " zero or non-finite directions");
   return out;
 }
 
@@ -524,7 +536,7 @@ metadata envconvert writes. half: half floats (OpenEXR); compression: none, zip,
              const std::optional<std::string>& convention, const py::object& rotate,
              const std::optional<std::string>& layout, const py::object& view, const py::object& view_dir,
              const py::object& roll, const py::object& fov, const py::object& fov_axis, const py::object& lens,
-             const std::optional<double>& aspect, const std::optional<int>& nside) {
+             const py::object& aspect, const py::object& nside) {
             return convert(p, to, size, filter, convention, rotate, layout,
                            ViewArgs{view, view_dir, roll, fov, fov_axis, lens}, aspect, nside);
           },
@@ -547,8 +559,8 @@ see come out with alpha 0. HEALPix: nside=N (image 4N x 3N), or size=N.)")
       .def(
           "rotate",
           [](const PyEnvMap& p, const py::object& rotation, const std::string& filter) {
-            return resample_to(p, p.map.param->kind(), 0, filter, envkit::convention(p.map.convention), p.layout,
-                               rotation, same_kind_spec(p));
+            return resample_to(p, p.map.param->kind(), 0, "rotation", filter, envkit::convention(p.map.convention),
+                               p.layout, rotation, same_kind_spec(p));
           },
           py::arg("rotation"), py::arg("filter") = "area",
           "The environment rotated by R, on a map of the same parameterization "
@@ -556,10 +568,9 @@ see come out with alpha 0. HEALPix: nside=N (image 4N x 3N), or size=N.)")
           "texel density, as convert).")
       .def(
           "resize",
-          [](const PyEnvMap& p, int size, const std::string& filter) {
-            if (size < 1) throw Error("resize: size must be >= 1");
-            return resample_to(p, p.map.param->kind(), size, filter, envkit::convention(p.map.convention), p.layout,
-                               py::none(), same_kind_spec(p));
+          [](const PyEnvMap& p, const py::object& size, const std::string& filter) {
+            return resample_to(p, p.map.param->kind(), int_arg(size, "size", 1, int(kMaxSizeArg)), "size", filter,
+                               envkit::convention(p.map.convention), p.layout, py::none(), same_kind_spec(p));
           },
           py::arg("size"), py::arg("filter") = "area",
           "Same parameterization at natural size N (lat-long 2N x N, cube "

@@ -6,12 +6,14 @@
 #include <envkit/error.h>
 #include <envkit/ibl_files.h>
 #include <envkit/prefilter.h>
+#include <envkit/request_limits.h>
 #include <envkit/sh.h>
 #include <pybind11/stl.h>
 
 #include <memory>
 #include <optional>
 
+#include "args.h"
 #include "arrays.h"
 #include "bindings.h"
 #include "envmap_object.h"
@@ -35,11 +37,21 @@ MapRef source_ref(const PyEnvMap& p, const py::object& rotate) {
   return MapRef{p.map.image, *p.map.param, rotated(p.map.to_world(), rotate)};
 }
 
-std::shared_ptr<PyIbl> prefilter(const PyEnvMap& p, int size, int levels, const std::string& mapping, bool octahedral,
-                                 double accuracy, const py::object& rotate, const std::string& for_path) {
-  // envprefilter's ranges (--size, --accuracy): larger chains are refused there too.
-  if (size < 1 || size > 4096) throw Error("prefilter: size " + std::to_string(size) + " is outside [1, 4096]");
-  if (!(accuracy >= 0.01 && accuracy <= 1.0)) throw Error("prefilter: accuracy must be in [0.01, 1]");
+/// The number of levels of a full chain of level-0 side `size` (down to 1 x 1).
+int full_levels(int size) {
+  int n = 1;
+  while ((size >> n) >= 1) ++n;
+  return n;
+}
+
+std::shared_ptr<PyIbl> prefilter(const PyEnvMap& p, const py::object& size_arg, const py::object& levels_arg,
+                                 const std::string& mapping, bool octahedral, const py::object& accuracy_arg,
+                                 const py::object& rotate, const std::string& for_path) {
+  // envprefilter's checks of --size, --levels and --accuracy.
+  const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
+  check_request_arg("size", [&] { check_prefilter_size(size, octahedral); });
+  const int levels = int_arg(levels_arg, "levels", 0, full_levels(size));
+  const double accuracy = real_arg(accuracy_arg, "accuracy", 0.01, 1.0);
   PrefilterOptions po;
   po.kind = ibl_kind(octahedral);
   po.size = size;
@@ -58,10 +70,12 @@ std::shared_ptr<PyIbl> prefilter(const PyEnvMap& p, int size, int levels, const 
   return out;
 }
 
-std::shared_ptr<PyIbl> irradiance(const PyEnvMap& p, int size, bool octahedral, double accuracy, bool divide_by_pi,
-                                  const py::object& rotate) {
-  if (size < 1 || size > 4096) throw Error("irradiance: size " + std::to_string(size) + " is outside [1, 4096]");
-  if (!(accuracy >= 0.01 && accuracy <= 1.0)) throw Error("irradiance: accuracy must be in [0.01, 1]");
+std::shared_ptr<PyIbl> irradiance(const PyEnvMap& p, const py::object& size_arg, bool octahedral,
+                                  const py::object& accuracy_arg, bool divide_by_pi, const py::object& rotate) {
+  // envprefilter's --irradiance-size and --accuracy checks.
+  const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
+  check_request_arg("size", [&] { check_irradiance_size(size, octahedral); });
+  const double accuracy = real_arg(accuracy_arg, "accuracy", 0.01, 1.0);
   IrradianceOptions io;
   io.kind = ibl_kind(octahedral);
   io.size = size;
@@ -92,8 +106,9 @@ void write(const PyIbl& ibl, const std::string& path, const std::string& format)
   group.commit();
 }
 
-py::array sh(const PyEnvMap& p, int order, const std::string& kind, bool lambertian, const std::string& window,
-             const py::object& rotate) {
+py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& kind, bool lambertian,
+             const std::string& window, const py::object& rotate) {
+  const int order = int_arg(order_arg, "order", 1, 3);  // envprefilter --sh-order
   if (kind != "radiance" && kind != "irradiance") throw Error("sh: kind must be radiance or irradiance, not " + kind);
   const ShWindow w = parse_sh_window(window);
   if (kind == "radiance" && (lambertian || w != ShWindow::None))
@@ -188,8 +203,9 @@ with lambertian=True divided by pi (irradiance_over_pi). window: none, hanning, 
              py::arg("window") = "none", py::arg("rotate") = py::none(), "envkit.sh(self, ...).");
   m.def(
       "dfg_lut",
-      [](int size, const std::string& layout) {
-        if (size < 1 || size > 4096) throw Error("dfg_lut: size must be in [1, 4096]");
+      [](const py::object& size_arg, const std::string& layout) {
+        const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
+        check_request_arg("size", [&] { check_dfg_lut_size(size); });  // envprefilter --lut-size
         DfgOptions d;
         d.width = d.height = size;
         d.layout = parse_dfg_layout(layout);

@@ -9,6 +9,7 @@
 
 #include <memory>
 
+#include "args.h"
 #include "arrays.h"
 #include "bindings.h"
 #include "envmap_object.h"
@@ -48,23 +49,28 @@ Capture capture_of(const py::handle& item) {
   if (!rotate.is_none()) c.map.rotation = rotation_arg(rotate);  // envmerge's rotate= replaces the rotation
   c.name = p.name;
   if (!exposure.is_none()) {
-    c.exposure = exposure.cast<double>();
-    if (!(c.exposure > 0.0)) throw Error("merge: " + c.name + ": exposure must be positive");
+    c.exposure = real_arg(exposure, "exposure", 0.0, 1e30);
+    if (!(c.exposure > 0.0)) throw py::value_error("exposure: must be positive (capture " + c.name + ")");
   }
   if (py::isinstance<py::str>(mask))
     c.mask = read_image(mask.cast<std::string>());
   else if (!mask.is_none())
-    c.mask = image_from_array(mask.cast<py::array>(), "<mask>");
+    c.mask = image_from_array(mask, "mask");
   return c;
 }
+
+/// Bytes per texel of a merge, as envmerge's --size check counts them.
+constexpr double kMergeBytesPerTexel = 40.0;
 
 }  // namespace
 
 void bind_merge(py::module_& m) {
   m.def(
       "merge",
-      [](const py::sequence& items, int size) {
-        if (size < 1 || size > (1 << 15)) throw Error("merge: size " + std::to_string(size) + " is outside [1, 32768]");
+      [](const py::sequence& items, const py::object& size_arg) {
+        // envmerge --size: the merged lat-long is 2N x N, RGBA plus per-capture weights.
+        const int size = int_arg(size_arg, "size", 1, 1 << 15);
+        check_size_arg("size", "merged lat-long", 2LL * size, size, kMergeBytesPerTexel);
         std::vector<Capture> captures;
         for (const py::handle item : items) captures.push_back(capture_of(item));
         auto out = std::make_shared<PyEnvMap>();

@@ -8,6 +8,7 @@
 
 #include <memory>
 
+#include "args.h"
 #include "arrays.h"
 #include "bindings.h"
 #include "envmap_object.h"
@@ -16,12 +17,22 @@ namespace envkit::python {
 
 namespace {
 
+/// Checker cells along each axis: more than texels of any map envkit makes would only alias.
+constexpr int kMaxCheckerCells = 1 << 16;
+
 using probes::Probe;
+
+/// A radiance argument: 3 finite numbers >= 0 (probes::valid_radiance), else ValueError naming it.
+Vec3 radiance_arg(const py::handle& value, const std::string& name) {
+  const Vec3 v = to_vec3(value, name);
+  if (!probes::valid_radiance(v)) throw py::value_error(name + ": a radiance must be finite and >= 0");
+  return v;
+}
 using ProbePtr = std::shared_ptr<Probe>;
 
 py::array radiance(const Probe& p, const py::object& input) {
   std::size_t n = 0;
-  const DoubleArray in = vectors(input, 3, "radiance", n);
+  const DoubleArray in = vectors(input, 3, "directions", n);
   py::array_t<double> out(result_shape(in, 3));
   const double* d = in.data();
   double* o = out.mutable_data();
@@ -39,17 +50,23 @@ py::array radiance(const Probe& p, const py::object& input) {
   return out;
 }
 
-std::shared_ptr<PyEnvMap> rasterize(const Probe& probe, const std::string& to, int size, const std::string& convention,
-                                    const std::optional<std::string>& layout, bool alpha) {
-  if (size < 1) throw Error("rasterize: size must be >= 1");
+/// Bytes per texel of a rasterized probe, as envprobe's --size check counts them.
+constexpr double kRasterBytesPerTexel = 48.0;
+
+std::shared_ptr<PyEnvMap> rasterize(const Probe& probe, const std::string& to, const py::object& size_arg,
+                                    const std::string& convention, const std::optional<std::string>& layout,
+                                    bool alpha) {
+  const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
   const Convention& conv = envkit::convention(convention);
   const Kind kind = parse_kind(to);
   std::optional<CubeLayout> l;
   if (layout && kind == Kind::CubeMap) l = parse_layout(*layout);
+  const ParamSpec spec = spec_for(kind, size, conv, l);
+  check_size_arg("size", kind_name(kind) + " map", spec.width, spec.height, kRasterBytesPerTexel);
   auto out = std::make_shared<PyEnvMap>();
   {
     py::gil_scoped_release release;
-    const auto map = make_parameterization(spec_for(kind, size, conv, l));
+    const auto map = make_parameterization(spec);
     probes::RasterOptions options;
     options.map_to_world = conv.frame(kind);
     // Maps with texels that hold no data (mirror ball corners, blank cross
@@ -99,7 +116,7 @@ texel the exact average over its solid angle (small features such as a sun keep 
   m.def(
       "constant",
       [](const py::object& radiance) -> ProbePtr {
-        return std::make_shared<probes::ConstantProbe>(to_vec3(radiance, "radiance"));
+        return std::make_shared<probes::ConstantProbe>(radiance_arg(radiance, "radiance"));
       },
       py::arg("radiance"), "L = radiance everywhere; power 4 pi L.");
   m.def(
@@ -121,32 +138,33 @@ texel the exact average over its solid angle (small features such as a sun keep 
       "sun",
       [](const py::object& direction, double radius_deg, const py::object& sun, const py::object& sky) -> ProbePtr {
         return std::make_shared<probes::SunProbe>(to_vec3(direction, "direction"), probes::radians(radius_deg),
-                                                  to_vec3(sun, "sun"), to_vec3(sky, "sky"));
+                                                  radiance_arg(sun, "sun"), radiance_arg(sky, "sky"));
       },
       py::arg("direction"), py::arg("radius_deg"), py::arg("sun"), py::arg("sky"),
       "A sun disk of angular radius radius_deg and radiance sun over a uniform "
       "sky.");
   m.def(
       "checker",
-      [](int n_theta, int n_phi, const py::object& a, const py::object& b) -> ProbePtr {
-        if (n_theta < 1 || n_phi < 1) throw Error("checker: both cell counts must be >= 1");
-        return std::make_shared<probes::CheckerProbe>(n_theta, n_phi, to_vec3(a, "colour_a"), to_vec3(b, "colour_b"));
+      [](const py::object& n_theta, const py::object& n_phi, const py::object& a, const py::object& b) -> ProbePtr {
+        return std::make_shared<probes::CheckerProbe>(int_arg(n_theta, "n_theta", 1, kMaxCheckerCells),
+                                                      int_arg(n_phi, "n_phi", 1, kMaxCheckerCells),
+                                                      radiance_arg(a, "colour_a"), radiance_arg(b, "colour_b"));
       },
       py::arg("n_theta") = 8, py::arg("n_phi") = 16, py::arg("colour_a") = std::vector<double>{0.8, 0.8, 0.8},
       py::arg("colour_b") = std::vector<double>{0.1, 0.1, 0.1}, "n_theta x n_phi cells of two colours.");
   m.def(
       "outdoor",
       [](double elevation_deg, double azimuth_deg, double radius_deg, const py::object& sun_radiance,
-         std::uint32_t seed, double cloud_cover) -> ProbePtr {
+         const py::object& seed, double cloud_cover) -> ProbePtr {
         probes::OutdoorSettings s;
         s.sun_elevation_deg = elevation_deg;
         s.sun_azimuth_deg = azimuth_deg;
         s.sun_radius_deg = radius_deg;
-        if (!sun_radiance.is_none()) s.sun_radiance = to_vec3(sun_radiance, "sun_radiance");
+        if (!sun_radiance.is_none()) s.sun_radiance = radiance_arg(sun_radiance, "sun_radiance");
         if (!probes::valid_radiance(s.sun_radiance)) throw Error("sun_radiance: must be finite and >= 0");
         if (!(radius_deg > 0.0 && radius_deg <= 90.0)) throw Error("radius_deg: must be in (0, 90]");
         if (!(cloud_cover >= 0.0 && cloud_cover <= 1.0)) throw Error("cloud_cover: must be in [0, 1]");
-        s.seed = seed;
+        s.seed = static_cast<std::uint32_t>(integer_arg(seed, "seed", 0, 0xffffffffLL));
         s.cloud_cover = cloud_cover;
         return std::make_shared<probes::OutdoorProbe>(s);
       },

@@ -4,12 +4,14 @@
 // call), so results are bit-identical to the C++.
 #include <envkit/env_tables.h>
 #include <envkit/error.h>
+#include <envkit/request_limits.h>
 #include <pybind11/stl.h>
 
 #include <algorithm>
 #include <memory>
 #include <span>
 
+#include "args.h"
 #include "arrays.h"
 #include "bindings.h"
 #include "envmap_object.h"
@@ -20,9 +22,12 @@ namespace {
 
 using TablesPtr = std::shared_ptr<const EnvTables>;
 
-TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::string& grid, int size,
-               const std::optional<std::pair<int, int>>& resolution, const std::vector<std::string>& tables,
-               bool conservative, const std::string& source_path, const std::string& source_hash) {
+TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::string& grid, const py::object& size_arg,
+               const py::object& resolution_arg, const std::vector<std::string>& tables, bool conservative,
+               const std::string& source_path, const std::string& source_hash) {
+  const int size = int_arg(size_arg, "size", 0, int(kMaxSizeArg));  // 0: the natural grid
+  std::optional<std::pair<int, int>> resolution;
+  if (!resolution_arg.is_none()) resolution = int_pair_arg(resolution_arg, "resolution", 1, int(kMaxSizeArg));
   BakeOptions b;
   b.importance = parse_importance(importance);
   b.grid = parse_kind(grid);
@@ -33,6 +38,7 @@ TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::st
     throw Error(std::string("tables: ") + e.what());
   }
   if (resolution) {
+    check_size_arg("resolution", "an importance map", resolution->first, resolution->second, kBakeBytesPerTexel);
     b.importance_width = resolution->first;
     b.importance_height = resolution->second;
   }
@@ -40,15 +46,23 @@ TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::st
     // As envbake --size: N is the lat-long height, the octahedral side or the HEALPix N_side.
     b.height = b.grid == Kind::HEALPix ? 3 * size : size;
     b.width = b.grid == Kind::LatLong ? 2 * size : b.grid == Kind::HEALPix ? 4 * size : size;
+    check_size_arg("size", "a bake grid", b.width, b.height, kBakeBytesPerTexel);
   }
   const std::string path = source_path.empty() ? map.name : source_path;
   py::gil_scoped_release release;
-  // envbake records the hash of the source file's bytes; a map from an array is
+  // envbake records the hash of the source file's bytes; a map made in memory (named "<array>", "<probe>") is
   // hashed by its pixels.
+  const bool in_memory = map.name.size() >= 2 && map.name.front() == '<' && map.name.back() == '>';
   std::string hash = source_hash;
-  if (hash.empty())
-    hash = map.name != "<array>" ? file_content_hash(face_paths(map.name)) : image_content_hash(map.map.image);
-  return std::make_shared<const EnvTables>(EnvTables::bake(map.map, b, path, hash));
+  if (hash.empty()) hash = in_memory ? image_content_hash(map.map.image) : file_content_hash(face_paths(map.name));
+  try {
+    return std::make_shared<const EnvTables>(EnvTables::bake(map.map, b, path, hash));
+  } catch (const Error& e) {
+    // An importance resolution finer than the bake grid (known only once the grid is chosen) is a bad argument.
+    if (resolution && std::string(e.what()).find("resolution") != std::string::npos)
+      throw py::value_error(std::string("resolution: ") + e.what());
+    throw;
+  }
 }
 
 const SphericalDistribution& distribution(const EnvTables& t, const std::string& method, bool compensated,
@@ -82,7 +96,7 @@ py::tuple sample(const PyTables& t, const py::object& u_in, const std::string& m
                  const py::object& out, bool batched) {
   const SphericalDistribution& d = distribution(*t.tables, method, compensated, t.name);
   std::size_t n = 0;
-  const DoubleArray u = vectors(u_in, 2, "sample", n);
+  const DoubleArray u = vectors(u_in, 2, "u", n);
   py::array_t<double> dirs, pdf;
   py::array_t<std::int32_t> texels;
   if (out.is_none()) {
@@ -134,7 +148,7 @@ py::tuple sample(const PyTables& t, const py::object& u_in, const std::string& m
 py::array pdf(const PyTables& t, const py::object& dir_in, const std::string& method, bool compensated) {
   const SphericalDistribution& d = distribution(*t.tables, method, compensated, t.name);
   std::size_t n = 0;
-  const DoubleArray dirs = vectors(dir_in, 3, "pdf", n);
+  const DoubleArray dirs = vectors(dir_in, 3, "directions", n);
   py::array_t<double> out(result_shape(dirs, 0));
   const double* in = dirs.data();
   double* o = out.mutable_data();
@@ -153,7 +167,7 @@ py::array invert(const PyTables& t, const py::object& dir_in, const std::string&
     throw Error(t.name + ": the " + std::string(method_name(parse_method(method))) +
                 " table cannot be inverted (use cdf or hierarchical)");
   std::size_t n = 0;
-  const DoubleArray dirs = vectors(dir_in, 3, "invert", n);
+  const DoubleArray dirs = vectors(dir_in, 3, "directions", n);
   py::array_t<double> out(result_shape(dirs, 2));
   const double* in = dirs.data();
   double* o = out.mutable_data();
@@ -181,9 +195,9 @@ Tables.bake(map, ...) bakes in memory (envbake); Tables.load(path) maps a .envtb
 t.save(path) writes one.)")
       .def_static(
           "bake",
-          [](const PyEnvMap& map, const std::string& importance, const std::string& grid, int size,
-             const std::optional<std::pair<int, int>>& resolution, const std::vector<std::string>& tables,
-             bool conservative, const std::string& source_path, const std::string& source_hash) {
+          [](const PyEnvMap& map, const std::string& importance, const std::string& grid, const py::object& size,
+             const py::object& resolution, const std::vector<std::string>& tables, bool conservative,
+             const std::string& source_path, const std::string& source_hash) {
             return std::make_shared<PyTables>(
                 PyTables{bake(map, importance, grid, size, resolution, tables, conservative, source_path, source_hash),
                          "<baked>"});

@@ -2,6 +2,7 @@
 // docs/PYTHON.md). The package envkit (python/envkit/__init__.py) re-exports
 // it.
 #include <envkit/error.h>
+#include <envkit/request_limits.h>
 
 #include "bindings.h"
 
@@ -14,6 +15,15 @@ PYBIND11_MODULE(_envkit, m) {
   // Messages are the one-line "<file>: <problem>" the command-line tools print
   // after their name.
   py::register_exception<envkit::Error>(m, "Error", PyExc_RuntimeError);
+  // An output too large for memory is a bad argument value; the functions name their argument before this
+  // fallback (tried first: translators registered later run first) would see it.
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const envkit::RequestTooLarge& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    }
+  });
   envkit::python::bind_envmap(m);
   envkit::python::bind_tables(m);
   envkit::python::bind_ibl(m);

@@ -139,3 +139,67 @@ def test_prefilter_step_equals_envprefilter(inputs, tmp_path, client):
     run_tool("envprefilter", src, "-o", tmp_path / "cli.ktx2", "--size", "8", "-q")
     assert open(out / "map0.prefiltered.ktx2", "rb").read() == open(tmp_path / "cli.ktx2", "rb").read()
     assert batch.prefilter_available()
+
+
+def run_batch(*args, timeout=120):
+    return subprocess.run([sys.executable, "-m", "envkit.batch", *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def one_line_error(p, code, *words):
+    """A usage or output error: exit `code`, exactly one line on stderr naming `words`, no traceback."""
+    assert p.returncode == code, (p.returncode, p.stderr)
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1, p.stderr
+    assert lines[0].startswith("envkit.batch: ") and "Traceback" not in p.stderr
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("option,value", [("--workers", "0"), ("--workers", "-3"), ("--workers", "1.5"),
+                                          ("--threads-per-worker", "0"), ("--size", "-1"), ("--bake-size", "x")])
+def test_counts_are_checked_before_any_work(inputs, tmp_path, option, value):
+    # --workers 0 used to start a cluster without workers and wait for ever.
+    p = run_batch(inputs, tmp_path / "out", option, value, timeout=30)
+    one_line_error(p, 2, option, value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_output_folder_that_is_a_file(inputs, tmp_path):
+    f = tmp_path / "file"
+    f.write_text("x")
+    one_line_error(run_batch(inputs, f, timeout=30), 2, str(f), "not a directory")
+    assert f.read_text() == "x"
+
+
+def test_output_folder_that_cannot_be_written(inputs, tmp_path):
+    blocker = tmp_path / "blocker"
+    blocker.write_text("x")
+    one_line_error(run_batch(inputs, blocker / "out", timeout=30), 1, str(blocker / "out"), "cannot write")
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    os.chmod(ro, 0o500)
+    try:
+        if os.access(ro, os.W_OK):
+            pytest.skip("permission bits do not bind this user (root)")
+        one_line_error(run_batch(inputs, ro, timeout=30), 1, str(ro), "cannot write")
+        one_line_error(run_batch(inputs, ro / "out", timeout=30), 1, str(ro / "out"), "cannot write")
+    finally:
+        os.chmod(ro, 0o700)
+
+
+@pytest.mark.parametrize("inside", [False, True], ids=["same folder", "folder inside"])
+def test_outputs_are_never_inputs(tmp_path, inside):
+    d = tmp_path / "maps"
+    d.mkdir()
+    run_tool("envprobe", "default", "-o", d / "sky.exr", "--size", "64x32")
+    out = d / "out" if inside else d
+    for status in ("1 done, 0 skipped, 0 failed", "0 done, 1 skipped, 0 failed"):
+        p = run_batch(d, out, "--workers", "1", "--size", "8", "--no-bake")
+        assert p.returncode == 0, p.stderr
+        assert status in p.stdout, (p.stdout, p.stderr)
+    assert sorted(n for n in os.listdir(out) if n != "out") == sorted(
+        (["sky.exr"] if out == d else []) + ["sky.latlong.exr", "sky.manifest.json"])
+    # A converted map whose manifest is gone (a run killed before writing it) is not an input either.
+    os.unlink(out / "sky.manifest.json")
+    assert batch.find_inputs(str(d), out_dir=str(out)) == [str(d / "sky.exr")]

@@ -63,9 +63,9 @@ def test_from_array_and_solid_angles():
     rows = [(2 * math.pi / w) * (math.cos(math.pi * j / h) - math.cos(math.pi * (j + 1) / h)) for j in range(h)]
     assert np.allclose(omega[:, 0], rows, rtol=1e-12, atol=0)
     assert m.power() == pytest.approx([4 * math.pi] * 3, rel=1e-12)
-    with pytest.raises(envkit.Error, match="non-finite"):
+    with pytest.raises(ValueError, match="^array: .*non-finite"):
         envkit.EnvMap(np.full((8, 16, 3), np.nan, np.float32), parameterization="latlong")
-    with pytest.raises(envkit.Error, match="5 channels"):
+    with pytest.raises(ValueError, match="^array: 5 channels"):
         envkit.EnvMap(np.zeros((8, 16, 5), np.float32), parameterization="latlong")
 
 
@@ -82,7 +82,7 @@ def test_directions_and_texel_of(probe_dir):
     ll = envkit.EnvMap(np.zeros((8, 16, 3), np.float32), parameterization="latlong")
     pos = ll.texel_of(np.array([[0, 0, 1.0], [1.0, 0, 0], [0, 1.0, 0]]))
     assert np.allclose(pos[0], [8, 4]) and np.allclose(pos[1], [4, 4]) and pos[2][1] == pytest.approx(0)
-    with pytest.raises(envkit.Error, match="zero or non-finite"):
+    with pytest.raises(ValueError, match="^directions: .*zero or non-finite"):
         ll.texel_of(np.zeros((1, 3)))
 
 
@@ -187,7 +187,7 @@ def test_array_input_is_borrowed_and_blank_maps_are_filled_in_place():
     # The NaN check reads the borrowed array too.
     bad = np.ones((8, 16, 3), np.float32)
     bad[3, 4, 1] = np.inf
-    with pytest.raises(envkit.Error, match="1 non-finite"):
+    with pytest.raises(ValueError, match="^array: 1 non-finite"):
         envkit.EnvMap(bad, parameterization="latlong")
     arr = np.asarray(m.data).copy()
     b = envkit.EnvMap.blank(16, "latlong")

@@ -105,7 +105,7 @@ def test_healpix_bake_equals_envbake(probe_dir, tmp_path):
     d, pdf, tex = t.sample(u, method="hierarchical")
     assert np.all(pdf > 0)
     assert np.array_equal(d, cli.sample(u, method="hierarchical")[0])
-    with pytest.raises(envkit.Error, match="4 N_side x 3 N_side"):
+    with pytest.raises(ValueError, match="^resolution: .*4 N_side x 3 N_side"):
         envkit.bake(envkit.EnvMap(str(probe_dir / "sky.exr")), grid="healpix", resolution=(16, 16))
 
 
@@ -130,7 +130,7 @@ def test_shapes_and_large_arrays(baked):
         t.sample(u, out=(out[0], np.empty(5), out[2]))
     with pytest.raises(envkit.Error, match="wrong dtype"):
         t.sample(u, out=(out[0], out[1], np.empty((70000, 2))))
-    with pytest.raises(envkit.Error, match=r"\(\.\.\., 2\)"):
+    with pytest.raises(ValueError, match=r"^u: .*\(\.\.\., 2\)"):
         t.sample(np.zeros((4, 3)))
     # The density integrates to 1: it is constant per texel of the bake grid, so sum(pdf(centre) x Omega) = 1.
     grid_map = envkit.EnvMap(np.zeros((t.height, t.width, 1), np.float32), parameterization="latlong")

@@ -9,6 +9,7 @@
 #include <envkit/probes.h>
 #include <envkit/render/material.h>
 #include <envkit/render/scene_loader.h>
+#include <envkit/request_limits.h>
 
 #include <tiny_obj_loader.h>
 
@@ -377,6 +378,13 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
   if (options.width > 0) width = options.width;
   if (options.height > 0) height = options.height;
   try {
+    check_render_size(width, height);
+  } catch (const RequestTooLarge& e) {
+    // Still a RequestTooLarge, now naming the scene file and the key: callers map it to their option or argument.
+    const std::string where = file + ":" + std::to_string(doc.line_of("camera.resolution")) + ": camera.resolution: ";
+    throw RequestTooLarge(where + e.what(), e.requested(), e.width(), e.height(), e.bytes_needed());
+  }
+  try {
     out.camera = Camera(position, look_at, up, fov, width, height);
   } catch (const Error& err) {
     r.fail("camera", err.what());
@@ -499,6 +507,8 @@ const std::string& default_scene_json() {
 )json";
   return text;
 }
+
+void check_render_size(int width, int height) { check_request_size("a render", width, height, kRenderBytesPerPixel); }
 
 LoadedScene make_default_scene(const SceneLoadOptions& options) {
   return load_scene_text(default_scene_json(), "<built-in default scene>", options);

@@ -10,6 +10,7 @@
 #include <envkit/filter.h>
 #include <envkit/image_io.h>
 #include <envkit/parameterization.h>
+#include <envkit/request_limits.h>
 #include <envkit/view.h>
 #include <unistd.h>
 
@@ -199,26 +200,17 @@ long long parse_integer(const std::string& option, const std::string& text, long
   return std::stoll(canonical);
 }
 
-double physical_memory_bytes() {
-  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
-  return pages > 0 && page > 0 ? double(pages) * double(page) : 0x1p40;
+void check_request(const std::string& option, const std::string& value, const std::function<void()>& check) {
+  try {
+    check();
+  } catch (const RequestTooLarge& e) {
+    throw CLI::ValidationError(option, "'" + value + "': " + e.what());
+  }
 }
-
-long long max_image_texels() { return ReadOptions{}.max_texels; }
 
 void check_image_size(const std::string& option, const std::string& value, const std::string& what,
                       long long width, long long height, double bytes_per_texel) {
-  const double texels = double(width) * double(height);
-  const std::string size = std::to_string(width) + " x " + std::to_string(height);
-  if (texels > double(max_image_texels()))
-    throw CLI::ValidationError(option, "'" + value + "': " + what + " of " + size + " = " + fmt(texels, 4) +
-                                           " texels is more than envkit's image readers accept (" +
-                                           std::to_string(max_image_texels()) + ")");
-  const double bytes = texels * bytes_per_texel, have = physical_memory_bytes();
-  if (bytes > have)
-    throw CLI::ValidationError(option, "'" + value + "': " + what + " of " + size + " needs about " +
-                                           fmt(bytes / 0x1p30, 3) + " GiB of memory; this machine has " +
-                                           fmt(have / 0x1p30, 3) + " GiB");
+  check_request(option, value, [&] { check_request_size(what, width, height, bytes_per_texel); });
 }
 
 std::string json_text(const nlohmann::json& j, int indent) {

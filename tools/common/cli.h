@@ -61,16 +61,14 @@ CLI::Validator number_in(double lo, double hi, bool min_exclusive = false);
 double parse_number(const std::string& option, const std::string& text, double lo, double hi);
 long long parse_integer(const std::string& option, const std::string& text, long long lo, long long hi);
 
-/// Refuses, up front, an image or table whose size the machine or envkit's readers cannot take:
-/// width * height must be <= 2^30 texels (what the image readers accept) and width * height * bytes_per_texel
-/// must fit in the physical memory. Throws CLI::ValidationError(option, "'<value>': <what> of W x H needs X GiB;
-/// ...") naming the option and its value.
+/// Refuses, up front, an image or table whose size the machine or envkit's readers cannot take: libenv's
+/// check_request_size (request_limits.h) for `what` of width x height, bytes_per_texel bytes per texel, its refusal
+/// thrown as CLI::ValidationError(option, "'<value>': <what> of W x H ...") naming the option and its value.
 void check_image_size(const std::string& option, const std::string& value, const std::string& what,
                       long long width, long long height, double bytes_per_texel);
-/// Physical memory of the machine in bytes (sysconf), the budget check_image_size uses.
-double physical_memory_bytes();
-/// The largest texel count envkit's image readers accept (ReadOptions::max_texels).
-long long max_image_texels();
+/// Runs one of libenv's request checks (request_limits.h) for `option`'s value; its RequestTooLarge is thrown as
+/// CLI::ValidationError(option, "'<value>': <message>").
+void check_request(const std::string& option, const std::string& value, const std::function<void()>& check);
 
 /// JSON text for user-facing output: strings that are not valid UTF-8 (file names are bytes) are written with
 /// U+FFFD in place of the invalid bytes instead of failing the dump.

@@ -24,6 +24,14 @@ struct SceneLoadOptions {
   int width = 0, height = 0;
 };
 
+/// Memory a render holds per image pixel: the film's sums (two Vec3 and a count), the mean image and the output
+/// buffers written from it.
+inline constexpr double kRenderBytesPerPixel = 112.0;
+/// envkit::check_request_size (request_limits.h) for a width x height render: throws RequestTooLarge
+/// ("a render of W x H needs about X GiB ..."). The loaders call it on the final camera resolution (the file's or
+/// the override) before the environment or any mesh is loaded.
+void check_render_size(int width, int height);
+
 struct LoadedScene {
   std::unique_ptr<Scene> scene;
   Camera camera;
