@@ -851,6 +851,12 @@ Image read_image(const std::string& path, const ReadOptions& options, ReadReport
 
 namespace {
 
+/// The values of `data` a write with pixel type `type` stores clamped: those beyond half's range for Half.
+ClampReport half_clamped(const Image& data, PixelType type) {
+  if (type != PixelType::Half) return {};
+  return count_clamped({data.pixels.data(), data.pixels.size()}, data.channels, data.channels, kHalfRange);
+}
+
 /// Header lines of a Radiance file: the carried metadata, then WriteOptions::metadata, and SOFTWARE.
 std::map<std::string, std::string> radiance_variables(const Image& image, const WriteOptions& options) {
   std::map<std::string, std::string> variables;
@@ -863,7 +869,7 @@ std::map<std::string, std::string> radiance_variables(const Image& image, const 
 
 }  // namespace
 
-void write_image(const std::string& path, const Image& image, const WriteOptions& options) {
+ClampReport write_image(const std::string& path, const Image& image, const WriteOptions& options) {
   if (path.empty()) fail("", "empty output path");
   check_writable_image(path, image);
   const Target target = describe_target(path);
@@ -877,7 +883,7 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     AtomicOutput output(path);
     write_exr(path, output.temp_path(), image, type, image, options);
     output.commit();
-    return;
+    return half_clamped(image, type);
   }
   // Radiance output of an RGB image: encoded straight from the caller's pixels (the encoder reads the first three
   // channels and writes negatives as 0), without a copy.
@@ -885,9 +891,10 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     AtomicOutput output(path);
     detail::write_radiance_file(path, output.temp_path(), image, radiance_variables(image, options));
     output.commit();
-    return;
+    return {};
   }
   Image data = select_channels(image, target);
+  const ClampReport clamped = half_clamped(data, type);
   try {
     if (type == PixelType::UInt8 || type == PixelType::UInt16) {
       // Integer files hold display-encoded values (never linear light in 8 or 16 bits) with unassociated
@@ -919,6 +926,7 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     write_with_backend(path, output.temp_path(), spec, data);
   }
   output.commit();
+  return clamped;
 }
 
 }  // namespace envkit
