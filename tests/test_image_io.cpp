@@ -223,7 +223,12 @@ TEST_F(ImageIoTest, HalfWritesReportWhatTheyClampAndFloatWritesNothing) {
             "sun.exr: 3 values above half's largest 65504 were clamped (largest 3.5e+07); use a float output to keep "
             "the sun");
   EXPECT_FALSE(envkit::write_image(path("sun_float.exr"), img).any());
-  EXPECT_FALSE(envkit::write_image(path("sun.hdr"), img).any());
+  // Radiance holds the sun but no sign: the negative colour values are reported (alpha is not written).
+  const ClampReport rgbe = envkit::write_image(path("sun.hdr"), img);
+  EXPECT_EQ(rgbe.format, "rgbe");
+  EXPECT_EQ(rgbe.above, 0u);
+  EXPECT_EQ(rgbe.negative, 2u);
+  EXPECT_EQ(rgbe.lowest, double(-8.0e5f));
 }
 
 TEST_F(ImageIoTest, HdrRoundTripWithinRgbePrecision) {

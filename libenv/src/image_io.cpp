@@ -851,10 +851,14 @@ Image read_image(const std::string& path, const ReadOptions& options, ReadReport
 
 namespace {
 
-/// The values of `data` a write with pixel type `type` stores clamped: those beyond half's range for Half.
-ClampReport half_clamped(const Image& data, PixelType type) {
-  if (type != PixelType::Half) return {};
-  return count_clamped({data.pixels.data(), data.pixels.size()}, data.channels, data.channels, kHalfRange);
+/// The values of `data` a file of `format` with pixel type `type` cannot hold: beyond half's range for Half, negative
+/// colour for Radiance (RGBE has no sign; its range exceeds float's).
+ClampReport clamped_values(const Image& data, const std::string& format, PixelType type) {
+  static constexpr FormatRange kRgbe{"rgbe", {FLT_MAX, FLT_MAX, FLT_MAX}, false};
+  const std::span<const float> values(data.pixels.data(), data.pixels.size());
+  if (format == "hdr") return count_clamped(values, data.channels, std::min(3, data.color_channels()), kRgbe);
+  if (type == PixelType::Half) return count_clamped(values, data.channels, data.channels, kHalfRange);
+  return {};
 }
 
 /// Header lines of a Radiance file: the carried metadata, then WriteOptions::metadata, and SOFTWARE.
@@ -883,7 +887,7 @@ ClampReport write_image(const std::string& path, const Image& image, const Write
     AtomicOutput output(path);
     write_exr(path, output.temp_path(), image, type, image, options);
     output.commit();
-    return half_clamped(image, type);
+    return clamped_values(image, target.format, type);
   }
   // Radiance output of an RGB image: encoded straight from the caller's pixels (the encoder reads the first three
   // channels and writes negatives as 0), without a copy.
@@ -891,10 +895,10 @@ ClampReport write_image(const std::string& path, const Image& image, const Write
     AtomicOutput output(path);
     detail::write_radiance_file(path, output.temp_path(), image, radiance_variables(image, options));
     output.commit();
-    return {};
+    return clamped_values(image, target.format, type);
   }
   Image data = select_channels(image, target);
-  const ClampReport clamped = half_clamped(data, type);
+  const ClampReport clamped = clamped_values(data, target.format, type);
   try {
     if (type == PixelType::UInt8 || type == PixelType::UInt16) {
       // Integer files hold display-encoded values (never linear light in 8 or 16 bits) with unassociated

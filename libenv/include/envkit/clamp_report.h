@@ -1,9 +1,9 @@
 #pragma once
 /// @file clamp_report.h
 /// What an output's texel format could not hold. Writers of range-limited formats (OpenEXR half, KTX2/DDS rgba16f,
-/// rg11b10f and rgb9e5: image_io.h, ktx2.h, dds.h, exr_cube_mips.h, ibl_files.h) store values beyond the format's
-/// largest finite value as that value and, for the unsigned packed formats, negative values as 0; they return this
-/// report instead of printing, and the caller (a tool, the Python module) turns message() into its warning.
+/// rg11b10f and rgb9e5, Radiance RGBE: image_io.h, ktx2.h, dds.h, exr_cube_mips.h, ibl_files.h) store values beyond
+/// the format's largest finite value as that value and, for the unsigned formats, negative values as 0; they return
+/// this report instead of printing, and the caller (a tool, the Python module) turns message() into its warning.
 ///
 /// Largest finite values (radiance units of the image): half 65504; rg11b10f 65024 in red and green, 64512 in blue;
 /// rgb9e5 65408. A real sun (1e5 to 1e9) does not fit any of them: only float outputs keep it.
@@ -14,7 +14,7 @@
 namespace envkit {
 
 struct ClampReport {
-  std::string format;        ///< the texel format: "half", "rgba16f", "rg11b10f" or "rgb9e5"; empty when none
+  std::string format;        ///< the format: half, rgba16f, rg11b10f, rgb9e5 or rgbe (Radiance); empty when none
   double format_max = 0.0;   ///< its largest finite value (rg11b10f: red and green)
   std::size_t above = 0;     ///< values above the largest (half: in magnitude), stored as +/- the largest
   double largest = 0.0;      ///< the largest magnitude among them; 0 when above == 0

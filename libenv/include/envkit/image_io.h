@@ -162,7 +162,9 @@ struct WriteOptions {
 /// as given. The "envmap" metadata key is never written: use WriteOptions::envmap_attribute.
 /// Throws Error("<path>: ...") for empty images, non-finite pixels, unknown formats, unwritable
 /// directories ("<path>: cannot write: ...") and writer failures; nothing appears at `path` then.
-/// Returns the values a half output clamped (clamp_report.h; empty for every other pixel type).
+/// Returns the values the file could not hold (clamp_report.h): beyond +/-65504 in a half OpenEXR file, negative
+/// colour in a Radiance file (stored as 0); nothing for other outputs (integer formats are display-referred by
+/// design).
 ClampReport write_image(const std::string& path, const Image& image, const WriteOptions& options = {});
 
 }  // namespace envkit
