@@ -256,7 +256,7 @@ int run(const Args& a, const CLI::App& app) {
   so.write.metadata["envkit:probe_power"] = rgb_text(power);
   // The map and its preview are one output: both or neither (also on a signal, a full disk or ulimit -f).
   envkit::OutputGroup group;
-  envkit::save_envmap(a.output, env, so);
+  const envkit::ClampReport clamped = envkit::save_envmap(a.output, env, so);
   const envkit::Image& image_out = env.image;
   if (!a.preview.empty()) {
     envkit::Image preview = image_out;
@@ -300,6 +300,7 @@ int run(const Args& a, const CLI::App& app) {
     report << "wrote " << a.output << (a.preview.empty() ? "" : " and " + a.preview) << "\n";
   }
   group.commit();
+  if (clamped.any()) tools::warn(clamped.message(a.output));
   if (!a.json)
     for (const probes::FeatureStats& f : stats.features)
       if (f.lost) std::cerr << "envprobe: warning: a feature lies where the map holds no data; its flux is missing\n";
@@ -349,7 +350,8 @@ int main(int argc, char** argv) {
       ->check(tools::number_in(0.0, 1.0))
       ->capture_default_str();
   app.add_flag("--alpha", a.alpha, "add an alpha (coverage) channel; automatic for maps with empty texels");
-  app.add_flag("--half", a.half, "write half floats (values above 65504 are clamped)");
+  app.add_flag("--half", a.half,
+               "write half floats; half cannot hold a sun: values above 65504 are clamped, with a warning");
   app.add_option("--preview", a.preview, "also write a tone-mapped preview (e.g. .png)");
   app.add_option("--exposure", a.exposure, "preview exposure in stops (the sky of the default probe is ~1-1.6)")
       ->check(tools::number_in(-64.0, 64.0))

@@ -203,12 +203,18 @@ void generate(const fs::path& p, const std::string& gen) {
     for (int x = 0; x < 16; ++x) img.at(x, 3, 0) = -1.0f;
     return write_tagged(p, img, "latlong");
   }
+  if (head == "sun") {  // sun:V, a tagged 16x8 lat-long with texel (5, 2) at V in every channel
+    Image img = smooth(16, 8);
+    for (int c = 0; c < 3; ++c) img.at(5, 2, c) = std::stof(arg);
+    return write_tagged(p, img, "latlong");
+  }
   if (head == "meta") {  // meta:KEY=VALUE on an untagged 16x8 map
     Image img = smooth(16, 8);
     envkit::WriteOptions opt;
     const auto eq = arg.find('=');
     opt.metadata[arg.substr(0, eq)] = arg.substr(eq + 1);
-    return envkit::write_image(p.string(), img, opt);
+    envkit::write_image(p.string(), img, opt);
+    return;
   }
   if (head == "faces" || head == "faces_mismatch" || head == "faces_missing") {  // p holds a '%'
     for (const char* f : {"+X", "-X", "+Y", "-Y", "+Z", "-Z"}) {

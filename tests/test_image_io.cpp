@@ -32,6 +32,7 @@
 #include <vector>
 
 namespace fs = std::filesystem;
+using envkit::ClampReport;
 using envkit::Error;
 using envkit::Image;
 using envkit::NonFinitePolicy;
@@ -192,10 +193,42 @@ TEST_F(ImageIoTest, HalfExrLargerThanOneConversionBlock) {
   WriteOptions opt;
   opt.pixel_type = PixelType::Half;
   opt.compression = "none";
-  envkit::write_image(path("blocks.exr"), img, opt);
+  const ClampReport clamped = envkit::write_image(path("blocks.exr"), img, opt);
   const Image back = envkit::read_image(path("blocks.exr"));
   expect_same_layout(back, expected);
   EXPECT_TRUE(back.pixels == expected.pixels);
+  // Both values beyond half's range are reported, in magnitude, and nothing else.
+  EXPECT_EQ(clamped.format, "half");
+  EXPECT_EQ(clamped.above, 2u);
+  EXPECT_EQ(clamped.largest, 1.0e6);
+  EXPECT_EQ(clamped.negative, 0u);
+}
+
+TEST_F(ImageIoTest, HalfWritesReportWhatTheyClampAndFloatWritesNothing) {
+  Image img(8, 4, 4);  // RGBA: written through a channel selection, not straight from the pixels
+  std::fill(img.pixels.begin(), img.pixels.end(), 1.0f);
+  img.alpha_channel = 3;
+  img.at(1, 1, 0) = 65504.0f;  // half's largest: held exactly, not clamped
+  img.at(2, 1, 1) = 65505.0f;
+  img.at(3, 2, 2) = 3.5e7f;
+  img.at(4, 3, 0) = -8.0e5f;
+  img.at(5, 3, 1) = -3.0f;  // negative but within half's range
+  WriteOptions opt;
+  opt.pixel_type = PixelType::Half;
+  const ClampReport clamped = envkit::write_image(path("sun_half.exr"), img, opt);
+  EXPECT_EQ(clamped.above, 3u);
+  EXPECT_EQ(clamped.largest, double(3.5e7f));
+  EXPECT_EQ(clamped.negative, 0u);
+  EXPECT_EQ(clamped.message("sun.exr"),
+            "sun.exr: 3 values above half's largest 65504 were clamped (largest 3.5e+07); use a float output to keep "
+            "the sun");
+  EXPECT_FALSE(envkit::write_image(path("sun_float.exr"), img).any());
+  // Radiance holds the sun but no sign: the negative colour values are reported (alpha is not written).
+  const ClampReport rgbe = envkit::write_image(path("sun.hdr"), img);
+  EXPECT_EQ(rgbe.format, "rgbe");
+  EXPECT_EQ(rgbe.above, 0u);
+  EXPECT_EQ(rgbe.negative, 2u);
+  EXPECT_EQ(rgbe.lowest, double(-8.0e5f));
 }
 
 TEST_F(ImageIoTest, HdrRoundTripWithinRgbePrecision) {

@@ -4,8 +4,11 @@
 // Known directions on known texels: every texel of every face holds 1 + its direction, checked against the
 // GL/Vulkan/D3D cube face table written out here from the specifications (major axis, sc, tc).
 #include <Imath/half.h>
+#include <envkit/clamp_report.h>
 #include <envkit/dds.h>
 #include <envkit/error.h>
+#include <envkit/exr_cube_mips.h>
+#include <envkit/image_io.h>
 #include <envkit/ktx2.h>
 #include <gtest/gtest.h>
 
@@ -373,6 +376,83 @@ TEST_F(Containers, Ktx2ReadBackGivesTheWrittenTexels) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("short.ktx2"), std::string::npos) << e.what();
   }
+}
+
+// A 4 x 24 cube strip (RGB) whose texels hold ordinary radiance, except for a few values no range-limited format
+// holds: a sun of 1e6 in red, 7e4 in green, 65100 in blue (above rg11b10f's blue maximum 64512 only), negatives.
+Image strip_with_sun() {
+  Image level(4, 24, 3);
+  std::fill(level.pixels.begin(), level.pixels.end(), 0.5f);
+  level.at(1, 2, 0) = 1e6f;
+  level.at(2, 2, 1) = 7e4f;
+  level.at(3, 5, 2) = 65100.0f;
+  level.at(0, 7, 0) = -2.0f;
+  level.at(0, 8, 1) = -0.25f;
+  return level;
+}
+
+TEST_F(Containers, WritersReportTheValuesTheirFormatClamps) {
+  std::vector<Image> levels = {strip_with_sun(), Image(2, 12, 3), Image(1, 6, 3)};
+  std::fill(levels[1].pixels.begin(), levels[1].pixels.end(), 1.0f);
+  std::fill(levels[2].pixels.begin(), levels[2].pixels.end(), 1.0f);
+  levels[1].at(0, 0, 2) = 2e5f;  // a second level's sun counts too
+  struct Expected {
+    GpuFormat format;
+    std::size_t above, negative;
+    double largest, lowest;
+  };
+  const Expected expected[] = {{GpuFormat::Rgba16f, 3, 0, 1e6, 0.0},
+                               {GpuFormat::Rgba32f, 0, 0, 0.0, 0.0},
+                               {GpuFormat::B10G11R11, 4, 2, 1e6, -2.0},
+                               {GpuFormat::E5B9G9R9, 3, 2, 1e6, -2.0}};
+  for (const Expected& e : expected) {
+    SCOPED_TRACE(gpu_format_name(e.format));
+    Ktx2Options ko;
+    ko.format = e.format;
+    DdsOptions dopt;
+    dopt.format = e.format;
+    const fs::path k = dir_ / ("sun_" + gpu_format_name(e.format) + ".ktx2");
+    const fs::path d = dir_ / ("sun_" + gpu_format_name(e.format) + ".dds");
+    for (const ClampReport& r :
+         {write_ktx2(k.string(), pointers(levels), ko), write_dds(d.string(), pointers(levels), dopt)}) {
+      EXPECT_EQ(r.above, e.above);
+      EXPECT_EQ(r.negative, e.negative);
+      EXPECT_EQ(r.largest, e.largest);
+      EXPECT_EQ(r.lowest, e.lowest);
+      EXPECT_EQ(r.any(), e.above + e.negative > 0);
+      if (r.any()) {
+        EXPECT_EQ(r.format, gpu_format_name(e.format));
+      }
+    }
+  }
+  // The line a tool prints.
+  Ktx2Options ko;
+  ko.format = GpuFormat::B10G11R11;
+  const ClampReport r = write_ktx2((dir_ / "line.ktx2").string(), pointers(levels), ko);
+  EXPECT_EQ(r.message("out.ktx2"),
+            "out.ktx2: 4 values above rg11b10f's largest 65024 (64512 in blue) were clamped (largest 1e+06) and 2 "
+            "negative values of the unsigned rg11b10f were stored as 0 (lowest -2); use a float output to keep the "
+            "sun");
+  EXPECT_EQ(ClampReport{}.message("out.ktx2"), "");
+}
+
+TEST_F(Containers, HalfExrCubeMipsClampsTheSunAndReportsIt) {
+  Image level(4, 24, 3);
+  std::fill(level.pixels.begin(), level.pixels.end(), 0.5f);
+  level.at(1, 2, 0) = 1e6f;
+  ExrCubeMipsOptions o;
+  o.half = true;
+  const fs::path file = dir_ / "sun_mips.exr";
+  const ClampReport r = write_exr_cube_mips(file.string(), {&level}, o);
+  // Level 0's sun, and level 1's 2 x 2 box average of it (250000.375); level 2's (62500.47) fits.
+  EXPECT_EQ(r.above, 2u);
+  EXPECT_EQ(r.largest, 1e6);
+  EXPECT_EQ(r.format, "half");
+  // Stored as half's largest, never as Inf (which a reader refuses).
+  const Image back = read_image(file.string());
+  EXPECT_EQ(back.at(1, 2, 0), 65504.0f);
+  o.half = false;
+  EXPECT_FALSE(write_exr_cube_mips((dir_ / "sun_mips_float.exr").string(), {&level}, o).any());
 }
 
 TEST_F(Containers, WritersRefuseInconsistentLevels) {

@@ -126,7 +126,9 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--fix-nonfinite", o.fix_nonfinite, "replace NaN/Inf input values instead of failing")
       ->type_name("zero|clamp")
       ->check(CLI::IsMember({"zero", "clamp"}));
-  app.add_flag("--half", o.half, "write half floats (OpenEXR output only)");
+  app.add_flag("--half", o.half,
+               "write half floats (OpenEXR output only); half cannot hold a sun: values above 65504 are clamped, "
+               "with a warning");
   app.add_option("--compression", o.compression,
                  "output compression: OpenEXR none|rle|zips|zip|piz|pxr24|b44|b44a|dwaa|dwab (default zip), "
                  "or what OpenImageIO accepts for the format")
@@ -294,7 +296,8 @@ int convert(Options& o) {
   so.write.compression = o.compression;
   so.filter = envkit::filter_name(ro.filter);
   so.source = fs::path(o.in.path).filename().string();
-  envkit::save_envmap(o.out, out, so);
+  const envkit::ClampReport clamped = envkit::save_envmap(o.out, out, so);
+  if (clamped.any()) tools::warn(clamped.message(o.out));
 
   if (!o.quiet)
     tools::info(std::string("wrote ") + (envkit::is_face_pattern(o.out) ? "six faces " : "") + o.out + ": " +

@@ -215,7 +215,8 @@ int merge(Options& o) {
   envkit::SaveOptions so;
   so.filter = "area";
   so.source = "envmerge of " + std::to_string(captures.size()) + " captures";
-  envkit::save_envmap(o.out, out, so);
+  const envkit::ClampReport clamped = envkit::save_envmap(o.out, out, so);
+  if (clamped.any()) tools::warn(clamped.message(o.out));
 
   const double pct = 100.0 * report.uncovered_solid_angle / envkit::kFourPi;
   if (o.json) {

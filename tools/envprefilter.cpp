@@ -90,7 +90,9 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--mapping", o.mapping, "roughness of each level: gltf|filament|unreal")
       ->check(CLI::IsMember({"gltf", "filament", "unreal"}))
       ->capture_default_str();
-  app.add_option("--format", o.format, "texel format of .ktx2/.dds outputs: rgba16f|rgba32f|rg11b10f|rgb9e5")
+  app.add_option("--format", o.format,
+                 "texel format of .ktx2/.dds outputs: rgba16f|rgba32f|rg11b10f|rgb9e5; only rgba32f holds a sun "
+                 "(the others clamp above about 65000, and rg11b10f and rgb9e5 store negatives as 0, with a warning)")
       ->check(CLI::IsMember({"rgba16f", "rgba32f", "rg11b10f", "rgb9e5"}))
       ->capture_default_str();
   app.add_flag("--octahedral", o.octahedral, "equal-area octahedral maps instead of cubes");
@@ -219,6 +221,7 @@ int run(Options& o, bool format_given) {
     return pending.back()->temp_path();
   };
   std::vector<std::string> summary;
+  std::vector<std::string> clamped;  // warnings of the texel formats, printed once the files exist
 
   // The DFG LUT depends on no input: it is computed and written while the input is read and filtered, whose serial
   // stretches (decoding, first touch of big buffers) leave a core idle; a PNG's image library loads meanwhile.
@@ -266,7 +269,7 @@ int run(Options& o, bool format_given) {
     bar.finish();
     for (const envkit::IblFile& f :
          envkit::ggx_chain_files(o.out, chain, kind, fs::path(o.in.path).filename().string()))
-      envkit::write_ibl_file(stage(f.path), f, kind == Kind::CubeMap, format);
+      clamped.push_back(envkit::write_ibl_file(stage(f.path), f, kind == Kind::CubeMap, format).message(f.path));
     summary.push_back(o.out + ": " + std::to_string(levels) + " GGX levels, " + envkit::kind_name(kind) + " " +
                       std::to_string(o.size) + ", mapping " + o.mapping +
                       (extension(o.out) == ".exr" ? "" : ", " + o.format));
@@ -289,12 +292,14 @@ int run(Options& o, bool format_given) {
     io.accuracy = o.accuracy;
     const envkit::EnvMap irr = envkit::irradiance_map(src, io);
     const envkit::IblFile f = envkit::irradiance_file(o.irradiance, irr, kind);
-    envkit::write_ibl_file(stage(f.path), f, kind == Kind::CubeMap, format);
+    clamped.push_back(envkit::write_ibl_file(stage(f.path), f, kind == Kind::CubeMap, format).message(f.path));
     summary.push_back(o.irradiance + ": irradiance E/pi, " + envkit::kind_name(kind) + " " +
                       std::to_string(o.irradiance_size));
   }
   if (lut_written.valid()) summary.push_back(lut_written.get());
   for (auto& p : pending) p->commit();
+  for (const std::string& w : clamped)
+    if (!w.empty()) tools::warn(w);
   if (!o.quiet)
     for (const std::string& s : summary) tools::info("wrote " + s);
   return tools::kExitOk;

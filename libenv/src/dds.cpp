@@ -16,7 +16,7 @@ void put32(std::vector<std::uint8_t>& b, std::uint32_t v) {
 
 }  // namespace
 
-void write_dds(const std::string& path, const std::vector<const Image*>& levels, const DdsOptions& options) {
+ClampReport write_dds(const std::string& path, const std::vector<const Image*>& levels, const DdsOptions& options) {
   if (levels.empty()) fail(path, "no levels to write");
   if (options.faces != 1 && options.faces != 6) fail(path, "a DDS texture here has 1 or 6 faces");
   const int width = levels[0]->width, height = levels[0]->height / options.faces;
@@ -56,7 +56,11 @@ void write_dds(const std::string& path, const std::vector<const Image*>& levels,
   put32(f, 1);                             // arraySize (cubes count one array element of six faces)
   put32(f, 0);                             // alpha mode unknown
   std::vector<std::vector<std::uint8_t>> packed;
-  for (const Image* level : levels) packed.push_back(pack_texels(*level, options.format));
+  ClampReport clamped;
+  for (const Image* level : levels) {
+    packed.push_back(pack_texels(*level, options.format));
+    clamped.add(count_clamped(*level, options.format));
+  }
   AtomicOutput out(path);
   {
     AtomicOutputStream os(out);
@@ -69,6 +73,7 @@ void write_dds(const std::string& path, const std::vector<const Image*>& levels,
     os.close();
   }
   out.commit();
+  return clamped;
 }
 
 }  // namespace envkit

@@ -116,6 +116,31 @@ std::shared_ptr<const Distribution2D> make_distribution_2d(SamplingMethod method
   throw Error("unknown sampling method");
 }
 
+/// The weights importance x exact texel solid angle of a W x H grid (value(i): importance of texel i, row-major), as
+/// float, multiplied by one power of two that brings the largest into [1, 2). A distribution normalises its weights,
+/// so the scale changes nothing it samples; without it, importance near float's subnormal range (or near FLT_MAX)
+/// would lose its precision (or overflow) in the product, and small texels such as the polar rows would get weight 0.
+template <class Value>
+FloatBuffer texel_weights(const Value& value, const std::vector<double>& row_omega, int W, int H) {
+  std::vector<double> row_max(std::size_t(H), 0.0);
+  tbb::parallel_for(0, H, [&](int y) {
+    double m = 0.0;
+    for (int x = 0; x < W; ++x) m = std::max(m, double(value(std::size_t(y) * W + x)));
+    row_max[std::size_t(y)] = m * row_omega[std::size_t(y)];
+  });
+  const double largest = *std::max_element(row_max.begin(), row_max.end());
+  const double scale = largest > 0.0 && std::isfinite(largest) ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
+  FloatBuffer w(std::size_t(W) * std::size_t(H));
+  tbb::parallel_for(0, H, [&](int y) {
+    const double omega = row_omega[std::size_t(y)] * scale;
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = std::size_t(y) * W + x;
+      w[i] = static_cast<float>(double(value(i)) * omega);
+    }
+  });
+  return w;
+}
+
 /// True when the map's texels are already the bake grid's texels (same kind, centre grid, no transform).
 bool on_bake_grid(const EnvMap& map, Kind grid) {
   if (map.param->kind() != grid || !is_identity(map.to_world())) return false;
@@ -319,7 +344,6 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
 
 void EnvTables::build_distributions(const BakeOptions& options) {
   const int W = width_, H = height_;
-  const std::size_t n = std::size_t(W) * std::size_t(H);
   const std::vector<double> row_omega = row_solid_angles(*make_grid(grid_, W, H), H);
 
   double total = 0.0;
@@ -330,16 +354,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
   }
   total_importance_ = total;
 
-  const auto weights_of = [&](const auto& value) {
-    FloatBuffer w(n);
-    tbb::parallel_for(0, H, [&](int y) {
-      for (int x = 0; x < W; ++x) {
-        const std::size_t i = std::size_t(y) * W + x;
-        w[i] = static_cast<float>(double(value(i)) * row_omega[y]);
-      }
-    });
-    return w;
-  };
+  const auto weights_of = [&](const auto& value) { return texel_weights(value, row_omega, W, H); };
 
   const bool wanted[3] = {options.cdf, options.alias, options.hierarchical};
   const SphericalDistribution* first = nullptr;  // every table lies on one grid: the others share its geometry
@@ -504,13 +519,7 @@ std::unique_ptr<SphericalDistribution> make_table(Kind grid, int width, int heig
     throw Error("table: " + std::to_string(importance.size()) + " importance values for a " + std::to_string(width) +
                 "x" + std::to_string(height) + " grid");
   const std::vector<double> row_omega = row_solid_angles(*make_grid(grid, width, height), height);
-  FloatBuffer weights(importance.size());
-  tbb::parallel_for(0, height, [&](int y) {
-    for (int x = 0; x < width; ++x) {
-      const std::size_t i = std::size_t(y) * width + x;
-      weights[i] = static_cast<float>(double(importance[i]) * row_omega[std::size_t(y)]);
-    }
-  });
+  const FloatBuffer weights = texel_weights([&](std::size_t i) { return importance[i]; }, row_omega, width, height);
   return std::make_unique<SphericalDistribution>(grid, make_distribution_2d(method, weights.data(), width, height));
 }
 

@@ -258,7 +258,7 @@ std::string exr_envmap_attribute(const EnvMap& map, const std::string& path) {
 
 }  // namespace
 
-void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& opt) {
+ClampReport save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& opt) {
   WriteOptions w = opt.write;
   w.metadata["envkit:parameterization"] = kind_name(map.param->kind());
   w.metadata["envkit:convention"] = map.convention;
@@ -281,8 +281,7 @@ void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& 
   }
   if (!is_face_pattern(path)) {
     w.envmap_attribute = exr_envmap_attribute(map, path);
-    write_image(path, map.image, w);
-    return;
+    return write_image(path, map.image, w);
   }
   const auto* cube = dynamic_cast<const CubeMap*>(map.param.get());
   if (!cube || cube->layout() != CubeLayout::VerticalStrip)
@@ -292,6 +291,7 @@ void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& 
   w.metadata["envkit:layout"] = "faces";
   // Write every face to its temp file first, then commit them as one group: six faces or none, also on a signal.
   OutputGroup group;
+  ClampReport clamped;
   for (int f = 0; f < 6; ++f) {
     Image face(n, n, map.image.channels);
     face.channel_names = map.image.channel_names;
@@ -301,9 +301,10 @@ void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& 
     std::copy(begin, begin + static_cast<std::ptrdiff_t>(n) * n * map.image.channels, face.pixels.begin());
     WriteOptions fw = w;
     fw.metadata["envkit:face"] = kFaceNames[f];
-    write_image(paths[f], face, fw);
+    clamped.add(write_image(paths[f], face, fw));
   }
   group.commit();
+  return clamped;
 }
 
 }  // namespace envkit

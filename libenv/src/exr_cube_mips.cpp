@@ -1,4 +1,5 @@
 // One tiled, mip-mapped OpenEXR cube file (exr_cube_mips.h), written with OpenEXR's TiledOutputFile.
+#include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfEnvmapAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -86,8 +87,8 @@ Image reduced(const Image& prev, int prev_face, const LevelShape& s) {
 
 int exr_cube_mip_levels(int face_size) { return floor_log2(6 * face_size) + 1; }
 
-void write_exr_cube_mips(const std::string& path, const std::vector<const Image*>& levels,
-                         const ExrCubeMipsOptions& options) {
+ClampReport write_exr_cube_mips(const std::string& path, const std::vector<const Image*>& levels,
+                                const ExrCubeMipsOptions& options) {
   if (levels.empty()) fail(path, "no levels to write");
   const int n = levels[0]->width;
   const int channels = levels[0]->channels;
@@ -118,6 +119,7 @@ void write_exr_cube_mips(const std::string& path, const std::vector<const Image*
     header.insert(key, Imf::StringAttribute(value));
   }
 
+  ClampReport clamped;
   try {
     Imf::TiledOutputFile out(path.c_str(), header);
     if (out.numLevels() != exr_cube_mip_levels(n)) fail(path, "OpenEXR plans an unexpected number of levels");
@@ -129,12 +131,23 @@ void write_exr_cube_mips(const std::string& path, const std::vector<const Image*
         fail(path, "OpenEXR sizes level " + std::to_string(l) + " differently from the cube layout");
       current = l < int(levels.size()) ? placed(*levels[l], s) : reduced(current, current_face, s);
       current_face = s.face;
-      // OpenEXR converts FLOAT slices to HALF channels itself.
+      // A tiled file takes slices of its channels' own type. Half data is converted here, clamped to half's
+      // range (half() would give Inf beyond it), while the next reduced level still averages the exact values.
+      std::vector<half> halves;
+      if (options.half) {
+        const std::span<const float> values(current.pixels.data(), current.pixels.size());
+        clamped.add(count_clamped(values, channels, channels, kHalfRange));
+        const auto largest = float(kHalfRange.max[0]);
+        halves.reserve(values.size());
+        for (float v : values) halves.emplace_back(std::clamp(v, -largest, largest));
+      }
+      char* base =
+          options.half ? reinterpret_cast<char*>(halves.data()) : reinterpret_cast<char*>(current.pixels.data());
+      const std::size_t element = options.half ? sizeof(half) : sizeof(float);
       Imf::FrameBuffer frame;
-      const std::size_t xstride = sizeof(float) * channels, ystride = xstride * s.width;
+      const std::size_t xstride = element * channels, ystride = xstride * s.width;
       for (int c = 0; c < channels; ++c)
-        frame.insert(current.channel_names[c],
-                     Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(current.pixels.data() + c), xstride, ystride));
+        frame.insert(current.channel_names[c], Imf::Slice(pixel, base + element * c, xstride, ystride));
       out.setFrameBuffer(frame);
       out.writeTiles(0, out.numXTiles(l) - 1, 0, out.numYTiles(l) - 1, l);
     }
@@ -143,6 +156,7 @@ void write_exr_cube_mips(const std::string& path, const std::vector<const Image*
   } catch (const std::exception& e) {
     fail(path, std::string("cannot write: ") + e.what());
   }
+  return clamped;
 }
 
 std::optional<ExrLevels> read_exr_levels(const std::string& path) {

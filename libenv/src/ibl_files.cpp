@@ -93,28 +93,29 @@ IblFile irradiance_file(const std::string& path, const EnvMap& irradiance, Kind 
                   {"envkit:convention", "gl"}}};
 }
 
-void write_ibl_file(const std::string& write_path, const IblFile& file, bool cube, GpuFormat format) {
+ClampReport write_ibl_file(const std::string& write_path, const IblFile& file, bool cube, GpuFormat format) {
   const std::string e = extension(file.path);
   if (file.exr_cube_mips) {
     ExrCubeMipsOptions eo;
     eo.attributes = file.metadata;
-    write_exr_cube_mips(write_path, file.levels, eo);
-  } else if (e == ".ktx2") {
+    return write_exr_cube_mips(write_path, file.levels, eo);
+  }
+  if (e == ".ktx2") {
     Ktx2Options ko;
     ko.format = format;
     ko.faces = cube ? 6 : 1;
     ko.key_values = file.metadata;
-    write_ktx2(write_path, file.levels, ko);
-  } else if (e == ".dds") {
+    return write_ktx2(write_path, file.levels, ko);
+  }
+  if (e == ".dds") {
     DdsOptions d;
     d.format = format;
     d.faces = cube ? 6 : 1;
-    write_dds(write_path, file.levels, d);
-  } else {
-    WriteOptions w;
-    w.metadata = file.metadata;
-    write_image(write_path, *file.levels.at(0), w);
+    return write_dds(write_path, file.levels, d);
   }
+  WriteOptions w;
+  w.metadata = file.metadata;
+  return write_image(write_path, *file.levels.at(0), w);
 }
 
 }  // namespace envkit

@@ -852,6 +852,16 @@ Image read_image(const std::string& path, const ReadOptions& options, ReadReport
 
 namespace {
 
+/// The values of `data` a file of `format` with pixel type `type` cannot hold: beyond half's range for Half, negative
+/// colour for Radiance (RGBE has no sign; its range exceeds float's).
+ClampReport clamped_values(const Image& data, const std::string& format, PixelType type) {
+  static constexpr FormatRange kRgbe{"rgbe", {FLT_MAX, FLT_MAX, FLT_MAX}, false};
+  const std::span<const float> values(data.pixels.data(), data.pixels.size());
+  if (format == "hdr") return count_clamped(values, data.channels, std::min(3, data.color_channels()), kRgbe);
+  if (type == PixelType::Half) return count_clamped(values, data.channels, data.channels, kHalfRange);
+  return {};
+}
+
 /// Header lines of a Radiance file: the carried metadata, then WriteOptions::metadata, and SOFTWARE.
 std::map<std::string, std::string> radiance_variables(const Image& image, const WriteOptions& options) {
   std::map<std::string, std::string> variables;
@@ -864,7 +874,7 @@ std::map<std::string, std::string> radiance_variables(const Image& image, const 
 
 }  // namespace
 
-void write_image(const std::string& path, const Image& image, const WriteOptions& options) {
+ClampReport write_image(const std::string& path, const Image& image, const WriteOptions& options) {
   if (path.empty()) fail("", "empty output path");
   check_writable_image(path, image);
   const Target target = describe_target(path);
@@ -878,7 +888,7 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     AtomicOutput output(path);
     write_exr(path, output.temp_path(), image, type, image, options);
     output.commit();
-    return;
+    return clamped_values(image, target.format, type);
   }
   // Radiance output of an RGB image: encoded straight from the caller's pixels (the encoder reads the first three
   // channels and writes negatives as 0), without a copy.
@@ -886,9 +896,10 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     AtomicOutput output(path);
     detail::write_radiance_file(path, output.temp_path(), image, radiance_variables(image, options));
     output.commit();
-    return;
+    return clamped_values(image, target.format, type);
   }
   Image data = select_channels(image, target);
+  const ClampReport clamped = clamped_values(data, target.format, type);
   try {
     if (type == PixelType::UInt8 || type == PixelType::UInt16) {
       // Integer files hold display-encoded values (never linear light in 8 or 16 bits) with unassociated
@@ -920,6 +931,7 @@ void write_image(const std::string& path, const Image& image, const WriteOptions
     write_with_backend(path, output.temp_path(), spec, data);
   }
   output.commit();
+  return clamped;
 }
 
 }  // namespace envkit

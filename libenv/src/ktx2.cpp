@@ -165,6 +165,19 @@ void pack_texel(const Image& image, GpuFormat format, std::size_t t, std::uint8_
 
 }  // namespace
 
+ClampReport count_clamped(const Image& image, GpuFormat format) {
+  static constexpr FormatRange kRg11b10f{"rg11b10f", {65024.0, 65024.0, 64512.0}, false};
+  static constexpr FormatRange kRgb9e5{"rgb9e5", {65408.0, 65408.0, 65408.0}, false};
+  static constexpr FormatRange kRgba16f{"rgba16f", {65504.0, 65504.0, 65504.0}, true};
+  const FormatRange* range = format == GpuFormat::B10G11R11  ? &kRg11b10f
+                             : format == GpuFormat::E5B9G9R9 ? &kRgb9e5
+                             : format == GpuFormat::Rgba16f  ? &kRgba16f
+                                                             : nullptr;
+  if (!range) return {};
+  return count_clamped({image.pixels.data(), image.pixels.size()}, image.channels, std::min(3, image.color_channels()),
+                       *range);
+}
+
 std::vector<std::uint8_t> pack_texels(const Image& image, GpuFormat format) {
   const std::size_t bytes = std::size_t(gpu_format_bytes(format));
   std::vector<std::uint8_t> out(image.texel_count() * bytes);
@@ -240,7 +253,7 @@ std::vector<std::uint8_t> basic_dfd(GpuFormat format) {
 
 }  // namespace
 
-void write_ktx2(const std::string& path, const std::vector<const Image*>& levels, const Ktx2Options& options) {
+ClampReport write_ktx2(const std::string& path, const std::vector<const Image*>& levels, const Ktx2Options& options) {
   if (levels.empty()) fail(path, "no levels to write");
   if (options.faces != 1 && options.faces != 6) fail(path, "a KTX2 texture has 1 or 6 faces");
   const int width = levels[0]->width, height = levels[0]->height / options.faces;
@@ -306,6 +319,8 @@ void write_ktx2(const std::string& path, const std::vector<const Image*>& levels
     end += size;
   }
 
+  ClampReport clamped;
+  for (const Image* level : levels) clamped.add(count_clamped(*level, options.format));
   AtomicOutput out(path);
   {
     AtomicOutputStream os(out);
@@ -321,6 +336,7 @@ void write_ktx2(const std::string& path, const std::vector<const Image*>& levels
     os.close();
   }
   out.commit();
+  return clamped;
 }
 
 namespace {

@@ -109,4 +109,9 @@ void parallel_chunks(std::size_t n, const std::function<void(std::size_t, std::s
                     [&](const tbb::blocked_range<std::size_t>& r) { f(r.begin(), r.end()); });
 }
 
+void warn_clamped(const ClampReport& report, const std::string& path) {
+  if (report.any() && PyErr_WarnEx(PyExc_UserWarning, report.message(path).c_str(), 1) != 0)
+    throw py::error_already_set();
+}
+
 }  // namespace envkit::python

@@ -4,6 +4,7 @@
 /// without a copy (the numpy array keeps the C++ storage alive), direction
 /// arrays of any shape (..., 3) read as contiguous doubles, and the "<array>"
 /// name under which in-memory inputs appear in error messages.
+#include <envkit/clamp_report.h>
 #include <envkit/image.h>
 #include <envkit/vec.h>
 #include <pybind11/numpy.h>
@@ -49,5 +50,9 @@ py::tuple from_vec3(const Vec3& v);
 /// task spawning. Each element is computed independently: results do not depend
 /// on the split.
 void parallel_chunks(std::size_t n, const std::function<void(std::size_t, std::size_t)>& f);
+
+/// Issues the UserWarning the command-line tools print for values the texel format of `path` clamped (nothing
+/// when none was); throws error_already_set when warnings are errors. Needs the GIL.
+void warn_clamped(const ClampReport& report, const std::string& path);
 
 }  // namespace envkit::python

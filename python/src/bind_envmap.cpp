@@ -447,8 +447,12 @@ void write(const PyEnvMap& p, const std::string& path, bool half, const std::str
   so.write.compression = compression;
   so.filter = p.filter;
   so.source = p.source;
-  py::gil_scoped_release release;
-  save_envmap(path, p.map, so);
+  ClampReport clamped;
+  {
+    py::gil_scoped_release release;
+    clamped = save_envmap(path, p.map, so);
+  }
+  warn_clamped(clamped, path);
 }
 
 }  // namespace
@@ -494,7 +498,8 @@ octahedral, paraboloid, ...; envkit, openexr, hdrshop, angmap-cal, blender, gl.)
                   "A map around an array (same as the constructor).")
       .def("write", &write, py::arg("path"), py::arg("half") = false, py::arg("compression") = "",
            R"(Writes the map (format from the extension; a '%' writes six cube faces), atomically, with the
-metadata envconvert writes. half: half floats (OpenEXR); compression: none, zip, piz, dwaa, ...)")
+metadata envconvert writes. half: half floats (OpenEXR; values beyond 65504, a sun, are clamped with a
+UserWarning); compression: none, zip, piz, dwaa, ...)")
       .def_property_readonly(
           "data", [](py::object self) { return image_view(self.cast<PyEnvMap&>().map.image, self); },
           "The pixels as an H x W x C float32 array sharing the map's memory "

@@ -100,10 +100,15 @@ void write(const PyIbl& ibl, const std::string& path, const std::string& format)
   const std::vector<IblFile> files = ibl.irradiance
                                          ? std::vector<IblFile>{irradiance_file(path, ibl.chain.levels.at(0), ibl.kind)}
                                          : ggx_chain_files(path, ibl.chain, ibl.kind, ibl.source);
-  py::gil_scoped_release release;
-  OutputGroup group;
-  for (const IblFile& file : files) write_ibl_file(file.path, file, ibl.kind == Kind::CubeMap, f);
-  group.commit();
+  std::vector<std::pair<ClampReport, std::string>> clamped;
+  {
+    py::gil_scoped_release release;
+    OutputGroup group;
+    for (const IblFile& file : files)
+      clamped.emplace_back(write_ibl_file(file.path, file, ibl.kind == Kind::CubeMap, f), file.path);
+    group.commit();
+  }
+  for (const auto& [report, file] : clamped) warn_clamped(report, file);
 }
 
 py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& kind, bool lambertian,
@@ -169,8 +174,8 @@ memory (no copy). write(path) writes what envprefilter -o (or --irradiance) writ
       .def_property_readonly("metadata", [](const PyIbl& c) { return c.chain.levels.at(0).image.metadata; })
       .def("write", &write, py::arg("path"), py::arg("format") = "rgba16f",
            R"(Writes the levels as envprefilter does, atomically: .ktx2 or .dds (every level in one file; format
-rgba16f, rgba32f, rg11b10f or rgb9e5) or .exr with '%' in the name (one float file per level, '%' -> 0, 1, ...;
-irradiance: one .exr).)");
+rgba16f, rgba32f, rg11b10f or rgb9e5: only rgba32f holds a sun, the others clamp it with a UserWarning) or .exr
+with '%' in the name (one float file per level, '%' -> 0, 1, ...; irradiance: one .exr).)");
 
   const char* prefilter_doc = R"(GGX radiance mip chain: envprefilter IN -o OUT [--size N] [--levels M]
 [--mapping gltf|filament|unreal] [--octahedral] [--accuracy A] [--rotate R]. Level m has face size

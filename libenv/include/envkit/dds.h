@@ -15,7 +15,8 @@ struct DdsOptions {
   int faces = 6;  ///< 6: levels are N x 6N vertical strips (GL basis); 1: 2D levels
 };
 
-/// Writes levels[0] (largest) .. levels[n-1] to `path` atomically. Throws Error("<path>: ...").
-void write_dds(const std::string& path, const std::vector<const Image*>& levels, const DdsOptions& options);
+/// Writes levels[0] (largest) .. levels[n-1] to `path` atomically. Throws Error("<path>: ..."). Returns the values the
+/// format clamped, over all levels.
+ClampReport write_dds(const std::string& path, const std::vector<const Image*>& levels, const DdsOptions& options);
 
 }  // namespace envkit

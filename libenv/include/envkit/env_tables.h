@@ -13,7 +13,10 @@
 ///     average or max of the colour channels, negative and NaN treated as 0. Optional --resolution: the scalar
 ///     importance is area-filtered down to W x H (solid-angle weighted). Optional conservative mode: each texel
 ///     takes the max of its 3x3 neighbourhood (its bilinear lookup footprint; longitude wraps, edges fold).
-///  3. Weights = importance x exact texel solid angle (lat-long: (2 pi / W)(cos theta0 - cos theta1)).
+///  3. Weights = importance x exact texel solid angle (lat-long: (2 pi / W)(cos theta0 - cos theta1)), computed in
+///     double and scaled by one power of two (the largest in [1, 2)) before they are stored as float: importance near
+///     float's subnormal range or near FLT_MAX keeps its precision (no weight of a lit texel rounds to 0, none
+///     overflows), and the pdf of a constant map is 1 / (4 pi) at every scale. The stored weights are relative.
 ///  4. Compensated (Karlik et al. 2019): importance' = max(importance - mean, 0), mean = the solid-angle mean over
 ///     the sphere. When that is zero everywhere (a constant map) the compensated table falls back to the plain
 ///     importance, and says so in warnings().

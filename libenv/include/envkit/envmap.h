@@ -80,7 +80,8 @@ struct SaveOptions {
 };
 
 /// Writes `map` to `path` (six faces when `path` contains '%', which needs a cube map in a vertical strip).
-/// All files are written atomically and together: on failure no output file appears.
-void save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& options = {});
+/// All files are written atomically and together: on failure no output file appears. Returns the values a half
+/// output clamped, over every file (clamp_report.h).
+ClampReport save_envmap(const std::string& path, const EnvMap& map, const SaveOptions& options = {});
 
 }  // namespace envkit

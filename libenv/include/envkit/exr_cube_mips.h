@@ -13,6 +13,7 @@
 /// past the given levels is the box average of level l - 1 face by face (2 x 2 texels, 3 wide where an odd face halves)
 /// while faces remain, and then (face size 0, images of 1 x 3 down to 1 x 1) the mean of the last level with faces.
 /// envkit:ibl_levels tells readers how many levels are the caller's.
+#include <envkit/clamp_report.h>
 #include <envkit/image.h>
 
 #include <map>
@@ -23,7 +24,7 @@
 namespace envkit {
 
 struct ExrCubeMipsOptions {
-  bool half = false;  ///< HALF instead of FLOAT channels
+  bool half = false;  ///< HALF instead of FLOAT channels (values beyond +/-65504 stored as +/-65504)
   int tile = 64;      ///< tile width and height in pixels
   /// String attributes written into the header (envkit:* keys and the like); "envmap" and the standard
   /// attributes are reserved. envkit:ibl_levels is added.
@@ -36,9 +37,9 @@ int exr_cube_mip_levels(int face_size);
 /// Writes `levels` (levels[m]: vertical strip of face size max(1, N >> m) in the layout above, same channels in
 /// every level, at most 4 channels named as in the image; at least one level, at most the cube's full chain
 /// floor(log2 N) + 1) to `path`. Throws Error("<path>: ...") for inconsistent levels or a failed write (the caller
-/// writes to a temp path: atomic_file.h).
-void write_exr_cube_mips(const std::string& path, const std::vector<const Image*>& levels,
-                         const ExrCubeMipsOptions& options = {});
+/// writes to a temp path: atomic_file.h). Returns the values half clamped, over every level written.
+ClampReport write_exr_cube_mips(const std::string& path, const std::vector<const Image*>& levels,
+                                const ExrCubeMipsOptions& options = {});
 
 /// The resolution levels of part 0 of an OpenEXR file (for envinfo; envkit's readers read level 0).
 struct ExrLevels {

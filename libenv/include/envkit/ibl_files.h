@@ -47,7 +47,7 @@ IblFile irradiance_file(const std::string& path, const EnvMap& irradiance, Kind 
 /// Writes `file` into `write_path`, atomically as every envkit writer does: file.path itself, or a path where the
 /// caller stages it (envprefilter: a temp path it renames at the end). The container follows file.path's extension.
 /// cube: every level is a vertical strip of six faces (GL basis). `format` is the texel format of KTX2 and DDS files
-/// (OpenEXR stores floats).
-void write_ibl_file(const std::string& write_path, const IblFile& file, bool cube, GpuFormat format);
+/// (OpenEXR stores floats). Returns the values that format clamped (clamp_report.h), for the caller's warning.
+ClampReport write_ibl_file(const std::string& write_path, const IblFile& file, bool cube, GpuFormat format);
 
 }  // namespace envkit

@@ -52,6 +52,7 @@
 ///    WriteOptions::encode_colorspace (default "srgb"; "rec709" for Netpbm) through OCIO, clamped to [0, 1],
 ///    quantised by OIIO (round to nearest). Never linear values. JPEG and other formats without alpha drop
 ///    alpha.
+#include <envkit/clamp_report.h>
 #include <envkit/image.h>
 
 #include <cstddef>
@@ -129,7 +130,7 @@ Image read_image(const std::string& path, const ReadOptions& options = {}, ReadR
 /// Pixel type of the written file.
 enum class PixelType {
   Auto,    ///< float for EXR/TIFF/PFM (HDR is RGBE), uint8 for integer-only formats
-  Half,    ///< EXR only; values beyond +/-65504 are clamped to +/-65504 (not written as Inf)
+  Half,    ///< EXR only; values beyond +/-65504 are stored as +/-65504 (not Inf) and reported
   Float,
   UInt8,   ///< sRGB-encoded (see encode_colorspace)
   UInt16,  ///< sRGB-encoded (PNG, TIFF)
@@ -161,6 +162,9 @@ struct WriteOptions {
 /// as given. The "envmap" metadata key is never written: use WriteOptions::envmap_attribute.
 /// Throws Error("<path>: ...") for empty images, non-finite pixels, unknown formats, unwritable
 /// directories ("<path>: cannot write: ...") and writer failures; nothing appears at `path` then.
-void write_image(const std::string& path, const Image& image, const WriteOptions& options = {});
+/// Returns the values the file could not hold (clamp_report.h): beyond +/-65504 in a half OpenEXR file, negative
+/// colour in a Radiance file (stored as 0); nothing for other outputs (integer formats are display-referred by
+/// design).
+ClampReport write_image(const std::string& path, const Image& image, const WriteOptions& options = {});
 
 }  // namespace envkit

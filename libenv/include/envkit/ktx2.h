@@ -9,7 +9,8 @@
 ///              G 11-21, B 22-31 (unsigned 5-bit-exponent floats with 6/6/5 mantissa bits, max 65024)
 ///   E5B9G9R9   VK_FORMAT_E5B9G9R9_UFLOAT_PACK32 123, DXGI_FORMAT_R9G9B9E5_SHAREDEXP 67, 4 bytes: 9-bit
 ///              mantissas R 0-8, G 9-17, B 18-26, shared exponent 27-31 (bias 15, max 65408)
-/// Packed formats clamp negative and non-finite values to 0 and large ones to the format's maximum.
+/// Packed formats clamp negative and non-finite values to 0 and large ones to the format's maximum; Rgba16f clamps
+/// to +/-65504. The writers return what they clamped (clamp_report.h): only Rgba32f holds a sun.
 ///
 /// KTX2 files written here: no supercompression, levels in the level index from level 0 (largest) while the
 /// level data lie in the file smallest first, each level's byte offset aligned to lcm(texel size, 4); within a
@@ -18,6 +19,7 @@
 /// table. A Basic data format descriptor (RGBSDA colour model, BT.709 primaries, linear transfer) describes the
 /// samples as the KTX-Software library does. Key/value data: KTXwriter = "envkit" and the caller's pairs, sorted by
 /// key as the specification requires (complete cubes only, so no KTXcubemapIncomplete).
+#include <envkit/clamp_report.h>
 #include <envkit/image.h>
 
 #include <cstdint>
@@ -37,6 +39,8 @@ std::uint32_t dxgi_format(GpuFormat format);
 
 /// Packs the first 3 (or 4, alpha defaulting to 1) channels of every texel of `image`, row by row.
 std::vector<std::uint8_t> pack_texels(const Image& image, GpuFormat format);
+/// The colour values of `image` that pack_texels stores clamped in `format` (none for Rgba32f).
+ClampReport count_clamped(const Image& image, GpuFormat format);
 /// Inverse of the 32-bit packed encodings (for tests and readers): RGB of one texel.
 void unpack_b10g11r11(std::uint32_t bits, float rgb[3]);
 void unpack_e5b9g9r9(std::uint32_t bits, float rgb[3]);
@@ -51,8 +55,8 @@ struct Ktx2Options {
 };
 
 /// Writes levels[0] (largest) .. levels[n-1] to `path` atomically. Each level must halve the previous size
-/// (rounding down, at least 1). Throws Error("<path>: ...").
-void write_ktx2(const std::string& path, const std::vector<const Image*>& levels, const Ktx2Options& options);
+/// (rounding down, at least 1). Throws Error("<path>: ..."). Returns the values the format clamped, over all levels.
+ClampReport write_ktx2(const std::string& path, const std::vector<const Image*>& levels, const Ktx2Options& options);
 
 /// What the header of a KTX2 or DDS file (as written here) says, for envinfo.
 struct GpuTextureInfo {
