@@ -1,6 +1,4 @@
 // envprobe: writes analytic environments (closed-form power) and the built-in default probe.
-#include "common/cli.h"
-
 #include <envkit/atomic_file.h>
 #include <envkit/convention.h>
 #include <envkit/envmap.h>
@@ -10,17 +8,18 @@
 #include <envkit/probes.h>
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "common/cli.h"
 
 namespace {
 
@@ -141,14 +140,20 @@ envkit::ParamSpec make_spec(const Args& a) {
                             48.0);
   }
   if (!a.grid.empty()) {
-    if (a.grid == "centre" || a.grid == "center") spec.grid = envkit::TexelGrid::Centre;
-    else if (a.grid == "corner") spec.grid = envkit::TexelGrid::Corner;
-    else throw Error("--grid: '" + a.grid + "' must be centre or corner");
+    if (a.grid == "centre" || a.grid == "center")
+      spec.grid = envkit::TexelGrid::Centre;
+    else if (a.grid == "corner")
+      spec.grid = envkit::TexelGrid::Corner;
+    else
+      throw Error("--grid: '" + a.grid + "' must be centre or corner");
   }
   if (!a.basis.empty()) {
-    if (a.basis == "envkit" || a.basis == "openexr") spec.basis = envkit::CubeBasis::Envkit;
-    else if (a.basis == "gl") spec.basis = envkit::CubeBasis::GL;
-    else throw Error("--basis: '" + a.basis + "' must be envkit or gl");
+    if (a.basis == "envkit" || a.basis == "openexr")
+      spec.basis = envkit::CubeBasis::Envkit;
+    else if (a.basis == "gl")
+      spec.basis = envkit::CubeBasis::GL;
+    else
+      throw Error("--basis: '" + a.basis + "' must be envkit or gl");
   }
   return spec;
 }
@@ -162,11 +167,15 @@ std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, co
   if (a.kind == "constant") return std::make_unique<probes::ConstantProbe>(rgb("--radiance", a.radiance, Vec3(1.0)));
   if (a.kind == "gradient") {
     probes::GradientProbe::Form form;
-    if (a.form == "upper" || a.form == "linear") form = probes::GradientProbe::Form::UpperLinear;
-    else if (a.form == "quadratic") form = probes::GradientProbe::Form::Quadratic;
-    else throw Error("--form: '" + a.form + "' must be upper or quadratic");
-    return std::make_unique<probes::GradientProbe>(rgb("--base", a.base, Vec3(0.2, 0.25, 0.3)),
-                                                   (a.gain.empty() ? Vec3(0.3, 0.5, 1.0) : parse_rgb("--gain", a.gain, -kMaxRadiance, kMaxRadiance)), form);
+    if (a.form == "upper" || a.form == "linear")
+      form = probes::GradientProbe::Form::UpperLinear;
+    else if (a.form == "quadratic")
+      form = probes::GradientProbe::Form::Quadratic;
+    else
+      throw Error("--form: '" + a.form + "' must be upper or quadratic");
+    return std::make_unique<probes::GradientProbe>(
+        rgb("--base", a.base, Vec3(0.2, 0.25, 0.3)),
+        (a.gain.empty() ? Vec3(0.3, 0.5, 1.0) : parse_rgb("--gain", a.gain, -kMaxRadiance, kMaxRadiance)), form);
   }
   if (a.kind == "sun") {
     Vec3 dir = probes::direction_from_elevation_azimuth(elevation, azimuth);
@@ -176,8 +185,8 @@ std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, co
       dir = parse_rgb("--direction", a.direction, -1e30, 1e30);
       if (!(dir.x != 0.0 || dir.y != 0.0 || dir.z != 0.0)) throw Error("--direction: must not be 0,0,0");
     }
-    return std::make_unique<probes::SunProbe>(dir, probes::radians(a.radius_deg), rgb("--radiance", a.radiance, Vec3(3e4)),
-                                              rgb("--sky", a.sky, Vec3(0.05)));
+    return std::make_unique<probes::SunProbe>(
+        dir, probes::radians(a.radius_deg), rgb("--radiance", a.radiance, Vec3(3e4)), rgb("--sky", a.sky, Vec3(0.05)));
   }
   if (a.kind == "texel") {
     if (a.texel.empty()) throw Error("--texel: required for kind 'texel' (e.g. --texel 10,5)");
@@ -186,7 +195,8 @@ std::unique_ptr<probes::Probe> make_probe(const Args& a, const CLI::App& app, co
                                                 rgb("--floor", a.floor, Vec3(0.0)));
   }
   if (a.kind == "checker") {
-    const auto [nt, np] = a.cells.empty() ? std::pair<int, int>{8, 16} : parse_pair("--cells", a.cells, ',', 1, 1 << 20);
+    const auto [nt, np] =
+        a.cells.empty() ? std::pair<int, int>{8, 16} : parse_pair("--cells", a.cells, ',', 1, 1 << 20);
     // Every texel integrates the cells its footprint covers: about (n_theta + H)(n_phi + W) cell pieces in all.
     const double pieces = (double(nt) + map.height()) * (double(np) + map.width());
     const double limit = kMaxCheckerPieces + double(map.width()) * map.height();
@@ -286,8 +296,11 @@ int run(const Args& a, const CLI::App& app) {
     j["upward_irradiance"] = irradiance ? rgb_json(*irradiance) : nlohmann::json();
     nlohmann::json features = nlohmann::json::array();
     for (const probes::FeatureStats& f : stats.features)
-      features.push_back({{"solid_angle", f.target}, {"sampled", f.sampled}, {"scale", f.scale},
-                          {"missed", f.missed}, {"lost", f.lost}});
+      features.push_back({{"solid_angle", f.target},
+                          {"sampled", f.sampled},
+                          {"scale", f.scale},
+                          {"missed", f.missed},
+                          {"lost", f.lost}});
     j["features"] = features;
     report << tools::json_text(j) << "\n";
   } else {
@@ -315,7 +328,8 @@ int main(int argc, char** argv) {
   app.footer(kExamples);
   Args a;
   app.add_option("kind", a.kind, "constant | gradient | sun | texel | checker | default")->required();
-  app.add_option("-o,--output", a.output, "output image (.exr float by default; .hdr, .pfm, .tif, .png...)")->required();
+  app.add_option("-o,--output", a.output, "output image (.exr float by default; .hdr, .pfm, .tif, .png...)")
+      ->required();
   app.add_option("--param", a.param, "parameterization: latlong, cube, mirrorball, angular, octahedral, paraboloid")
       ->capture_default_str();
   app.add_option("--size", a.size, "WxH, or N = natural size (lat-long 2N x N, cube faces N); default 1024x512");

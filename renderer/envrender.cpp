@@ -153,7 +153,8 @@ int run(const Args& a) {
   ro.seed = a.seed;
   if (!a.crop.empty()) ro.crop = parse_crop(a.crop);
   const std::size_t work = std::size_t(scene.camera.width()) * scene.camera.height() * std::size_t(std::max(a.spp, 1));
-  tools::ProgressBar bar("rendering", tools::want_progress(a.progress, a.quiet, a.time > 0 ? (std::size_t(1) << 30) : work));
+  tools::ProgressBar bar("rendering",
+                         tools::want_progress(a.progress, a.quiet, a.time > 0 ? (std::size_t(1) << 30) : work));
   ro.progress = [&bar](double f) { bar.update(f); };
   RenderStats stats;
   const Film film = render_image(scene.camera, integrator, ro, &stats);
@@ -182,8 +183,8 @@ int run(const Args& a) {
   outputs.commit();
   if (!a.quiet) {
     std::ostringstream msg;
-    msg << "wrote " << a.output << " and " << png << " (" << film.width() << "x" << film.height() << ", "
-        << stats.spp << " spp, " << a.strategy << ", " << tools::fmt(stats.seconds, 3) << " s, "
+    msg << "wrote " << a.output << " and " << png << " (" << film.width() << "x" << film.height() << ", " << stats.spp
+        << " spp, " << a.strategy << ", " << tools::fmt(stats.seconds, 3) << " s, "
         << tools::fmt(double(stats.samples) / std::max(stats.seconds, 1e-9) * 1e-6, 3) << " M camera samples/s)";
     tools::info(msg.str());
   }
@@ -242,7 +243,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");
   app.add_option("--resolution", a.resolution, "override the camera resolution, WxH");
-  app.add_option("--seed", a.seed, "sampler seed")->transform(tools::integer_in(0, 4294967295LL))->capture_default_str();
+  app.add_option("--seed", a.seed, "sampler seed")
+      ->transform(tools::integer_in(0, 4294967295LL))
+      ->capture_default_str();
   app.add_flag("-f,--force", a.force, "allow the output (or its PNG preview) to replace an input file");
   app.add_flag("--bake", a.bake, "bake missing or stale sampling tables in memory instead of failing");
   envkit::tools::add_threads_option(app, a.threads);

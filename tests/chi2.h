@@ -88,9 +88,7 @@ inline double p_value(double statistic, int dof) {
 
 /// Per-test significance level so that `tests` independent tests together reject a correct implementation with
 /// probability alpha: 1 - (1 - alpha)^(1/tests).
-inline double sidak_alpha(double alpha, int tests) {
-  return 1.0 - std::pow(1.0 - alpha, 1.0 / std::max(1, tests));
-}
+inline double sidak_alpha(double alpha, int tests) { return 1.0 - std::pow(1.0 - alpha, 1.0 / std::max(1, tests)); }
 
 struct Result {
   bool passed = false;
@@ -98,10 +96,10 @@ struct Result {
   int dof = 0;
   double p_value = 1.0;
   double alpha = 0.0;
-  int cells = 0;                  ///< cells with a positive expected count
-  int pooled_cells = 0;           ///< of which pooled (expected < min_expected)
-  double zero_cell_samples = 0;   ///< samples in cells whose expected count is 0 (any -> failure)
-  std::string message;            ///< one line summary; says why on failure
+  int cells = 0;                 ///< cells with a positive expected count
+  int pooled_cells = 0;          ///< of which pooled (expected < min_expected)
+  double zero_cell_samples = 0;  ///< samples in cells whose expected count is 0 (any -> failure)
+  std::string message;           ///< one line summary; says why on failure
 };
 
 /// Chi-square test of observed against expected counts over the same cells (any layout; sums should agree:
@@ -187,8 +185,8 @@ inline std::vector<double> reference_probabilities(std::span<const float> weight
 
 /// Expected counts of n samples over cols x rows equal cells of [0,1)^2 for a density that is constant on each of
 /// the W x H texels with the given probabilities. Exact: texel/cell overlaps are computed in integers.
-inline std::vector<double> expected_counts(std::span<const double> texel_probability, int W, int H, int cols,
-                                           int rows, double n) {
+inline std::vector<double> expected_counts(std::span<const double> texel_probability, int W, int H, int cols, int rows,
+                                           double n) {
   std::vector<double> e(std::size_t(cols) * std::size_t(rows), 0.0);
   // In units of 1/(W cols): texel x spans [x cols, (x+1) cols), cell c spans [c W, (c+1) W).
   const auto overlaps = [](int texel, int texels, int cells, auto&& fn) {
@@ -203,7 +201,8 @@ inline std::vector<double> expected_counts(std::span<const double> texel_probabi
       for (int x = 0; x < W; ++x) {
         const double p = texel_probability[std::size_t(y) * std::size_t(W) + std::size_t(x)];
         if (p == 0.0) continue;
-        overlaps(x, W, cols, [&](int c, double fx) { e[std::size_t(r) * std::size_t(cols) + std::size_t(c)] += n * p * fx * fy; });
+        overlaps(x, W, cols,
+                 [&](int c, double fx) { e[std::size_t(r) * std::size_t(cols) + std::size_t(c)] += n * p * fx * fy; });
       }
     });
   return e;
@@ -397,7 +396,9 @@ inline TestMap find_map(const std::string& name) {
 /// gtest parameter-name generator for TestMap parameters.
 struct MapName {
   template <class Info>
-  std::string operator()(const Info& info) const { return info.param.name; }
+  std::string operator()(const Info& info) const {
+    return info.param.name;
+  }
 };
 
 /// Chi-square test of dist against the map's ideal probabilities (w / sum, not dist.pdf(): the reference is
@@ -423,8 +424,7 @@ inline chi2::Result chi_square(const Distribution2D& dist, const TestMap& map, d
 inline std::string check_normalised(const Distribution2D& dist, double tolerance = 1e-6) {
   double sum = 0.0;
   for (int y = 0; y < dist.height(); ++y)
-    for (int x = 0; x < dist.width(); ++x)
-      sum += dist.pdf(Vec2((x + 0.5) / dist.width(), (y + 0.5) / dist.height()));
+    for (int x = 0; x < dist.width(); ++x) sum += dist.pdf(Vec2((x + 0.5) / dist.width(), (y + 0.5) / dist.height()));
   sum /= double(dist.width()) * double(dist.height());
   if (std::abs(sum - 1.0) > tolerance) return "sum of pdf x area = " + std::to_string(sum);
   return {};
@@ -465,8 +465,16 @@ inline std::string check_matches_weights(const Distribution2D& dist, const TestM
 inline std::string check_samples(const Distribution2D& dist, const TestMap& map, std::size_t n, std::uint64_t seed) {
   const std::vector<double> p = reference_probabilities(map.weights);
   std::vector<Vec2> us;
-  const double edges[] = {0.0, 0x1p-60, 0.5, 0x1.fffffep-1, kOneMinusEpsilon, 1.0, -0.25, 1.5,
-                          std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()};
+  const double edges[] = {0.0,
+                          0x1p-60,
+                          0.5,
+                          0x1.fffffep-1,
+                          kOneMinusEpsilon,
+                          1.0,
+                          -0.25,
+                          1.5,
+                          std::numeric_limits<double>::quiet_NaN(),
+                          std::numeric_limits<double>::infinity()};
   for (double a : edges)
     for (double b : edges) us.emplace_back(a, b);
   std::mt19937_64 rng(seed);
@@ -476,23 +484,29 @@ inline std::string check_samples(const Distribution2D& dist, const TestMap& map,
   for (const Vec2& u : us) {
     const DistributionSample s = dist.sample(u);
     std::string why;
-    if (!(s.uv.x >= 0.0 && s.uv.x < 1.0 && s.uv.y >= 0.0 && s.uv.y < 1.0)) why = "uv outside [0,1)";
-    else if (s.x < 0 || s.x >= map.width || s.y < 0 || s.y >= map.height) why = "texel index out of range";
+    if (!(s.uv.x >= 0.0 && s.uv.x < 1.0 && s.uv.y >= 0.0 && s.uv.y < 1.0))
+      why = "uv outside [0,1)";
+    else if (s.x < 0 || s.x >= map.width || s.y < 0 || s.y >= map.height)
+      why = "texel index out of range";
     else if (sampling::texel_index(s.uv.x, map.width) != s.x || sampling::texel_index(s.uv.y, map.height) != s.y)
       why = "uv not inside texel (x, y)";
-    else if (!(p[std::size_t(s.y) * std::size_t(map.width) + std::size_t(s.x)] > 0.0)) why = "zero-weight texel";
-    else if (!(s.pdf > 0.0) || !std::isfinite(s.pdf)) why = "pdf not positive and finite";
-    else if (std::abs(dist.pdf(s.uv) - s.pdf) > 1e-12 * s.pdf) why = "pdf(uv) != sample.pdf";
+    else if (!(p[std::size_t(s.y) * std::size_t(map.width) + std::size_t(s.x)] > 0.0))
+      why = "zero-weight texel";
+    else if (!(s.pdf > 0.0) || !std::isfinite(s.pdf))
+      why = "pdf not positive and finite";
+    else if (std::abs(dist.pdf(s.uv) - s.pdf) > 1e-12 * s.pdf)
+      why = "pdf(uv) != sample.pdf";
     if (!why.empty() && failures++ < 5)
-      err << why << " at u = (" << u.x << ", " << u.y << "): uv = (" << s.uv.x << ", " << s.uv.y << "), texel ("
-          << s.x << "," << s.y << "), pdf " << s.pdf << "; ";
+      err << why << " at u = (" << u.x << ", " << u.y << "): uv = (" << s.uv.x << ", " << s.uv.y << "), texel (" << s.x
+          << "," << s.y << "), pdf " << s.pdf << "; ";
   }
   return err.str();
 }
 
 /// invert(sample(u).uv) == u within tolerance for n random u, and invert() of any uv (edges, NaN) is finite in
 /// [0,1).
-inline std::string check_invert(const Distribution2D& dist, std::size_t n, std::uint64_t seed, double tolerance = 1e-4) {
+inline std::string check_invert(const Distribution2D& dist, std::size_t n, std::uint64_t seed,
+                                double tolerance = 1e-4) {
   std::ostringstream err;
   int failures = 0;
   std::mt19937_64 rng(seed);
@@ -523,8 +537,8 @@ template <class D>
 std::string check_sample_texel(const D& dist, int width, int height, std::size_t n = 2000) {
   std::mt19937_64 rng(7);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  const Vec2 edges[] = {Vec2(0, 0),   Vec2(1, 1),   Vec2(kOneMinusEpsilon, 0), Vec2(-1, 2),
-                        Vec2(nan, nan), Vec2(0.5, kOneMinusEpsilon)};
+  const Vec2 edges[] = {Vec2(0, 0),  Vec2(1, 1),     Vec2(kOneMinusEpsilon, 0),
+                        Vec2(-1, 2), Vec2(nan, nan), Vec2(0.5, kOneMinusEpsilon)};
   for (std::size_t i = 0; i < n; ++i) {
     const Vec2 u = i < std::size(edges) ? edges[i] : Vec2(uniform53(rng), uniform53(rng));
     const DistributionSample s = dist.sample(u);

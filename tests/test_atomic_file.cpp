@@ -101,8 +101,7 @@ TEST_F(AtomicFileTest, TempNameSitsNextToTargetAndKeepsExtension) {
   AtomicOutput out(path("probe.exr"));
   const fs::path temp(out.temp_path());
   EXPECT_EQ(temp.parent_path(), dir_);
-  EXPECT_TRUE(starts_with(temp.filename().string(), ".probe.exr.tmp-" + std::to_string(::getpid()) + "-"))
-      << temp;
+  EXPECT_TRUE(starts_with(temp.filename().string(), ".probe.exr.tmp-" + std::to_string(::getpid()) + "-")) << temp;
   EXPECT_EQ(temp.extension(), ".exr");
   AtomicOutput other(path("probe.exr"));
   EXPECT_NE(other.temp_path(), out.temp_path());
@@ -223,7 +222,7 @@ TEST_F(AtomicFileTest, CheckOutputPathRejectsMissingAndDirectoryTargets) {
 TEST_F(AtomicFileTest, UnwritableDirectoryIsReported) {
   fs::create_directories(dir_ / "ro");
   fs::permissions(dir_ / "ro", fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
-                                    fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+                                   fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
   const std::string target = (dir_ / "ro" / "out.exr").string();
   const std::string expected = target + ": cannot write: Permission denied";
   const auto check = [&]() -> int {
@@ -364,7 +363,7 @@ TEST_F(AtomicFileTest, FileSizeLimitFailsTheCommitInsteadOfKillingTheProcess) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     AtomicOutput out(target);  // installs the SIGXFSZ handler
-    const struct rlimit rl{1024, 1024};
+    const struct rlimit rl { 1024, 1024 };
     ::setrlimit(RLIMIT_FSIZE, &rl);
     std::ofstream(out.temp_path()) << std::string(8192, 'x');  // cut at 1024 bytes: EFBIG, SIGXFSZ
     try {

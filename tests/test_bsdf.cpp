@@ -1,14 +1,10 @@
 // Materials of the renderer (renderer/include/envkit/render/material.h) and the shading frame (frame.h):
 // chi-square of sample() against pdf() on the sphere, pdf normalisation, sample/eval/pdf consistency,
 // reciprocity, energy, the diffuse albedo, the mirror's delta lobe, and no NaN at grazing or invalid inputs.
+#include <chi2.h>
 #include <envkit/render/frame.h>
 #include <envkit/render/material.h>
-
 #include <gtest/gtest.h>
-
-#include <chi2.h>
-
-#include "../renderer/src/material_microfacet.h"  // private helpers: the fast conductor Fresnel is checked
 
 #include <cmath>
 #include <functional>
@@ -17,6 +13,8 @@
 #include <random>
 #include <string>
 #include <vector>
+
+#include "../renderer/src/material_microfacet.h"  // private helpers: the fast conductor Fresnel is checked
 
 namespace envkit::render {
 namespace {
@@ -58,8 +56,8 @@ double gauss4(const std::function<double(const Vec3&)>& f, double z0, double z1,
 
 // Adaptive quadrature of f over a (z, phi) rectangle: a 2x2 Gauss estimate is refined into four children until the
 // children agree with the parent within max(tol, 1e-5 x the estimate) or depth runs out.
-double adaptive(const std::function<double(const Vec3&)>& f, double z0, double z1, double p0, double p1,
-                double whole, double tol, int depth) {
+double adaptive(const std::function<double(const Vec3&)>& f, double z0, double z1, double p0, double p1, double whole,
+                double tol, int depth) {
   const double zm = 0.5 * (z0 + z1), pm = 0.5 * (p0 + p1);
   const double a = gauss4(f, z0, zm, p0, pm), b = gauss4(f, zm, z1, p0, pm), c = gauss4(f, z0, zm, pm, p1),
                d = gauss4(f, zm, z1, pm, p1);
@@ -153,8 +151,8 @@ TEST_P(BsdfChi2, SampleMatchesPdf) {
       observed[std::size_t(grid.cell_of(s.wi))] += 1.0;
     }
     EXPECT_EQ(bad, 0u);
-    const std::vector<double> mass =
-        integrate_cells(grid, [&](const Vec3& wi) { return material->pdf(wo, wi); }, 1e-9);
+    const std::vector<double> mass = integrate_cells(
+        grid, [&](const Vec3& wi) { return material->pdf(wo, wi); }, 1e-9);
     double total = 0.0;
     for (double m : mass) total += m;
     const double accepted = double(ok) / double(n);
@@ -209,11 +207,13 @@ TEST_P(BsdfChi2, Reciprocity) {
 TEST_P(BsdfChi2, NoNanAtEdges) {
   const auto material = GetParam().make();
   const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
-  const std::vector<Vec3> dirs = {Vec3(0, 0, 1),        Vec3(1, 0, 0),         Vec3(0, 0, -1),
-                                  Vec3(1, 0, 1e-300),   Vec3(1, 0, 1e-12),     Vec3(-1, 0, 1e-12),
-                                  Vec3(0, 1, -1e-12),   Vec3(0.6, 0, 0.8),     Vec3(-0.6, 0, 0.8),
-                                  Vec3(0, 0, 0),        Vec3(nan, 0, 1),       Vec3(0, inf, 1),
-                                  Vec3(1, 0, 5e-324),   Vec3(0.999999, 0, std::sqrt(1 - 0.999999 * 0.999999))};
+  const std::vector<Vec3> dirs = {Vec3(0, 0, 1),      Vec3(1, 0, 0),
+                                  Vec3(0, 0, -1),     Vec3(1, 0, 1e-300),
+                                  Vec3(1, 0, 1e-12),  Vec3(-1, 0, 1e-12),
+                                  Vec3(0, 1, -1e-12), Vec3(0.6, 0, 0.8),
+                                  Vec3(-0.6, 0, 0.8), Vec3(0, 0, 0),
+                                  Vec3(nan, 0, 1),    Vec3(0, inf, 1),
+                                  Vec3(1, 0, 5e-324), Vec3(0.999999, 0, std::sqrt(1 - 0.999999 * 0.999999))};
   const double us[] = {0.0, 1e-300, 0.5, kOneMinusEpsilon, 1.0, nan};
   for (const Vec3& wo : dirs) {
     for (const Vec3& wi : dirs) {
@@ -256,7 +256,9 @@ Vec3 albedo_quadrature(const Material& m, const Vec3& wo, int channels = 3, doub
   Vec3 a(0.0);
   for (int c = 0; c < channels; ++c) {
     double s = 0.0;
-    for (double v : integrate_cells(grid, [&](const Vec3& wi) { return m.eval(wo, wi)[c]; }, tol)) s += v;
+    for (double v : integrate_cells(
+             grid, [&](const Vec3& wi) { return m.eval(wo, wi)[c]; }, tol))
+      s += v;
     a[c] = s;
   }
   return a;
@@ -410,10 +412,13 @@ TEST(BsdfMirror, ReflectsAndIsDelta) {
 
 TEST(ShadingFrame, OrthonormalAndRoundTrip) {
   std::mt19937_64 rng(3);
-  std::vector<Vec3> normals = {Vec3(0, 0, 1), Vec3(0, 0, -1), Vec3(1, 0, 0), Vec3(0, -1, 0),
-                               Vec3(0, 1e-9, -1).normalized(), Vec3(1e-17, 0, -1).normalized()};
-  for (int i = 0; i < 1000; ++i)
-    normals.push_back(direction_zphi(2.0 * uniform53(rng) - 1.0, kTwoPi * uniform53(rng)));
+  std::vector<Vec3> normals = {Vec3(0, 0, 1),
+                               Vec3(0, 0, -1),
+                               Vec3(1, 0, 0),
+                               Vec3(0, -1, 0),
+                               Vec3(0, 1e-9, -1).normalized(),
+                               Vec3(1e-17, 0, -1).normalized()};
+  for (int i = 0; i < 1000; ++i) normals.push_back(direction_zphi(2.0 * uniform53(rng) - 1.0, kTwoPi * uniform53(rng)));
   for (const Vec3& n : normals) {
     const Frame f = Frame::from_normal(n);
     EXPECT_NEAR(f.s.length(), 1.0, 1e-12);

@@ -1,8 +1,7 @@
 // Tests of the built tools envconvert, envinfo and envdiff, run as processes on small synthetic maps written
 // with libenv: conversions and their metadata, directions through files and conventions, rotation, flux,
 // exrenvmap interop, reports, exit codes, and one-line errors that leave no file behind.
-#include "cli_support.h"
-
+#include <OpenImageIO/imageio.h>
 #include <envkit/cubemap.h>
 #include <envkit/envmap.h>
 #include <envkit/image_io.h>
@@ -10,19 +9,19 @@
 #include <envkit/param_factory.h>
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
-
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
+
+#include "cli_support.h"
 
 namespace fs = std::filesystem;
 using envkit::Image;
@@ -93,8 +92,7 @@ double power(const envkit::EnvMap& m, int c = 0) { return envkit::total_power(m.
 void write_with_oiio(const std::string& path, int w, int h, int channels, const std::vector<float>& pixels) {
   OIIO::ImageSpec spec(w, h, channels, OIIO::TypeDesc::FLOAT);
   auto out = OIIO::ImageOutput::create(path);
-  ASSERT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()) &&
-              out->close());
+  ASSERT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()) && out->close());
 }
 
 class CliTest : public ::testing::Test {
@@ -160,7 +158,7 @@ class CliTest : public ::testing::Test {
 
 TEST_F(CliTest, ConvertsToEveryKindAndBackWithMetadata) {
   const std::string in = write_latlong("in.exr", octant_map(64, 32));
-  const Vec3 octants[] = {{1, 1, 1}, {-1, 1, 1}, {1, -1, 1}, {-1, -1, 1},
+  const Vec3 octants[] = {{1, 1, 1},  {-1, 1, 1},  {1, -1, 1},  {-1, -1, 1},
                           {1, 1, -1}, {-1, 1, -1}, {1, -1, -1}, {-1, -1, -1}};
   for (const char* kind : kKinds) {
     SCOPED_TRACE(kind);
@@ -335,10 +333,11 @@ TEST_F(CliTest, RotateYaw90MovesPlusZToPlusX) {
 
 TEST_F(CliTest, AreaConversionKeepsPowerPerEnvdiff) {
   // A smooth sky plus one very bright texel (a sun).
-  const std::string in = write_latlong("in.exr", latlong(64, 32, [](const Vec3& d, int i, int j) {
-    const double sun = (i == 21 && j == 9) ? 5e4 : 0.0;
-    return Vec3(0.2 + 0.8 * std::max(d.y, 0.0) + sun, 0.3 + 0.1 * d.x, 0.5 + sun / 2);
-  }));
+  const std::string in =
+      write_latlong("in.exr", latlong(64, 32, [](const Vec3& d, int i, int j) {
+                      const double sun = (i == 21 && j == 9) ? 5e4 : 0.0;
+                      return Vec3(0.2 + 0.8 * std::max(d.y, 0.0) + sun, 0.3 + 0.1 * d.x, 0.5 + sun / 2);
+                    }));
   for (const char* kind : {"cube", "octahedral", "mirrorball"}) {
     SCOPED_TRACE(kind);
     const std::string out = path(std::string("area_") + kind + ".exr");
@@ -352,9 +351,10 @@ TEST_F(CliTest, AreaConversionKeepsPowerPerEnvdiff) {
 
 TEST_F(CliTest, EnvdiffReportsAndExitCodes) {
   const std::string a = write_latlong("a.exr", latlong(32, 16, [](const Vec3&, int, int) { return Vec3(1, 1, 1); }));
-  const std::string b = write_latlong("b.exr", latlong(32, 16, [](const Vec3& d, int, int) {
-    return Vec3(d.y > 0.9 ? 3.0 : 1.1, 1.1, 1.1);  // 10% brighter, and a hot cap around +Y in red
-  }));
+  const std::string b =
+      write_latlong("b.exr", latlong(32, 16, [](const Vec3& d, int, int) {
+                      return Vec3(d.y > 0.9 ? 3.0 : 1.1, 1.1, 1.1);  // 10% brighter, and a hot cap around +Y in red
+                    }));
   const CommandResult text = ok("envdiff", {a, b, "--fail-above", "0.1"});  // relmse 0.06 (below): exit 0
   for (const char* word : {"rmse", "relmse", "max |B - A|", "power A", "power B", "direction", "<= 0.1: ok"})
     EXPECT_NE(text.out.find(word), std::string::npos) << word << "\n" << text.out;
@@ -436,25 +436,26 @@ TEST_F(CliTest, EnvinfoReportsPowerStatisticsAndNonFiniteCounts) {
 
 TEST_F(CliTest, OpenExrOutputsAreReadByExrenvmapAndBack) {
   const std::string in = write_latlong("in.exr", latlong(64, 32, [](const Vec3& d, int, int) {
-    return Vec3(1.0 + d.y, 1.0 + 0.5 * d.x, 1.0 + 0.5 * d.z);
-  }));
+                                         return Vec3(1.0 + d.y, 1.0 + 0.5 * d.x, 1.0 + 0.5 * d.z);
+                                       }));
   ok("envconvert", {in, "-o", path("ours_ll.exr"), "--to", "latlong", "--convention", "openexr", "--size", "16", "-q"});
   ok("envconvert", {in, "-o", path("ours_cube.exr"), "--to", "cube", "--convention", "openexr", "--size", "16", "-q"});
   EXPECT_EQ(envkit::read_image(path("ours_ll.exr")).metadata.at("envmap"), "latlong");
   EXPECT_EQ(envkit::read_image(path("ours_cube.exr")).metadata.at("envmap"), "cube");
-  ASSERT_TRUE(fs::exists("/usr/bin/exrenvmap")) << "/usr/bin/exrenvmap missing: scripts/install-deps.sh installs Debian's openexr";
+  ASSERT_TRUE(fs::exists("/usr/bin/exrenvmap"))
+      << "/usr/bin/exrenvmap missing: scripts/install-deps.sh installs Debian's openexr";
 
-  const CommandResult c = envkit::test::run_command("/usr/bin/exrenvmap", {"-c", "-w", "16", path("ours_ll.exr"),
-                                                                           path("theirs_cube.exr")}, root_);
+  const CommandResult c = envkit::test::run_command(
+      "/usr/bin/exrenvmap", {"-c", "-w", "16", path("ours_ll.exr"), path("theirs_cube.exr")}, root_);
   ASSERT_EQ(c.code, 0) << c.err;
-  const CommandResult l = envkit::test::run_command("/usr/bin/exrenvmap", {"-l", "-w", "32", path("ours_cube.exr"),
-                                                                           path("theirs_ll.exr")}, root_);
+  const CommandResult l = envkit::test::run_command(
+      "/usr/bin/exrenvmap", {"-l", "-w", "32", path("ours_cube.exr"), path("theirs_ll.exr")}, root_);
   ASSERT_EQ(l.code, 0) << l.err;
   // exrenvmap copies our envkit:* attributes into its output: its envmap attribute must win over them.
   ok("envconvert", {path("theirs_cube.exr"), "-o", path("back_ll.exr"), "--to", "latlong", "--size", "16", "-q"});
   ok("envconvert", {path("theirs_ll.exr"), "-o", path("back_cube.exr"), "--to", "cube", "--size", "16", "-q"});
   const std::vector<std::pair<std::string, std::string>> pairs = {{"ours_ll.exr", "back_ll.exr"},
-                                                                   {"ours_cube.exr", "back_cube.exr"}};
+                                                                  {"ours_cube.exr", "back_cube.exr"}};
   for (const auto& [ours, back] : pairs) {
     const envkit::EnvMap a = load(path(ours)), b = load(path(back));
     EXPECT_EQ(b.convention, "openexr") << back;
@@ -464,10 +465,10 @@ TEST_F(CliTest, OpenExrOutputsAreReadByExrenvmapAndBack) {
 }
 
 TEST_F(CliTest, CompressionAndHalfReachTheOpenExrFile) {
-  const std::string in = write_latlong("in.exr", latlong(32, 16, [](const Vec3& d, int, int) {
-    return Vec3(1.0 + d.y, 1.0, 1.0);
-  }));
-  ok("envconvert", {in, "-o", path("none.exr"), "--to", "cube", "--size", "8", "--compression", "none", "--half", "-q"});
+  const std::string in =
+      write_latlong("in.exr", latlong(32, 16, [](const Vec3& d, int, int) { return Vec3(1.0 + d.y, 1.0, 1.0); }));
+  ok("envconvert",
+     {in, "-o", path("none.exr"), "--to", "cube", "--size", "8", "--compression", "none", "--half", "-q"});
   ok("envconvert", {in, "-o", path("piz.exr"), "--to", "cube", "--size", "8", "--compression", "piz", "-q"});
   const auto spec_of = [&](const std::string& name) {
     auto file = OIIO::ImageInput::open(path(name));

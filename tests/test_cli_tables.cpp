@@ -1,14 +1,10 @@
 // envbake, envsample and envinfo on table files, run as a user runs them.
-#include "cli_support.h"
-
+#include <OpenImageIO/imageio.h>
 #include <envkit/env_tables.h>
 #include <envkit/image_io.h>
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
-
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <array>
@@ -17,8 +13,11 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+
+#include "cli_support.h"
 
 namespace fs = std::filesystem;
 using envkit::test::CommandResult;
@@ -125,8 +124,8 @@ TEST_F(TablesCli, BakeDescribeSampleEndToEnd) {
   // Same seed, same samples; the picture formats write.
   ok("envsample", {path("sky.envtbl"), "-n", "500", "--method", "cdf", "-o", path("t.csv"), "-q"});
   EXPECT_EQ(envkit::test::read_text(path("s.csv")), envkit::test::read_text(path("t.csv")));
-  ok("envsample", {path("sky.envtbl"), "-n", "2000", "--method", "alias", "--sequence", "random", "-o",
-                   path("s.png"), "-q"});
+  ok("envsample",
+     {path("sky.envtbl"), "-n", "2000", "--method", "alias", "--sequence", "random", "-o", path("s.png"), "-q"});
   ok("envsample", {path("sky.envtbl"), "-n", "200000", "--compensated", "-o", path("d.exr"), "--width", "64", "-q"});
   EXPECT_TRUE(fs::exists(path("s.png")));
   // The density picture converges to the pdf: compare their integrals over the sun's cap region.
@@ -139,8 +138,8 @@ TEST_F(TablesCli, BakeDescribeSampleEndToEnd) {
   EXPECT_NEAR(r_sum / g_sum, 1.0, 0.05);
 
   ok("envinfo", {path("sky.envtbl"), "--export-exr", path("x")});
-  for (const char* name : {"x_importance.exr", "x_probability.exr", "x_marginal.exr", "x_conditional.exr",
-                           "x_level0.exr", "x_level6.exr"})
+  for (const char* name :
+       {"x_importance.exr", "x_probability.exr", "x_marginal.exr", "x_conditional.exr", "x_level0.exr", "x_level6.exr"})
     EXPECT_TRUE(fs::exists(path(name))) << name;
   const envkit::Image marginal = envkit::read_image(path("x_marginal.exr"));
   EXPECT_EQ(marginal.width, 1);
@@ -247,7 +246,8 @@ TEST_F(TablesCli, BadInputsAreOneLineErrorsWithoutOutput) {
   fails("envsample", {path("missing.envtbl"), "-o", path("a.png")}, "missing.envtbl", "cannot open");
   // A table without the requested method.
   ok("envbake", {path("sky.exr"), "-o", path("cdf.envtbl"), "--tables", "cdf", "-q"});
-  fails("envsample", {path("cdf.envtbl"), "--method", "alias", "-o", path("a.csv")}, "cdf.envtbl", "has no alias table");
+  fails("envsample", {path("cdf.envtbl"), "--method", "alias", "-o", path("a.csv")}, "cdf.envtbl",
+        "has no alias table");
   // Non-finite input pixels: same policy as envconvert (error unless --fix-nonfinite).
   envkit::Image nan_map = envkit::read_image(path("sky.exr"));
   nan_map.pixels[7] = std::nanf("");
@@ -277,7 +277,8 @@ TEST_F(TablesCli, AllBlackMapBakesUniformTablesWithAWarning) {
   EXPECT_NE(r.err.find("warning"), std::string::npos);
   EXPECT_NE(r.err.find("no light"), std::string::npos);
   const envkit::EnvTables t = envkit::EnvTables::load(path("black.envtbl"));
-  const envkit::DirectionSample s = t.distribution(envkit::SamplingMethod::Hierarchical)->sample(envkit::Vec2(0.5, 0.5));
+  const envkit::DirectionSample s =
+      t.distribution(envkit::SamplingMethod::Hierarchical)->sample(envkit::Vec2(0.5, 0.5));
   EXPECT_NEAR(s.pdf, t.distribution(envkit::SamplingMethod::Hierarchical)->pdf(s.direction), 1e-12);
 }
 
@@ -306,11 +307,15 @@ TEST_F(TablesCli, HostileValuesBehindValidChecksumsAreRefused) {
   };
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const std::vector<Case> cases = {
-      {"hierarchical", "hierarchical", 4, 0, nan},  {"hierarchical", "hierarchical", 4, 0, -1.0f},
-      {"hierarchical", "hierarchical", 4, 0, 0.0f}, {"hierarchical", "hierarchical", 4, 0, 1e30f},
-      {"cdf", "cdf", 4, 0, nan},                    {"cdf", "cdf", 4, 0, -0.25f},
-      {"cdf", "cdf", 4, 0, 2.0f},                   {"alias", "alias", 16, 8, 0.0f},  // a texel's weight
-      {"alias", "alias", 16, 0, nan},                                                   // a texel's coin
+      {"hierarchical", "hierarchical", 4, 0, nan},
+      {"hierarchical", "hierarchical", 4, 0, -1.0f},
+      {"hierarchical", "hierarchical", 4, 0, 0.0f},
+      {"hierarchical", "hierarchical", 4, 0, 1e30f},
+      {"cdf", "cdf", 4, 0, nan},
+      {"cdf", "cdf", 4, 0, -0.25f},
+      {"cdf", "cdf", 4, 0, 2.0f},
+      {"alias", "alias", 16, 8, 0.0f},   // a texel's weight
+      {"alias", "alias", 16, 0, nan},    // a texel's coin
       {"alias", "alias", 16, 0, 0.75f},  // a coin outside [-1/2, 1/2]
       {"cdf", "importance", 4, 0, -5.0f},
   };

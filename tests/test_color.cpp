@@ -1,12 +1,10 @@
 // Tests for color.h and the shipped OCIO config. Expected values come from the published formulas and
 // matrices (IEC 61966-2-1 sRGB, ITU-R BT.709, ACES AP0/AP1 with Bradford D60->D65), not from envkit.
+#include <OpenColorIO/OpenColorIO.h>
 #include <envkit/color.h>
 #include <envkit/error.h>
 #include <envkit/image.h>
-
-#include <OpenColorIO/OpenColorIO.h>
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <algorithm>
@@ -41,12 +39,16 @@ class EnvGuard {
  public:
   EnvGuard(const char* name, std::optional<std::string> value) : name_(name) {
     if (const char* old = std::getenv(name)) old_ = old;
-    if (value) ::setenv(name, value->c_str(), 1);
-    else ::unsetenv(name);
+    if (value)
+      ::setenv(name, value->c_str(), 1);
+    else
+      ::unsetenv(name);
   }
   ~EnvGuard() {
-    if (old_) ::setenv(name_, old_->c_str(), 1);
-    else ::unsetenv(name_);
+    if (old_)
+      ::setenv(name_, old_->c_str(), 1);
+    else
+      ::unsetenv(name_);
   }
 
  private:

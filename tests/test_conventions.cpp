@@ -5,7 +5,6 @@
 #include <envkit/error.h>
 #include <envkit/latlong.h>
 #include <envkit/param_factory.h>
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,10 +17,9 @@ using namespace envkit;
 
 namespace {
 
-Vec3 random_direction(std::mt19937_64 &rng) {
+Vec3 random_direction(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  const double z = 2 * u(rng) - 1, phi = kTwoPi * u(rng),
-               s = std::sqrt(1 - z * z);
+  const double z = 2 * u(rng) - 1, phi = kTwoPi * u(rng), s = std::sqrt(1 - z * z);
   return Vec3(s * std::cos(phi), s * std::sin(phi), z);
 }
 
@@ -29,7 +27,7 @@ Vec3 random_direction(std::mt19937_64 &rng) {
 // "Selection of cube map images"): the major axis picks the face, (sc, tc) then
 // give s = (sc / |ma| + 1) / 2, t = (tc / |ma| + 1) / 2, t growing downwards in
 // the face image. Faces numbered +X -X +Y -Y +Z -Z.
-void gl_cube_lookup(const Vec3 &r, int &face, double &s, double &t) {
+void gl_cube_lookup(const Vec3& r, int& face, double& s, double& t) {
   const double ax = std::abs(r.x), ay = std::abs(r.y), az = std::abs(r.z);
   double sc, tc, ma;
   if (ax >= ay && ax >= az) {
@@ -52,24 +50,22 @@ void gl_cube_lookup(const Vec3 &r, int &face, double &s, double &t) {
   t = 0.5 * (tc / ma + 1);
 }
 
-} // namespace
+}  // namespace
 
 // three.js equirect maps (ShaderChunk common.glsl.js, equirectUv): u =
 // atan(d.z, d.x) / (2 pi) + 0.5, v = asin(d.y) / pi + 0.5, v = 1 at the top row
 // of the image. A lat-long written with the threejs convention puts every world
 // direction where that formula reads it.
 TEST(Conventions, ThreejsEquirectMatchesEquirectUv) {
-  const Convention &three = convention("threejs");
+  const Convention& three = convention("threejs");
   EXPECT_EQ(&convention("three.js"), &three);
   const LatLongMap ll(512, 256);
   const Mat3 world_to_map = transposed(three.frame(Kind::LatLong));
   std::mt19937_64 rng(11);
   for (int k = 0; k < 10000; ++k) {
     const Vec3 d = random_direction(rng);
-    const double u = std::atan2(d.z, d.x) / kTwoPi + 0.5,
-                 v = std::asin(d.y) / kPi + 0.5;
-    if (u < 1e-6 || u > 1 - 1e-6)
-      continue; // the seam: x = 0 and x = W are one column
+    const double u = std::atan2(d.z, d.x) / kTwoPi + 0.5, v = std::asin(d.y) / kPi + 0.5;
+    if (u < 1e-6 || u > 1 - 1e-6) continue;  // the seam: x = 0 and x = W are one column
     const Vec2 p = ll.to_image(apply(world_to_map, d));
     ASSERT_NEAR(p.x, u * 512, 1e-8) << d;
     ASSERT_NEAR(p.y, (1 - v) * 256, 1e-8) << d;
@@ -78,11 +74,9 @@ TEST(Conventions, ThreejsEquirectMatchesEquirectUv) {
   // top row +Y.
   Vec3 d;
   ll.to_direction(Vec2(256, 128), d);
-  EXPECT_LT(angle_between(apply(three.frame(Kind::LatLong), d), Vec3(1, 0, 0)),
-            1e-12);
+  EXPECT_LT(angle_between(apply(three.frame(Kind::LatLong), d), Vec3(1, 0, 0)), 1e-12);
   ll.to_direction(Vec2(384, 128), d);
-  EXPECT_LT(angle_between(apply(three.frame(Kind::LatLong), d), Vec3(0, 0, 1)),
-            1e-12);
+  EXPECT_LT(angle_between(apply(three.frame(Kind::LatLong), d), Vec3(0, 0, 1)), 1e-12);
 }
 
 // three.js CubeTexture (envmap_fragment): textureCube(envMap, vec3(flipEnvMap *
@@ -90,10 +84,10 @@ TEST(Conventions, ThreejsEquirectMatchesEquirectUv) {
 // GL cube at (-r.x, r.y, r.z). A cube written with the threejs convention has
 // r's radiance exactly there.
 TEST(Conventions, ThreejsCubeTextureMatchesFlippedGlLookup) {
-  const Convention &three = convention("threejs");
+  const Convention& three = convention("threejs");
   const int n = 64;
   const auto cube = make_parameterization(spec_for(Kind::CubeMap, n, three));
-  const auto *c = dynamic_cast<const CubeMap *>(cube.get());
+  const auto* c = dynamic_cast<const CubeMap*>(cube.get());
   ASSERT_NE(c, nullptr);
   const Mat3 world_to_map = transposed(three.frame(Kind::CubeMap));
   std::mt19937_64 rng(12);
@@ -103,10 +97,8 @@ TEST(Conventions, ThreejsCubeTextureMatchesFlippedGlLookup) {
     double s = 0, t = 0;
     gl_cube_lookup(Vec3(-r.x, r.y, r.z), face, s, t);
     const Vec2 p = cube->to_image(apply(world_to_map, r));
-    const CubeFace &f = c->face(face);
-    ASSERT_EQ(c->face_at(int(p.x), int(p.y)),
-              c->face_at(f.origin_x, f.origin_y))
-        << r;
+    const CubeFace& f = c->face(face);
+    ASSERT_EQ(c->face_at(int(p.x), int(p.y)), c->face_at(f.origin_x, f.origin_y)) << r;
     ASSERT_NEAR(p.x - f.origin_x, s * n, 1e-8) << r;
     ASSERT_NEAR(p.y - f.origin_y, t * n, 1e-8) << r;
   }
@@ -115,11 +107,10 @@ TEST(Conventions, ThreejsCubeTextureMatchesFlippedGlLookup) {
 // "gl" stays what the KTX2/DDS writers rely on: the GL face table unmirrored,
 // identity frames, centre-sampled.
 TEST(Conventions, GlIsTheUnmirroredGlFaceTable) {
-  const Convention &gl = convention("gl");
+  const Convention& gl = convention("gl");
   EXPECT_EQ(gl.cube_basis, CubeBasis::GL);
   EXPECT_EQ(gl.cube_grid, TexelGrid::Centre);
-  for (int k = 0; k < kKindCount; ++k)
-    EXPECT_TRUE(is_identity(gl.frames[k]));
+  for (int k = 0; k < kKindCount; ++k) EXPECT_TRUE(is_identity(gl.frames[k]));
   const int n = 32;
   const CubeMap cube(n, CubeLayout::VerticalStrip, CubeBasis::GL);
   std::mt19937_64 rng(13);

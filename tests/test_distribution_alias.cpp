@@ -1,8 +1,5 @@
 // Tests of the alias-table distributions (distribution_alias.h).
-#include "chi2.h"
-
 #include <envkit/distribution_alias.h>
-
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
@@ -12,6 +9,8 @@
 #include <limits>
 #include <memory>
 #include <random>
+
+#include "chi2.h"
 
 using namespace envkit;
 using testmaps::TestMap;
@@ -73,7 +72,8 @@ TEST_P(AliasMaps, ReportsFallbacks) {
   bool all_zero = true;
   for (int y = 0; y < m.height; ++y) {
     bool row_zero = true;
-    for (int x = 0; x < m.width; ++x) row_zero &= !(m.weights[std::size_t(y) * std::size_t(m.width) + std::size_t(x)] > 0.0f);
+    for (int x = 0; x < m.width; ++x)
+      row_zero &= !(m.weights[std::size_t(y) * std::size_t(m.width) + std::size_t(x)] > 0.0f);
     zero_rows += row_zero;
     all_zero &= row_zero;
   }
@@ -166,7 +166,8 @@ TEST(AliasTable1D, ChiSquareAndProbabilities) {
   const std::vector<double> e = testmaps::expected_counts(ideal, n, 1, cells, 1, double(samples));
   const chi2::Result r = chi2::test(h.counts, e, kAlpha);
   EXPECT_TRUE(r.passed) << r.message;
-  for (int i = 0; i < n; ++i) EXPECT_NEAR(d.bin_probability(i), ideal[std::size_t(i)], 1e-7 * ideal[std::size_t(i)] + 1e-15);
+  for (int i = 0; i < n; ++i)
+    EXPECT_NEAR(d.bin_probability(i), ideal[std::size_t(i)], 1e-7 * ideal[std::size_t(i)] + 1e-15);
   EXPECT_NEAR(d.integral(), 11.5001 / 9, 1e-6);
   const AliasTable1D zero(std::vector<float>(4, 0.0f));
   EXPECT_TRUE(zero.used_uniform_fallback());

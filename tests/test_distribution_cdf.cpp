@@ -1,8 +1,5 @@
 // Tests of the marginal/conditional CDF distributions (distribution_cdf.h) and of the chi-square support (chi2.h).
-#include "chi2.h"
-
 #include <envkit/distribution_cdf.h>
-
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
@@ -12,6 +9,8 @@
 #include <limits>
 #include <memory>
 #include <random>
+
+#include "chi2.h"
 
 using namespace envkit;
 using testmaps::TestMap;
@@ -37,7 +36,8 @@ auto cdf_tolerance(const TestMap& map) {
   double total = 0.0;
   for (int y = 0; y < map.height; ++y) {
     for (int x = 0; x < map.width; ++x)
-      row[std::size_t(y)] += sampling::sanitize_weight(map.weights[std::size_t(y) * std::size_t(map.width) + std::size_t(x)]);
+      row[std::size_t(y)] +=
+          sampling::sanitize_weight(map.weights[std::size_t(y) * std::size_t(map.width) + std::size_t(x)]);
     total += row[std::size_t(y)];
   }
   return [row, total](int, int y, double ideal) {
@@ -185,7 +185,8 @@ TEST_P(CdfMaps, ReportsFallbacks) {
   bool all_zero = true;
   for (int y = 0; y < m.height; ++y) {
     bool row_zero = true;
-    for (int x = 0; x < m.width; ++x) row_zero &= !(m.weights[std::size_t(y) * std::size_t(m.width) + std::size_t(x)] > 0.0f);
+    for (int x = 0; x < m.width; ++x)
+      row_zero &= !(m.weights[std::size_t(y) * std::size_t(m.width) + std::size_t(x)] > 0.0f);
     zero_rows += row_zero;
     all_zero &= row_zero;
   }
@@ -195,8 +196,8 @@ TEST_P(CdfMaps, ReportsFallbacks) {
   std::size_t unreachable = 0;
   for (int y = 0; y < m.height; ++y)
     for (int x = 0; x < m.width; ++x)
-      unreachable += m.weights[std::size_t(y) * std::size_t(m.width) + std::size_t(x)] > 0.0f &&
-                     d->texel_probability(x, y) == 0.0;
+      unreachable +=
+          m.weights[std::size_t(y) * std::size_t(m.width) + std::size_t(x)] > 0.0f && d->texel_probability(x, y) == 0.0;
   EXPECT_EQ(d->unreachable_texels(), unreachable);
   if (m.name != "LogUniform48x24") {
     EXPECT_EQ(unreachable, 0u);

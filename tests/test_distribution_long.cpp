@@ -4,17 +4,16 @@
 // row (1e-9 of that row), a non-zero probability equal to w / sum within the float bound of its tables.
 // Slow and memory-hungry (~0.5 GB weights + up to 1.6 GB of tables, 5-20 s per test): meant for ctest label
 // "long", not the default suite.
-#include "chi2.h"
-
 #include <envkit/distribution_alias.h>
 #include <envkit/distribution_cdf.h>
 #include <envkit/distribution_pyramid.h>
-
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <iostream>
 #include <memory>
+
+#include "chi2.h"
 
 using namespace envkit;
 
@@ -184,7 +183,8 @@ TEST(DistributionLong, Pyramid16kTinyTexelsKeepTheirProbability) {
     ASSERT_NEAR(d->pdf(Vec2((x + 0.5) / kW, (y + 0.5) / kH)) / (double(kW) * kH), ideal, 1e-9 * ideal);
     worst_relative = std::max(worst_relative, std::abs(drawn - ideal) / ideal);
   }
-  std::cout << "[ info     ] pyramid: worst relative probability error of the checked texels " << worst_relative << "\n";
+  std::cout << "[ info     ] pyramid: worst relative probability error of the checked texels " << worst_relative
+            << "\n";
   for (auto [x, y] : m.tiny) check_reachable(*d, x, y);
   check_some_samples(*d);
 }

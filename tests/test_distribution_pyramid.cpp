@@ -1,8 +1,5 @@
 // Tests of hierarchical sample warping through a sum pyramid (distribution_pyramid.h).
-#include "chi2.h"
-
 #include <envkit/distribution_pyramid.h>
-
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
@@ -12,6 +9,8 @@
 #include <limits>
 #include <memory>
 #include <random>
+
+#include "chi2.h"
 
 using namespace envkit;
 using testmaps::TestMap;
@@ -126,7 +125,8 @@ TEST(PyramidDistribution2D, PreservesStratification) {
       for (int x = 0; x < W; ++x)
         expected[std::size_t(y / 4) * 8 + std::size_t(x / 4)] += w[std::size_t(y) * W + std::size_t(x)] / sum * n;
     double sse = 0.0;
-    for (int c = 0; c < 64; ++c) sse += (count[std::size_t(c)] - expected[std::size_t(c)]) * (count[std::size_t(c)] - expected[std::size_t(c)]);
+    for (int c = 0; c < 64; ++c)
+      sse += (count[std::size_t(c)] - expected[std::size_t(c)]) * (count[std::size_t(c)] - expected[std::size_t(c)]);
     return sse;
   };
   std::mt19937_64 rng(5);

@@ -1,15 +1,14 @@
 // A float-precision stress on the sphere: a 16384 x 8192 lat-long with a 1e6 sun over a 1e-3 sky
 // (dynamic range 1e9), baked through EnvTables, sampled by every method, chi-square on the sphere. About 5 GB
 // and a minute: ctest label "long" (ENVKIT_LONG_TESTS=1 scripts/test.sh).
-#include "chi2.h"
-
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
-
 #include <gtest/gtest.h>
 
 #include <random>
+
+#include "chi2.h"
 
 using namespace envkit;
 
@@ -43,7 +42,9 @@ TEST_P(EnvSamplingLong, ChiSquareWithA1e9Sun) {
   const LatLongMap grid(kW, kH);
   constexpr int kCX = 128, kCY = 64, kBlock = kW / kCX;
   const int ring_x0 = kSunX - 1, ring_y0 = kSunY - 1, ring_w = 5, ring_h = 4;
-  const auto in_ring = [&](int x, int y) { return x >= ring_x0 && x < ring_x0 + ring_w && y >= ring_y0 && y < ring_y0 + ring_h; };
+  const auto in_ring = [&](int x, int y) {
+    return x >= ring_x0 && x < ring_x0 + ring_w && y >= ring_y0 && y < ring_y0 + ring_h;
+  };
   const std::size_t coarse = std::size_t(kCX) * kCY, cells = coarse + std::size_t(ring_w) * ring_h;
   const auto cell_of = [&](int x, int y) {
     if (in_ring(x, y)) return coarse + std::size_t(y - ring_y0) * ring_w + std::size_t(x - ring_x0);

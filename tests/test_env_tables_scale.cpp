@@ -27,8 +27,10 @@ struct Case {
 
 std::vector<Case> cases() {
   std::vector<Case> out;
-  const std::pair<float, const char*> values[] = {
-      {1e-42f, "subnormal_1em42"}, {1e-38f, "smallest_normal_1em38"}, {1.0f, "one"}, {0.9f * FLT_MAX, "near_float_max"}};
+  const std::pair<float, const char*> values[] = {{1e-42f, "subnormal_1em42"},
+                                                  {1e-38f, "smallest_normal_1em38"},
+                                                  {1.0f, "one"},
+                                                  {0.9f * FLT_MAX, "near_float_max"}};
   for (Kind grid : {Kind::LatLong, Kind::Octahedral, Kind::HEALPix})
     for (const auto& [v, name] : values)
       out.push_back({grid, v,
@@ -71,8 +73,7 @@ TEST_P(ConstantMapTables, PdfIsUniformAndEveryRowIsDrawn) {
       // The pdf of every texel, hence of every direction.
       double worst = 0.0;
       for (int y = 0; y < d->height(); ++y)
-        for (int x = 0; x < d->width(); ++x)
-          worst = std::max(worst, std::abs(d->texel_pdf(x, y) / kUniformPdf - 1.0));
+        for (int x = 0; x < d->width(); ++x) worst = std::max(worst, std::abs(d->texel_pdf(x, y) / kUniformPdf - 1.0));
       EXPECT_LT(worst, 1e-5) << what << ": worst relative pdf error over the texels";
       // Samples: their pdf, and a sample in every row (the polar rows of a lat-long are the smallest).
       std::mt19937_64 rng(7);

@@ -751,8 +751,8 @@ TEST_F(HdrIoTest, OnlyColourConversionsLoadOpenColorIO) {
   EXPECT_TRUE(loads_ocio({path("a.exr"), "-o", path("e.png"), "--to", "latlong", "--from", "latlong", "-q"}));
   EXPECT_TRUE(fs::exists(path("e.png")));
   // A space the table does not hold goes to OpenColorIO too.
-  EXPECT_TRUE(loads_ocio({path("a.exr"), "-o", path("f.exr"), "--to", "latlong", "--from", "latlong", "--colorspace",
-                          "acescg", "-q"}));
+  EXPECT_TRUE(loads_ocio(
+      {path("a.exr"), "-o", path("f.exr"), "--to", "latlong", "--from", "latlong", "--colorspace", "acescg", "-q"}));
 }
 
 // libhealpix-cxx brings cfitsio, curl and GnuTLS, whose start-up every run would pay: only HEALPix maps load it.

@@ -3,8 +3,6 @@
 // layout, round trips, exact solid angles, filter taps across base-pixel edges,
 // flux conservation into and out of HEALPix, and the tools reading and writing
 // it.
-#include "cli_support.h"
-
 #include <envkit/envmap.h>
 #include <envkit/error.h>
 #include <envkit/healpix.h>
@@ -12,7 +10,6 @@
 #include <envkit/param_factory.h>
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -22,29 +19,28 @@
 #include <string>
 #include <vector>
 
+#include "cli_support.h"
+
 namespace fs = std::filesystem;
 using namespace envkit;
 
 namespace {
 
-fs::path scratch_dir(const std::string &name) {
-  const fs::path dir =
-      fs::temp_directory_path() /
-      ("envkit_test_healpix_" + name + "_" + std::to_string(::getpid()));
+fs::path scratch_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("envkit_test_healpix_" + name + "_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   return dir;
 }
 
-Vec3 uniform_direction(std::mt19937_64 &rng) {
+Vec3 uniform_direction(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  const double z = 2.0 * u(rng) - 1.0, phi = kTwoPi * u(rng),
-               s = std::sqrt(std::max(0.0, 1.0 - z * z));
+  const double z = 2.0 * u(rng) - 1.0, phi = kTwoPi * u(rng), s = std::sqrt(std::max(0.0, 1.0 - z * z));
   return Vec3(s * std::cos(phi), z, s * std::sin(phi));
 }
 
 // Continuous in-cell position of `dir`, its distance (in texels) to the nearest
 // texel edge.
-double edge_distance(const HealpixMap &map, const Vec3 &dir) {
+double edge_distance(const HealpixMap& map, const Vec3& dir) {
   const Vec2 p = map.to_image(dir);
   const double fx = p.x - std::floor(p.x), fy = p.y - std::floor(p.y);
   return std::min({fx, 1.0 - fx, fy, 1.0 - fy});
@@ -52,16 +48,13 @@ double edge_distance(const HealpixMap &map, const Vec3 &dir) {
 
 // healpy's vec2pix for each direction (HEALPix frame) in RING and NESTED,
 // through /usr/bin/python3.
-void healpy_pixels(int nside, const std::vector<Vec3> &healpix_dirs,
-                   std::vector<std::int64_t> &ring,
-                   std::vector<std::int64_t> &nest, const fs::path &dir) {
-  const fs::path in = dir / "dirs.txt", out = dir / "pix.txt",
-                 script = dir / "healpy_pix.py";
+void healpy_pixels(int nside, const std::vector<Vec3>& healpix_dirs, std::vector<std::int64_t>& ring,
+                   std::vector<std::int64_t>& nest, const fs::path& dir) {
+  const fs::path in = dir / "dirs.txt", out = dir / "pix.txt", script = dir / "healpy_pix.py";
   {
     std::ofstream f(in);
     f.precision(17);
-    for (const Vec3 &d : healpix_dirs)
-      f << d.x << ' ' << d.y << ' ' << d.z << '\n';
+    for (const Vec3& d : healpix_dirs) f << d.x << ' ' << d.y << ' ' << d.z << '\n';
   }
   {
     std::ofstream f(script);
@@ -72,9 +65,8 @@ void healpy_pixels(int nside, const std::vector<Vec3> &healpix_dirs,
          "n = hp.vec2pix(nside, v[:, 0], v[:, 1], v[:, 2], nest=True)\n"
          "np.savetxt(sys.argv[3], np.stack([r, n], axis=1), fmt='%d')\n";
   }
-  const auto r = test::run_command(
-      "/usr/bin/python3",
-      {script.string(), std::to_string(nside), in.string(), out.string()}, dir);
+  const auto r =
+      test::run_command("/usr/bin/python3", {script.string(), std::to_string(nside), in.string(), out.string()}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   std::ifstream f(out);
   std::int64_t a = 0, b = 0;
@@ -85,7 +77,7 @@ void healpy_pixels(int nside, const std::vector<Vec3> &healpix_dirs,
   ASSERT_EQ(ring.size(), healpix_dirs.size());
 }
 
-} // namespace
+}  // namespace
 
 // 1e5 uniformly random directions: the texel envkit maps each to is the pixel
 // healpy's vec2pix names, in both orderings. Margin: directions within 1e-6
@@ -113,10 +105,8 @@ TEST(Healpix, PixelOfEveryDirectionMatchesHealpyInBothOrderings) {
       }
       const Vec2 p = map.to_image(dirs[k]);
       const int i = int(p.x), j = int(p.y);
-      ASSERT_EQ(map.pixel_index(i, j, HealpixOrdering::Ring), ring[k])
-          << "N_side " << nside << " direction " << k;
-      ASSERT_EQ(map.pixel_index(i, j, HealpixOrdering::Nested), nest[k])
-          << "N_side " << nside << " direction " << k;
+      ASSERT_EQ(map.pixel_index(i, j, HealpixOrdering::Ring), ring[k]) << "N_side " << nside << " direction " << k;
+      ASSERT_EQ(map.pixel_index(i, j, HealpixOrdering::Nested), nest[k]) << "N_side " << nside << " direction " << k;
     }
     EXPECT_LT(excluded, 10) << "N_side " << nside;
   }
@@ -136,33 +126,28 @@ TEST(Healpix, RingIndicesOfANonPowerOfTwoNsideMatchHealpy) {
     hdirs.push_back(HealpixMap::to_healpix_frame(dirs.back()));
   }
   // healpy refuses nest=True for this N_side: its script asks for RING only.
-  const fs::path in = dir / "dirs.txt", out = dir / "pix.txt",
-                 script = dir / "ring.py";
+  const fs::path in = dir / "dirs.txt", out = dir / "pix.txt", script = dir / "ring.py";
   {
     std::ofstream f(in);
     f.precision(17);
-    for (const Vec3 &d : hdirs)
-      f << d.x << ' ' << d.y << ' ' << d.z << '\n';
+    for (const Vec3& d : hdirs) f << d.x << ' ' << d.y << ' ' << d.z << '\n';
     std::ofstream s(script);
     s << "import sys, numpy as np, healpy as hp\n"
          "v = np.loadtxt(sys.argv[2]).reshape(-1, 3)\n"
          "np.savetxt(sys.argv[3], hp.vec2pix(int(sys.argv[1]), v[:, 0], v[:, "
          "1], v[:, 2]), fmt='%d')\n";
   }
-  const auto r = test::run_command(
-      "/usr/bin/python3",
-      {script.string(), std::to_string(nside), in.string(), out.string()}, dir);
+  const auto r =
+      test::run_command("/usr/bin/python3", {script.string(), std::to_string(nside), in.string(), out.string()}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   std::ifstream f(out);
   std::int64_t pix = 0;
   std::size_t k = 0, checked = 0;
   for (; f >> pix; ++k) {
     ASSERT_LT(k, dirs.size());
-    if (edge_distance(map, dirs[k]) < 1e-6)
-      continue;
+    if (edge_distance(map, dirs[k]) < 1e-6) continue;
     const Vec2 p = map.to_image(dirs[k]);
-    ASSERT_EQ(map.pixel_index(int(p.x), int(p.y), HealpixOrdering::Ring), pix)
-        << "direction " << k;
+    ASSERT_EQ(map.pixel_index(int(p.x), int(p.y), HealpixOrdering::Ring), pix) << "direction " << k;
     ++checked;
   }
   EXPECT_EQ(k, dirs.size());
@@ -188,33 +173,25 @@ TEST(Healpix, TexelCentresAreHealpyPixelCentres) {
          "np.savetxt(sys.argv[2], np.concatenate([r, q], axis=1), "
          "fmt='%.17g')\n";
   }
-  const auto r = test::run_command(
-      "/usr/bin/python3",
-      {script.string(), std::to_string(nside), out.string()}, dir);
+  const auto r = test::run_command("/usr/bin/python3", {script.string(), std::to_string(nside), out.string()}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   std::ifstream f(out);
-  std::vector<int> hits(static_cast<std::size_t>(map.width()) * map.height(),
-                        0);
+  std::vector<int> hits(static_cast<std::size_t>(map.width()) * map.height(), 0);
   for (std::int64_t pix = 0; pix < map.pixel_count(); ++pix) {
     Vec3 ring_c, nest_c;
-    ASSERT_TRUE(f >> ring_c.x >> ring_c.y >> ring_c.z >> nest_c.x >> nest_c.y >>
-                nest_c.z);
+    ASSERT_TRUE(f >> ring_c.x >> ring_c.y >> ring_c.z >> nest_c.x >> nest_c.y >> nest_c.z);
     for (auto [ordering, centre] :
-         {std::pair{HealpixOrdering::Ring, ring_c},
-          std::pair{HealpixOrdering::Nested, nest_c}}) {
+         {std::pair{HealpixOrdering::Ring, ring_c}, std::pair{HealpixOrdering::Nested, nest_c}}) {
       int i = -1, j = -1;
       map.texel_of_pixel(pix, ordering, i, j);
       ASSERT_EQ(map.pixel_index(i, j, ordering), pix);
       Vec3 d;
       ASSERT_TRUE(map.to_direction(Vec2(i + 0.5, j + 0.5), d));
-      EXPECT_LT(angle_between(d, HealpixMap::from_healpix_frame(centre)), 1e-12)
-          << "pixel " << pix;
-      if (ordering == HealpixOrdering::Ring)
-        ++hits[static_cast<std::size_t>(j) * map.width() + i];
+      EXPECT_LT(angle_between(d, HealpixMap::from_healpix_frame(centre)), 1e-12) << "pixel " << pix;
+      if (ordering == HealpixOrdering::Ring) ++hits[static_cast<std::size_t>(j) * map.width() + i];
     }
   }
-  for (int h : hits)
-    EXPECT_EQ(h, 1); // every texel is exactly one pixel
+  for (int h : hits) EXPECT_EQ(h, 1);  // every texel is exactly one pixel
   fs::remove_all(dir);
 }
 
@@ -224,7 +201,7 @@ TEST(Healpix, TexelCentresAreHealpyPixelCentres) {
 // of face 4, +X (phi = pi/2) the middle of face 5.
 TEST(Healpix, LayoutPutsKnownDirectionsOnKnownTexels) {
   const HealpixMap map(16);
-  const auto texel = [&](const Vec3 &d) {
+  const auto texel = [&](const Vec3& d) {
     const Vec2 p = map.to_image(d);
     return std::pair{int(p.x), int(p.y)};
   };
@@ -232,7 +209,7 @@ TEST(Healpix, LayoutPutsKnownDirectionsOnKnownTexels) {
   auto [zi, zj] = texel(Vec3(0.001, 0.001, 1));
   map.texel_to_xyf(zi, zj, ix, iy, face);
   EXPECT_EQ(face, 4);
-  EXPECT_EQ(zi / 16, 3); // column 3 - 4 % 4
+  EXPECT_EQ(zi / 16, 3);  // column 3 - 4 % 4
   EXPECT_EQ(zj / 16, 1);
   auto [xi, xj] = texel(Vec3(1, 0.001, 0.001));
   map.texel_to_xyf(xi, xj, ix, iy, face);
@@ -271,14 +248,12 @@ TEST(Healpix, RoundTripsWithin1e6Radians) {
     EXPECT_LT(worst, 1e-6) << "N_side " << nside;
     // Image -> direction -> image, away from the cell edges where positions on
     // both sides see one direction.
-    std::uniform_real_distribution<double> ux(0.0, map.width()),
-        uy(0.0, map.height());
+    std::uniform_real_distribution<double> ux(0.0, map.width()), uy(0.0, map.height());
     double worst_pos = 0.0;
     for (int k = 0; k < 20000; ++k) {
       const Vec2 p(ux(rng), uy(rng));
       const double lx = std::fmod(p.x, nside), ly = std::fmod(p.y, nside);
-      if (std::min({lx, ly, nside - lx, nside - ly}) < 1e-3)
-        continue;
+      if (std::min({lx, ly, nside - lx, nside - ly}) < 1e-3) continue;
       Vec3 d;
       ASSERT_TRUE(map.to_direction(p, d));
       worst_pos = std::max(worst_pos, (map.to_image(d) - p).length());
@@ -306,21 +281,17 @@ TEST(Healpix, SolidAnglesAreExactForTexelsAndSubRectangles) {
   };
   // A north face's lower-left quarter, a thin strip across the equatorial row,
   // a rectangle across four cells.
-  const Rect rects[] = {
-      {96, 0, 112, 16}, {3.3, 32.0, 120.7, 35.5}, {20.25, 20.5, 44.75, 40.125}};
+  const Rect rects[] = {{96, 0, 112, 16}, {3.3, 32.0, 120.7, 35.5}, {20.25, 20.5, 44.75, 40.125}};
   std::mt19937_64 rng(99);
   const int samples = 400000;
   std::vector<int> inside(std::size(rects), 0);
   for (int k = 0; k < samples; ++k) {
     const Vec2 p = map.to_image(uniform_direction(rng));
     for (std::size_t r = 0; r < std::size(rects); ++r)
-      inside[r] += p.x >= rects[r].x0 && p.x < rects[r].x1 &&
-                   p.y >= rects[r].y0 && p.y < rects[r].y1;
+      inside[r] += p.x >= rects[r].x0 && p.x < rects[r].x1 && p.y >= rects[r].y0 && p.y < rects[r].y1;
   }
   for (std::size_t r = 0; r < std::size(rects); ++r) {
-    const double f =
-        map.solid_angle(rects[r].x0, rects[r].y0, rects[r].x1, rects[r].y1) /
-        kFourPi;
+    const double f = map.solid_angle(rects[r].x0, rects[r].y0, rects[r].x1, rects[r].y1) / kFourPi;
     const double sigma = std::sqrt(f * (1 - f) / samples);
     EXPECT_NEAR(double(inside[r]) / samples, f, 5 * sigma) << "rectangle " << r;
   }
@@ -337,8 +308,7 @@ TEST(Healpix, TapsAcrossBasePixelEdgesLandOnNeighbouringTexels) {
   for (int face = 0; face < 12; ++face)
     for (int k = 0; k < n; ++k)
       for (auto [ix, iy, dx, dy] :
-           {std::tuple{0, k, 0, 1}, std::tuple{n - 1, k, 0, -1},
-            std::tuple{k, 0, -1, 0}, std::tuple{k, n - 1, 1, 0}}) {
+           {std::tuple{0, k, 0, 1}, std::tuple{n - 1, k, 0, -1}, std::tuple{k, 0, -1, 0}, std::tuple{k, n - 1, 1, 0}}) {
         int ai = 0, aj = 0;
         map.xyf_to_texel(ix, iy, face, ai, aj);
         int i = ai + dx, j = aj + dy;
@@ -346,10 +316,8 @@ TEST(Healpix, TapsAcrossBasePixelEdgesLandOnNeighbouringTexels) {
         Vec3 a, t;
         map.to_direction(Vec2(ai + 0.5, aj + 0.5), a);
         map.to_direction(Vec2(i + 0.5, j + 0.5), t);
-        EXPECT_LT(angle_between(a, t), 2.6 * pixel)
-            << "face " << face << " texel " << ai << "," << aj;
-        EXPECT_GT(angle_between(a, t), 0.2 * pixel)
-            << "face " << face << " texel " << ai << "," << aj;
+        EXPECT_LT(angle_between(a, t), 2.6 * pixel) << "face " << face << " texel " << ai << "," << aj;
+        EXPECT_GT(angle_between(a, t), 0.2 * pixel) << "face " << face << " texel " << ai << "," << aj;
       }
   int i = 13, j = 3;
   ASSERT_TRUE(map.resolve(12, 2, i, j));
@@ -362,31 +330,25 @@ TEST(Healpix, TapsAcrossBasePixelEdgesLandOnNeighbouringTexels) {
 TEST(Healpix, AreaFilterConservesTheFluxOfASubTexelSun) {
   const LatLongMap fine(512, 256);
   Image src(512, 256, 3);
-  for (float &v : src.pixels)
-    v = 1e-3f;
-  for (int c = 0; c < 3; ++c)
-    src.at(301, 77, c) = 1e6f;
+  for (float& v : src.pixels) v = 1e-3f;
+  for (int c = 0; c < 3; ++c) src.at(301, 77, c) = 1e6f;
   const auto p0 = total_power(src, fine);
   const HealpixMap hpx(8);
   const Mat3 id = identity3();
   const Image mid = resample({src, fine, id}, hpx, id);
   const auto p1 = total_power(mid, hpx);
-  for (int c = 0; c < 3; ++c)
-    EXPECT_NEAR(p1[c], p0[c], 1e-3 * p0[c]);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(p1[c], p0[c], 1e-3 * p0[c]);
   // Out of HEALPix: a sun in one HEALPix texel (N_side 64), into a coarse
   // lat-long and a fine one.
   const HealpixMap fine_hpx(64);
   Image hot(fine_hpx.width(), fine_hpx.height(), 3);
-  for (float &v : hot.pixels)
-    v = 1e-3f;
-  for (int c = 0; c < 3; ++c)
-    hot.at(100, 77, c) = 1e6f;
+  for (float& v : hot.pixels) v = 1e-3f;
+  for (int c = 0; c < 3; ++c) hot.at(100, 77, c) = 1e6f;
   const auto q0 = total_power(hot, fine_hpx);
-  for (const LatLongMap &out : {LatLongMap(32, 16), LatLongMap(1024, 512)}) {
+  for (const LatLongMap& out : {LatLongMap(32, 16), LatLongMap(1024, 512)}) {
     const Image back = resample({hot, fine_hpx, id}, out, id);
     const auto q1 = total_power(back, out);
-    for (int c = 0; c < 3; ++c)
-      EXPECT_NEAR(q1[c], q0[c], 1e-3 * q0[c]) << out.describe();
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(q1[c], q0[c], 1e-3 * q0[c]) << out.describe();
   }
 }
 
@@ -394,9 +356,7 @@ TEST(Healpix, AreaFilterConservesTheFluxOfASubTexelSun) {
 // and bicubic read across base-pixel edges (resolve_tap), so a seam would show
 // up as a texel far from the analytic value.
 TEST(Healpix, EveryFilterConvertsBothWays) {
-  const auto env = [](const Vec3 &d) {
-    return 1.0 + 0.5 * d.x + 0.3 * d.y * d.y + 0.2 * d.z;
-  };
+  const auto env = [](const Vec3& d) { return 1.0 + 0.5 * d.x + 0.3 * d.y * d.y + 0.2 * d.z; };
   const LatLongMap ll(256, 128);
   Image src(ll.width(), ll.height(), 1);
   for (int j = 0; j < ll.height(); ++j)
@@ -407,8 +367,7 @@ TEST(Healpix, EveryFilterConvertsBothWays) {
     }
   const HealpixMap hpx(40);
   const Mat3 id = identity3();
-  for (Filter f :
-       {Filter::Nearest, Filter::Bilinear, Filter::Bicubic, Filter::Area}) {
+  for (Filter f : {Filter::Nearest, Filter::Bilinear, Filter::Bicubic, Filter::Area}) {
     ResampleOptions opt;
     opt.filter = f;
     const Image mid = resample({src, ll, id}, hpx, id, opt);
@@ -419,19 +378,16 @@ TEST(Healpix, EveryFilterConvertsBothWays) {
         hpx.to_direction(Vec2(i + 0.5, j + 0.5), d);
         worst = std::max(worst, std::abs(mid.at(i, j, 0) - env(d)) / env(d));
       }
-    EXPECT_LT(worst, f == Filter::Nearest ? 0.02 : 0.004)
-        << "into HEALPix with " << filter_name(f);
+    EXPECT_LT(worst, f == Filter::Nearest ? 0.02 : 0.004) << "into HEALPix with " << filter_name(f);
     const Image back = resample({mid, hpx, id}, ll, id, opt);
     double worst_back = 0.0;
     for (int j = 0; j < ll.height(); ++j)
       for (int i = 0; i < ll.width(); ++i) {
         Vec3 d;
         ll.to_direction(Vec2(i + 0.5, j + 0.5), d);
-        worst_back =
-            std::max(worst_back, std::abs(back.at(i, j, 0) - env(d)) / env(d));
+        worst_back = std::max(worst_back, std::abs(back.at(i, j, 0) - env(d)) / env(d));
       }
-    EXPECT_LT(worst_back, f == Filter::Nearest ? 0.03 : 0.006)
-        << "out of HEALPix with " << filter_name(f);
+    EXPECT_LT(worst_back, f == Filter::Nearest ? 0.03 : 0.006) << "out of HEALPix with " << filter_name(f);
   }
 }
 
@@ -439,8 +395,7 @@ TEST(Healpix, FactoryAndNamesKnowHealpix) {
   EXPECT_EQ(parse_kind("healpix"), Kind::HEALPix);
   EXPECT_EQ(parse_kind("HPX"), Kind::HEALPix);
   EXPECT_EQ(kind_name(Kind::HEALPix), "healpix");
-  const auto p =
-      make_parameterization(spec_for(Kind::HEALPix, 16, convention("envkit")));
+  const auto p = make_parameterization(spec_for(Kind::HEALPix, 16, convention("envkit")));
   EXPECT_EQ(p->width(), 64);
   EXPECT_EQ(p->height(), 48);
   EXPECT_EQ(p->kind(), Kind::HEALPix);
@@ -462,20 +417,15 @@ TEST(Healpix, ToolsReadAndWriteHealpix) {
     for (int i = 0; i < 128; ++i) {
       Vec3 d;
       ll.to_direction(Vec2(i + 0.5, j + 0.5), d);
-      for (int c = 0; c < 3; ++c)
-        img.at(i, j, c) = float(1.0 + 0.5 * d[c]);
+      for (int c = 0; c < 3; ++c) img.at(i, j, c) = float(1.0 + 0.5 * d[c]);
     }
-  const std::string src = (dir / "src.exr").string(),
-                    hpx = (dir / "sky_hpx.exr").string(),
-                    back = (dir / "back.exr").string(),
-                    tables = (dir / "sky.envtbl").string();
+  const std::string src = (dir / "src.exr").string(), hpx = (dir / "sky_hpx.exr").string(),
+                    back = (dir / "back.exr").string(), tables = (dir / "sky.envtbl").string();
   EnvMap m;
   m.image = img;
   m.param = std::make_unique<LatLongMap>(128, 64);
   save_envmap(src, m);
-  auto r = test::run_tool(
-      "envconvert", {src, "-o", hpx, "--to", "healpix", "--size", "16", "-q"},
-      dir);
+  auto r = test::run_tool("envconvert", {src, "-o", hpx, "--to", "healpix", "--size", "16", "-q"}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const EnvMap loaded = load_envmap(hpx);
   EXPECT_EQ(loaded.param->kind(), Kind::HEALPix);
@@ -484,9 +434,7 @@ TEST(Healpix, ToolsReadAndWriteHealpix) {
   r = test::run_tool("envinfo", {hpx}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("healpix"), std::string::npos) << r.out;
-  r = test::run_tool("envconvert",
-                     {hpx, "-o", back, "--to", "latlong", "--size", "64", "-q"},
-                     dir);
+  r = test::run_tool("envconvert", {hpx, "-o", back, "--to", "latlong", "--size", "64", "-q"}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   r = test::run_tool("envdiff", {src, hpx, "--fail-above", "1e-3"}, dir);
   EXPECT_EQ(r.code, 0) << r.out << r.err;
@@ -495,10 +443,7 @@ TEST(Healpix, ToolsReadAndWriteHealpix) {
   EXPECT_TRUE(fs::exists(tables));
   // A 4:3 image says nothing by itself: --from healpix reads it as HEALPix, a
   // wrong size is refused.
-  r = test::run_tool("envconvert",
-                     {src, "-o", (dir / "x.exr").string(), "--from", "healpix",
-                      "--to", "latlong"},
-                     dir);
+  r = test::run_tool("envconvert", {src, "-o", (dir / "x.exr").string(), "--from", "healpix", "--to", "latlong"}, dir);
   EXPECT_EQ(r.code, 1);
   EXPECT_FALSE(fs::exists(dir / "x.exr"));
   fs::remove_all(dir);

@@ -1,10 +1,6 @@
 // Tests for image_io.h: round trips per format with stated bounds, colour decoding, non-finite policies,
 // error messages, size guards, atomic writes and the OpenEXR envmap attribute.
 // Special input files (NaN, 7 channels, chromaticities, multi-part) are crafted with OIIO directly or by hand.
-#include <envkit/error.h>
-#include <envkit/image.h>
-#include <envkit/image_io.h>
-
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfEnvmapAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -13,8 +9,10 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfRgbaFile.h>
 #include <OpenImageIO/imageio.h>
+#include <envkit/error.h>
+#include <envkit/image.h>
+#include <envkit/image_io.h>
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -473,8 +471,8 @@ class NonFiniteTest : public ImageIoTest {
     ImageIoTest::SetUp();
     // 4x2 RGB: 3 NaN, 5 +Inf, 4 -Inf, 2 negative finite values.
     const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-    pixels_ = {nan,  1.0f, 2.0f,  inf, 3.0f, -inf,  0.5f, nan,  inf,   -1.0f, 4.0f, 6.0f,
-               -inf, inf,  -inf,  7.0f, 8.0f, inf,  nan,  -2.0f, -inf, 9.0f,  inf,  5.0f};
+    pixels_ = {nan,  1.0f, 2.0f, inf,  3.0f, -inf, 0.5f, nan,   inf,  -1.0f, 4.0f, 6.0f,
+               -inf, inf,  -inf, 7.0f, 8.0f, inf,  nan,  -2.0f, -inf, 9.0f,  inf,  5.0f};
     write_with_oiio(file_ = path("bad.exr"), 4, 2, {"R", "G", "B"}, pixels_);
   }
   std::vector<float> pixels_;
@@ -753,7 +751,7 @@ TEST_F(ImageIoTest, MetadataIsCarriedSelectively) {
   Image img = test_image(8, 4, 3, 37);
   img.metadata["envkit:source"] = "probe.hdr";
   img.metadata["Copyright"] = "envkit tests";
-  img.metadata["compression"] = "piz";      // structural key of some source file: not carried
+  img.metadata["compression"] = "piz";       // structural key of some source file: not carried
   img.metadata["oiio:ColorSpace"] = "sRGB";  // would mislabel the output: not carried
   WriteOptions opt;
   opt.metadata["envkit:parameterization"] = "latlong";
@@ -779,8 +777,8 @@ TEST_F(ImageIoTest, EnvmapAttributeIsTheTypedOpenExrAttribute) {
   envkit::write_image(path("latlong.exr"), latlong, opt);
 
   // OpenEXR sees an attribute of type envmap (not a string), and no competing "textureformat" string.
-  for (const auto& [file, expected] : {std::pair{path("cube.exr"), Imf::ENVMAP_CUBE},
-                                       std::pair{path("latlong.exr"), Imf::ENVMAP_LATLONG}}) {
+  for (const auto& [file, expected] :
+       {std::pair{path("cube.exr"), Imf::ENVMAP_CUBE}, std::pair{path("latlong.exr"), Imf::ENVMAP_LATLONG}}) {
     Imf::InputFile in(file.c_str());
     const auto* envmap = in.header().findTypedAttribute<Imf::EnvmapAttribute>("envmap");
     ASSERT_NE(envmap, nullptr) << file;
@@ -803,9 +801,11 @@ TEST_F(ImageIoTest, EnvmapAttributeIsTheTypedOpenExrAttribute) {
   EXPECT_NE(ll_header.find("envmap (type envmap): latitude-longitude map"), std::string::npos) << ll_header;
 
   int code = -1;
-  const std::string log = run("/usr/bin/exrenvmap -l -w 64 '" + path("cube.exr") + "' '" + path("from_cube.exr") + "' 2>&1", &code);
+  const std::string log =
+      run("/usr/bin/exrenvmap -l -w 64 '" + path("cube.exr") + "' '" + path("from_cube.exr") + "' 2>&1", &code);
   EXPECT_EQ(code, 0) << log;
-  EXPECT_NE(run("/usr/bin/exrheader '" + path("from_cube.exr") + "'").find("latitude-longitude map"), std::string::npos);
+  EXPECT_NE(run("/usr/bin/exrheader '" + path("from_cube.exr") + "'").find("latitude-longitude map"),
+            std::string::npos);
   const Image converted = envkit::read_image(path("from_cube.exr"));
   EXPECT_EQ(converted.width, 64);
   EXPECT_EQ(converted.height, 32);
@@ -826,7 +826,8 @@ TEST_F(ImageIoTest, EnvmapAttributeIsTheTypedOpenExrAttribute) {
 TEST_F(ImageIoTest, TypedEnvmapWinsOverAStaleTextureformatString) {
   // OIIO's own EXR writer stores a "textureformat" string next to the typed attribute; exrenvmap copies it
   // into its output, where it then contradicts the (converted) typed attribute.
-  ASSERT_TRUE(fs::exists("/usr/bin/exrenvmap")) << "exrenvmap missing: scripts/install-deps.sh installs Debian's openexr";
+  ASSERT_TRUE(fs::exists("/usr/bin/exrenvmap"))
+      << "exrenvmap missing: scripts/install-deps.sh installs Debian's openexr";
   const int n = 8;
   write_with_oiio(path("oiio_cube.exr"), n, 6 * n, {"R", "G", "B"}, std::vector<float>(n * 6 * n * 3, 0.5f),
                   [](OIIO::ImageSpec& spec) { spec.attribute("textureformat", "CubeFace Environment"); });
@@ -874,8 +875,8 @@ TEST_F(ImageIoTest, UnwritableDirectoryIsReported) {
   EXPECT_TRUE(starts_with(msg, missing + ": directory '")) << msg;
 
   fs::create_directories(dir_ / "ro");
-  fs::permissions(dir_ / "ro", fs::perms::owner_read | fs::perms::owner_exec | fs::perms::others_read |
-                                    fs::perms::others_exec);
+  fs::permissions(dir_ / "ro",
+                  fs::perms::owner_read | fs::perms::owner_exec | fs::perms::others_read | fs::perms::others_exec);
   fs::permissions(dir_, fs::perms::others_read | fs::perms::others_exec, fs::perm_options::add);
   const std::string target = (dir_ / "ro" / "out.exr").string();
   // Root ignores permission bits: check as an unprivileged user in a child process.
@@ -906,7 +907,6 @@ TEST_F(ImageIoTest, ReportSummaryIsOneLine) {
 TEST(ExrCompression, NamesAreRecognised) {
   for (const char* name : {"none", "zip", "ZIP", "piz", "dwaa:45", "b44a"})
     EXPECT_TRUE(envkit::is_exr_compression(name)) << name;
-  for (const char* name : {"", "zap", "jpeg", ":45", "zip2"})
-    EXPECT_FALSE(envkit::is_exr_compression(name)) << name;
+  for (const char* name : {"", "zap", "jpeg", ":45", "zip2"}) EXPECT_FALSE(envkit::is_exr_compression(name)) << name;
   EXPECT_NE(std::string(envkit::exr_compression_list()).find("dwab"), std::string::npos);
 }

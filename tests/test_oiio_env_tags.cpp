@@ -2,6 +2,7 @@
 // system reads them (src/libtexture/environment.cpp: TextureFile setup and
 // vector_to_latlong), written with the types it reads (updirection string,
 // sampleborder int, as maketx sets them).
+#include <OpenImageIO/imageio.h>
 #include <envkit/convention.h>
 #include <envkit/cubemap.h>
 #include <envkit/envmap.h>
@@ -9,8 +10,6 @@
 #include <envkit/latlong.h>
 #include <envkit/oiio_env_tags.h>
 #include <envkit/param_factory.h>
-
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 

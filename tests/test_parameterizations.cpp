@@ -124,7 +124,7 @@ TEST(Parameterizations, LargeMapsSumTo4Pi) {
   EXPECT_NEAR(face / (kFourPi / 6.0), 1.0, 1e-6);
   // Radial maps at 4096: the Green's-theorem integral over the whole image and summed per texel row band.
   for (auto p : std::vector<std::shared_ptr<Parameterization>>{std::make_shared<AngularMap>(4096, 4096),
-                                                              std::make_shared<MirrorBallMap>(4096, 4096)}) {
+                                                               std::make_shared<MirrorBallMap>(4096, 4096)}) {
     double sum = 0.0;
     for (int j = 0; j < 4096; j += 64) sum += p->solid_angle(0, j, 4096, j + 64);
     EXPECT_NEAR(sum / kFourPi, 1.0, 1e-6);
@@ -290,8 +290,8 @@ Vec3 world_direction(const Parameterization& p, const Convention& c, Vec2 pos) {
   return apply(c.frame(p.kind()), d);
 }
 void expect_direction(const Vec3& got, const Vec3& want, const std::string& what, double tol = 1e-9) {
-  EXPECT_LT(angle_between(got, want.normalized()), tol) << what << ": got (" << got.x << ", " << got.y << ", "
-                                                        << got.z << ")";
+  EXPECT_LT(angle_between(got, want.normalized()), tol)
+      << what << ": got (" << got.x << ", " << got.y << ", " << got.z << ")";
 }
 }  // namespace
 
@@ -493,12 +493,14 @@ TEST(ResolveTap, LatLongWrapsAndClamps) {
   int i = -1, j = 3;
   ASSERT_TRUE(m.resolve_tap(0, 3, i, j));
   EXPECT_EQ(i, 15);
-  i = 16; j = -1;
+  i = 16;
+  j = -1;
   ASSERT_TRUE(m.resolve_tap(15, 0, i, j));
   EXPECT_EQ(i, 0);
   EXPECT_EQ(j, 0);
   LatLongMap corner(17, 9, TexelGrid::Corner);
-  i = 17; j = 2;  // one past the duplicated column 16 == column 0, so column 1
+  i = 17;
+  j = 2;  // one past the duplicated column 16 == column 0, so column 1
   ASSERT_TRUE(corner.resolve_tap(16, 2, i, j));
   EXPECT_EQ(i, 1);
   // Corner rows keep the full period of centre-sampled columns: no column is duplicated.
@@ -514,7 +516,8 @@ TEST(ResolveTap, OctahedralFoldIsContinuous) {
   const int n = 32;
   OctahedralMap m(n);
   for (int k = 0; k < n; ++k) {
-    for (auto [ai, aj, di, dj] : std::vector<std::array<int, 4>>{{0, k, -1, 0}, {n - 1, k, 1, 0}, {k, 0, 0, -1}, {k, n - 1, 0, 1}}) {
+    for (auto [ai, aj, di, dj] :
+         std::vector<std::array<int, 4>>{{0, k, -1, 0}, {n - 1, k, 1, 0}, {k, 0, 0, -1}, {k, n - 1, 0, 1}}) {
       int i = ai + di, j = aj + dj;
       ASSERT_TRUE(m.resolve_tap(ai, aj, i, j));
       Vec3 a, b;

@@ -31,12 +31,18 @@ namespace {
 Vec3 spec_direction(int face, int i, int j, int n) {
   const double sc = 2.0 * (i + 0.5) / n - 1.0, tc = 2.0 * (j + 0.5) / n - 1.0;
   switch (face) {
-    case 0: return Vec3(1, -tc, -sc).normalized();    // +X: sc = -rz, tc = -ry
-    case 1: return Vec3(-1, -tc, sc).normalized();    // -X: sc = +rz, tc = -ry
-    case 2: return Vec3(sc, 1, tc).normalized();      // +Y: sc = +rx, tc = +rz
-    case 3: return Vec3(sc, -1, -tc).normalized();    // -Y: sc = +rx, tc = -rz
-    case 4: return Vec3(sc, -tc, 1).normalized();     // +Z: sc = +rx, tc = -ry
-    default: return Vec3(-sc, -tc, -1).normalized();  // -Z: sc = -rx, tc = -ry
+    case 0:
+      return Vec3(1, -tc, -sc).normalized();  // +X: sc = -rz, tc = -ry
+    case 1:
+      return Vec3(-1, -tc, sc).normalized();  // -X: sc = +rz, tc = -ry
+    case 2:
+      return Vec3(sc, 1, tc).normalized();  // +Y: sc = +rx, tc = +rz
+    case 3:
+      return Vec3(sc, -1, -tc).normalized();  // -Y: sc = +rx, tc = -rz
+    case 4:
+      return Vec3(sc, -tc, 1).normalized();  // +Z: sc = +rx, tc = -ry
+    default:
+      return Vec3(-sc, -tc, -1).normalized();  // -Z: sc = -rx, tc = -ry
   }
 }
 

@@ -5,9 +5,7 @@
 #include <envkit/latlong.h>
 #include <envkit/param_factory.h>
 #include <envkit/probes.h>
-
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -18,6 +16,7 @@
 #include <fstream>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -84,14 +83,16 @@ TEST(ProbeClosedForm, PowersMatchTheFormulas) {
   EXPECT_LT(relative_error(ConstantProbe(Vec3(1, 2, 3)).total_power(), Vec3(1, 2, 3) * kFourPi), 1e-15);
   const Vec3 a(0.2, 0.3, 0.5), b(1.0, 0.7, 0.2);
   EXPECT_LT(relative_error(GradientProbe(a, b, GradientProbe::Form::Quadratic).total_power(),
-                           a * kFourPi + b * (kFourPi / 3.0)), 1e-15);
+                           a * kFourPi + b * (kFourPi / 3.0)),
+            1e-15);
   EXPECT_LT(relative_error(GradientProbe(a, b, GradientProbe::Form::UpperLinear).total_power(), a * kFourPi + b * kPi),
             1e-15);
   const double alpha = radians(0.265);
   const Vec3 ls(3e4), lsky(0.1);
   const double omega = kTwoPi * (1.0 - std::cos(alpha));
-  EXPECT_LT(relative_error(SunProbe(Vec3(0, 1, 0), alpha, ls, lsky).total_power(),
-                           ls * omega + lsky * (kFourPi - omega)), 1e-9);
+  EXPECT_LT(
+      relative_error(SunProbe(Vec3(0, 1, 0), alpha, ls, lsky).total_power(), ls * omega + lsky * (kFourPi - omega)),
+      1e-9);
   // Checker 2 x 2 of colours A, B: each hemisphere holds one cell of each colour.
   const Vec3 ca(1, 0, 0), cb(0, 1, 0);
   EXPECT_LT(relative_error(CheckerProbe(2, 2, ca, cb).total_power(), Vec3(kTwoPi, kTwoPi, 0.0)), 1e-14);
@@ -116,8 +117,7 @@ TEST(ProbeClosedForm, UpwardIrradianceMatchesNumericalIntegration) {
       continue;
     }
     if (!e) continue;
-    const Vec3 numeric =
-        integrate_sphere([&](const Vec3& d) { return p.probe->radiance(d) * std::max(d.y, 0.0); });
+    const Vec3 numeric = integrate_sphere([&](const Vec3& d) { return p.probe->radiance(d) * std::max(d.y, 0.0); });
     EXPECT_LT(relative_error(numeric, *e), 2e-3) << p.name;
   }
   // The sun's disk term: irradiance grows by (Ls - Lsky) pi sin^2(alpha) sin(elevation).
@@ -650,8 +650,7 @@ TEST_F(EnvprobeCli, WritesMapAndReportsPower) {
 TEST_F(EnvprobeCli, CubeOutput) {
   int status = 0;
   const std::string out = (dir_ / "checker.exr").string();
-  const std::string text =
-      run(kEnvprobe + " checker -o " + out + " --param cube --size 16 --cells 4,8", status);
+  const std::string text = run(kEnvprobe + " checker -o " + out + " --param cube --size 16 --cells 4,8", status);
   ASSERT_EQ(status, 0) << text;
   const Image img = read_image(out);
   EXPECT_EQ(img.width, 16);

@@ -1,8 +1,12 @@
 // envrender on the command line: a tiny successful render, and bad input (malformed JSON, unknown keys and
 // materials, missing meshes, degenerate triangles, a camera inside geometry, missing and stale tables): exit
 // code 1, one line on stderr naming the file, the line and the problem, and no output file.
-#include "cli_support.h"
-
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/healpix.h>
@@ -10,24 +14,17 @@
 #include <envkit/latlong.h>
 #include <envkit/probes.h>
 #include <envkit/render/scene_loader.h>
-
 #include <gtest/gtest.h>
-#include <OpenEXR/ImfChannelList.h>
-#include <OpenEXR/ImfFrameBuffer.h>
-#include <OpenEXR/ImfHeader.h>
-#include <OpenEXR/ImfInputPart.h>
-#include <OpenEXR/ImfMultiPartInputFile.h>
-#include <OpenEXR/ImfStringAttribute.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
-#include <unistd.h>
+#include "cli_support.h"
 
 using namespace envkit;
 namespace fs = std::filesystem;
@@ -63,20 +60,16 @@ class RenderCli : public ::testing::Test {
     return test::run_tool("envrender", args, dir_);
   }
   /// A valid scene with a constant probe; `extra_shape` is appended to the shapes, `camera` replaces the camera.
-  static std::string scene(const std::string& extra_shape = "", const std::string& materials_extra = "",
-                           const std::string& camera = R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
-                           const std::string& environment = R"("probe": "constant", "radiance": 0.5, "size": [32, 16])") {
-    return std::string("{\n") +
-           "  \"camera\": {" + camera + ", \"fov\": 40, \"resolution\": [16, 8]},\n" +
-           "  \"environment\": {" + environment + "},\n" +
-           "  \"materials\": {\n" +
-           "    \"white\": {\"type\": \"diffuse\", \"albedo\": 0.5}" + materials_extra + "\n" +
-           "  },\n" +
+  static std::string scene(
+      const std::string& extra_shape = "", const std::string& materials_extra = "",
+      const std::string& camera = R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+      const std::string& environment = R"("probe": "constant", "radiance": 0.5, "size": [32, 16])") {
+    return std::string("{\n") + "  \"camera\": {" + camera + ", \"fov\": 40, \"resolution\": [16, 8]},\n" +
+           "  \"environment\": {" + environment + "},\n" + "  \"materials\": {\n" +
+           "    \"white\": {\"type\": \"diffuse\", \"albedo\": 0.5}" + materials_extra + "\n" + "  },\n" +
            "  \"shapes\": [\n" +
            "    {\"type\": \"sphere\", \"center\": [0, 0.5, 0], \"radius\": 0.5, \"material\": \"white\"}" +
-           extra_shape + "\n" +
-           "  ]\n" +
-           "}\n";
+           extra_shape + "\n" + "  ]\n" + "}\n";
   }
   /// Runs a bad scene; expects exit 1, one stderr line containing every fragment, and no output.
   void expect_error(const fs::path& scene_file, const std::vector<std::string>& fragments,
@@ -87,7 +80,8 @@ class RenderCli : public ::testing::Test {
     const auto r = envrender(args);
     EXPECT_EQ(r.code, 1) << r.err;
     ASSERT_EQ(r.err_lines().size(), 1u) << r.err;
-    for (const auto& f : fragments) EXPECT_NE(r.err.find(f), std::string::npos) << "missing '" << f << "' in: " << r.err;
+    for (const auto& f : fragments)
+      EXPECT_NE(r.err.find(f), std::string::npos) << "missing '" << f << "' in: " << r.err;
     EXPECT_FALSE(fs::exists(out));
     EXPECT_FALSE(fs::exists(dir_ / "out.png"));
   }
@@ -113,7 +107,8 @@ TEST_F(RenderCli, RendersASmallSceneWithEveryOutput) {
   EXPECT_EQ(beauty.channels, 3);
   Imf::MultiPartInputFile exr(out.string().c_str());
   ASSERT_EQ(exr.parts(), 2);
-  for (const char* channel : {"R", "G", "B"}) EXPECT_NE(exr.header(0).channels().findChannel(channel), nullptr) << channel;
+  for (const char* channel : {"R", "G", "B"})
+    EXPECT_NE(exr.header(0).channels().findChannel(channel), nullptr) << channel;
   for (const char* channel : {"variance.R", "variance.G", "variance.B", "samples"})
     EXPECT_NE(exr.header(1).channels().findChannel(channel), nullptr) << channel;
   const Imath::Box2i window = exr.header(1).dataWindow();
@@ -122,8 +117,10 @@ TEST_F(RenderCli, RendersASmallSceneWithEveryOutput) {
   ASSERT_EQ(h, 8);
   std::vector<float> samples(std::size_t(w * h)), variance(std::size_t(w * h));
   Imf::FrameBuffer frame;
-  frame.insert("samples", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(samples.data()), sizeof(float), sizeof(float) * w));
-  frame.insert("variance.G", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(variance.data()), sizeof(float), sizeof(float) * w));
+  frame.insert("samples",
+               Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(samples.data()), sizeof(float), sizeof(float) * w));
+  frame.insert("variance.G",
+               Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(variance.data()), sizeof(float), sizeof(float) * w));
   Imf::InputPart aov(exr, 1);
   aov.setFrameBuffer(frame);
   aov.readPixels(window.min.y, window.max.y);
@@ -332,9 +329,8 @@ TEST_F(RenderCli, NulInAFileNameIsNamed) {
   const auto mesh = write("nul.json", scene(R"(,
     {"type": "mesh", "file": "a.obj\u0000.png", "material": "white"})"));
   expect_error(mesh, {"nul.json:9: shapes[1].file: file name 'a.obj\\x00.png' contains a NUL character"});
-  const auto image = write("nul_image.json",
-                           scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
-                                 R"("image": "sky\u0000.exr", "tables": "sky.envtbl")"));
+  const auto image = write("nul_image.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
+                                                   R"("image": "sky\u0000.exr", "tables": "sky.envtbl")"));
   expect_error(image, {"nul_image.json:3: environment.image: file name 'sky\\x00.exr' contains a NUL character"});
 }
 
@@ -347,7 +343,8 @@ TEST_F(RenderCli, HugeKeysAndValuesAreCutInMessages) {
   const auto key = write("key.json", text);
   expect_error(key, {"key.json:2: camera." + std::string(60, 'k') + "... (2097152 bytes): unknown key '"});
   const auto material = write("material.json", scene(R"(,
-    {"type": "sphere", "center": [2, 0.5, 0], "radius": 0.5, "material": ")" + huge + R"("})"));
+    {"type": "sphere", "center": [2, 0.5, 0], "radius": 0.5, "material": ")" +
+                                                     huge + R"("})"));
   expect_error(material, {"material.json:9: shapes[1].material: unknown material '" + std::string(60, 'k') +
                           "... (2097152 bytes)'"});
   const auto malformed = write("malformed.json", "{\"" + huge + "\" 1}");
@@ -406,11 +403,12 @@ TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
   write_image((dir_ / "sky.exr").string(), probes::rasterize(probes::ConstantProbe(Vec3(0.5)), grid));
   write_image((dir_ / "other.exr").string(), probes::rasterize(probes::ConstantProbe(Vec3(0.7)), grid));
   // envbake records the source file's hash; tables baked from other.exr are stale for sky.exr.
-  const auto baked = test::run_tool("envbake", {(dir_ / "other.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q"}, dir_);
+  const auto baked =
+      test::run_tool("envbake", {(dir_ / "other.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q"}, dir_);
   ASSERT_EQ(baked.code, 0) << baked.err;
 
-  const auto missing = write("missing.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
-                                                   R"("image": "sky.exr")"));
+  const auto missing = write(
+      "missing.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])", R"("image": "sky.exr")"));
   expect_error(missing, {"missing.json:3:", "environment", "tables", "--bake"});
 
   const auto stale = write("stale.json", scene("", "", R"("position": [0, 1, -5], "look_at": [0, 0.5, 0])",
@@ -425,7 +423,8 @@ TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
   EXPECT_TRUE(fs::exists(out));
 
   // Fresh tables (envbake) load without --bake; mis-compensated needs their compensated twins.
-  const auto rebaked = test::run_tool("envbake", {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q"}, dir_);
+  const auto rebaked =
+      test::run_tool("envbake", {(dir_ / "sky.exr").string(), "-o", (dir_ / "sky.envtbl").string(), "-q"}, dir_);
   ASSERT_EQ(rebaked.code, 0) << rebaked.err;
   const auto fresh = envrender({"--scene", stale.string(), "-o", out.string(), "--spp", "1", "-q"});
   EXPECT_EQ(fresh.code, 0) << fresh.err;

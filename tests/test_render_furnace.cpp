@@ -1,6 +1,5 @@
 // White furnace and mirror tests of envrender's integrator: a sphere in a constant environment L.
 // Lambertian albedo rho renders rho L; a mirror of reflectance r renders r L; for every strategy.
-#include "render_support.h"
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
@@ -9,14 +8,14 @@
 #include <envkit/render/material.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
-
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 
-#include <unistd.h>
+#include "render_support.h"
 
 using namespace envkit;
 using namespace envkit::render;
@@ -170,10 +169,11 @@ TEST(RenderFurnace, ObjCubeRendersAlbedoTimesRadiance) {
   // environment: every pixel that sees it renders rho L, so triangle hits, normals and the loader are right.
   const auto dir = std::filesystem::temp_directory_path() / ("envkit_render_obj_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  std::ofstream(dir / "cube.obj") << "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
-                                     "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n"
-                                     "f 1//1 4//1 3//1 2//1\nf 5//2 6//2 7//2 8//2\nf 1//3 2//3 6//3 5//3\n"
-                                     "f 4//4 8//4 7//4 3//4\nf 1//5 5//5 8//5 4//5\nf 2//6 3//6 7//6 6//6\n";
+  std::ofstream(dir / "cube.obj")
+      << "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
+         "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n"
+         "f 1//1 4//1 3//1 2//1\nf 5//2 6//2 7//2 8//2\nf 1//3 2//3 6//3 5//3\n"
+         "f 4//4 8//4 7//4 3//4\nf 1//5 5//5 8//5 4//5\nf 2//6 3//6 7//6 6//6\n";
   std::ofstream(dir / "cube.json") << R"({
     "camera": {"position": [3, 2.5, -4], "look_at": [0, 0, 0], "fov": 20, "resolution": [16, 16]},
     "environment": {"probe": "constant", "radiance": [0.5, 1.0, 2.0], "size": [32, 16]},

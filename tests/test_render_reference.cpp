@@ -1,6 +1,5 @@
 // A single shading point: the direct-light estimator of every strategy against a numerically integrated
 // reference  integral f(wo, wi) cos(theta_i) L(wi) d wi  (quadrature over the environment's own texels).
-#include "render_support.h"
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
@@ -8,12 +7,13 @@
 #include <envkit/render/frame.h>
 #include <envkit/render/integrator.h>
 #include <envkit/render/material.h>
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+
+#include "render_support.h"
 
 using namespace envkit;
 using namespace envkit::render;

@@ -1,6 +1,5 @@
 // Every strategy renders the same image (the default scene, small): per-region means agree within their
 // statistical error (variance AOV); and nothing non-finite appears under a 1e6 sun.
-#include "render_support.h"
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
@@ -9,12 +8,13 @@
 #include <envkit/render/material.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
-
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstdio>
+
+#include "render_support.h"
 
 using namespace envkit;
 using namespace envkit::render;
@@ -188,7 +188,8 @@ TEST(RenderStrategies, MirrorSphereUnderTheSunInEveryStrategy) {
   for (int y = 0; y < films[0].height(); ++y)
     for (int x = 0; x < films[0].width(); ++x) {
       bool same = true;
-      for (const Film& f : films) same = same && std::abs(f.mean(x, y).y - films[0].mean(x, y).y) <= 1e-9 * films[0].mean(x, y).y;
+      for (const Film& f : films)
+        same = same && std::abs(f.mean(x, y).y - films[0].mean(x, y).y) <= 1e-9 * films[0].mean(x, y).y;
       identical += same;
     }
   EXPECT_GT(identical, 0);

@@ -7,7 +7,6 @@
 #include <envkit/paraboloid.h>
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
-
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
@@ -101,7 +100,8 @@ TEST(Resample, AreaKeepsAConstantMapConstantForEveryPair) {
           ASSERT_NEAR(out.at(i, j, 0), 2.0f, 2e-5f) << a.name << " -> " << b.name << " at " << i << "," << j;
           ASSERT_NEAR(out.at(i, j, 2), 1e-3f, 1e-8f) << a.name << " -> " << b.name;
         }
-      EXPECT_LT(relative_power_error(total_power(out, *b.p), total_power(src, *a.p)), 1e-5) << a.name << " -> " << b.name;
+      EXPECT_LT(relative_power_error(total_power(out, *b.p), total_power(src, *a.p)), 1e-5)
+          << a.name << " -> " << b.name;
     }
   }
 }
@@ -147,9 +147,13 @@ TEST(Resample, AreaConservesSmoothMapPowerAcrossAllPairs) {
 // Round trips A -> B -> A at matched resolution for every pair and filter, with the bounds they are held to
 // (solid-angle weighted relative RMS error of a smooth environment).
 TEST(Resample, RoundTripsStayWithinStatedBounds) {
-  struct Bound { Filter f; double rmse; };
+  struct Bound {
+    Filter f;
+    double rmse;
+  };
   // Measured maxima over all 49 pairs: nearest 1.0%, bilinear 0.41%, bicubic 0.38%, area 0.39%.
-  const Bound bounds[] = {{Filter::Nearest, 0.015}, {Filter::Bilinear, 0.006}, {Filter::Bicubic, 0.006}, {Filter::Area, 0.006}};
+  const Bound bounds[] = {
+      {Filter::Nearest, 0.015}, {Filter::Bilinear, 0.006}, {Filter::Bicubic, 0.006}, {Filter::Area, 0.006}};
   for (const Named& a : matched_maps()) {
     const Image src = rasterize(*a.p, smooth_env);
     for (const Named& b : matched_maps()) {
@@ -159,7 +163,8 @@ TEST(Resample, RoundTripsStayWithinStatedBounds) {
         const Image mid = resample({src, *a.p, kIdentity}, *b.p, kIdentity, opt);
         const Image back = resample({mid, *b.p, kIdentity}, *a.p, kIdentity, opt);
         const double err = weighted_relative_rmse(back, src, *a.p);
-        EXPECT_LT(err, bound.rmse) << a.name << " -> " << b.name << " -> " << a.name << " with " << filter_name(bound.f);
+        EXPECT_LT(err, bound.rmse) << a.name << " -> " << b.name << " -> " << a.name << " with "
+                                   << filter_name(bound.f);
       }
     }
   }
@@ -371,8 +376,8 @@ TEST(Resample, AreaGivesTwinTexelsOfCornerGridsOneValue) {
   make_hot(Vec3(-1.0, -1.0, -1.0));  // a cube corner
   const std::vector<Named> corner_maps = {
       {"latlong 64x32 corner", std::make_shared<LatLongMap>(64, 32, TexelGrid::Corner)},
-      {"cube 16 corner", std::make_shared<CubeMap>(16, CubeLayout::VerticalStrip, CubeBasis::Envkit,
-                                                   TexelGrid::Corner)}};
+      {"cube 16 corner",
+       std::make_shared<CubeMap>(16, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)}};
   for (const Named& b : corner_maps) {
     // Texels whose centres see the same direction are twins.
     std::vector<std::pair<Vec3, std::pair<int, int>>> centres;

@@ -2,7 +2,6 @@
 // dimension pair (the stratification the hierarchical warp keeps), values stay in [0, 1), and points depend only on
 // the seed, the pixel and the sample index.
 #include <envkit/sampler.h>
-
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -3,8 +3,6 @@
 // closed forms, a 90-degree view cropped from a map against the matching cube
 // face, no aliasing when cropping from an 8k map, embedding with coverage
 // alpha, and the tools re-reading views.
-#include "cli_support.h"
-
 #include <envkit/cubemap.h>
 #include <envkit/envmap.h>
 #include <envkit/error.h>
@@ -13,12 +11,13 @@
 #include <envkit/perspective.h>
 #include <envkit/resample.h>
 #include <envkit/solid_angle_table.h>
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <memory>
 #include <random>
+
+#include "cli_support.h"
 
 namespace fs = std::filesystem;
 using namespace envkit;
@@ -27,28 +26,24 @@ namespace {
 
 const Mat3 kId = identity3();
 
-Vec3 smooth_env(const Vec3 &d) {
-  return Vec3(1.0 + 0.5 * d.x + 0.3 * d.y * d.y,
-              0.8 + 0.4 * std::sin(2.0 * d.z) + 0.2 * d.y,
+Vec3 smooth_env(const Vec3& d) {
+  return Vec3(1.0 + 0.5 * d.x + 0.3 * d.y * d.y, 0.8 + 0.4 * std::sin(2.0 * d.z) + 0.2 * d.y,
               0.6 + 0.3 * d.x * d.z + 0.25 * d.y);
 }
 
-Image rasterize(const Parameterization &p, Vec3 (*f)(const Vec3 &)) {
+Image rasterize(const Parameterization& p, Vec3 (*f)(const Vec3&)) {
   Image img(p.width(), p.height(), 3);
   for (int j = 0; j < p.height(); ++j)
     for (int i = 0; i < p.width(); ++i) {
       Vec3 d;
-      if (!p.to_direction(Vec2(i + 0.5, j + 0.5), d))
-        continue;
+      if (!p.to_direction(Vec2(i + 0.5, j + 0.5), d)) continue;
       const Vec3 v = f(d);
-      for (int c = 0; c < 3; ++c)
-        img.at(i, j, c) = float(v[c]);
+      for (int c = 0; c < 3; ++c) img.at(i, j, c) = float(v[c]);
     }
   return img;
 }
 
-ViewParams view(Vec3 forward, double fov, double roll = 0.0,
-                Lens lens = Lens::Equidistant) {
+ViewParams view(Vec3 forward, double fov, double roll = 0.0, Lens lens = Lens::Equidistant) {
   ViewParams v;
   v.forward = forward;
   v.fov_degrees = fov;
@@ -57,10 +52,9 @@ ViewParams view(Vec3 forward, double fov, double roll = 0.0,
   return v;
 }
 
-const Lens kLenses[] = {Lens::Equidistant, Lens::Equisolid, Lens::Orthographic,
-                        Lens::Stereographic};
+const Lens kLenses[] = {Lens::Equidistant, Lens::Equisolid, Lens::Orthographic, Lens::Stereographic};
 
-} // namespace
+}  // namespace
 
 // Known directions: looking along +Z with +Y up, image right is -X (vec.h); the
 // right edge's middle of a 90-degree view sees 45 degrees to the right; a
@@ -93,9 +87,8 @@ TEST(Views, PerspectiveSeesKnownDirections) {
 
 TEST(Views, FisheyeLensesPlaceKnownAnglesAtTheirRadii) {
   const double theta = kPi / 6,
-               h = kPi / 2; // 30 degrees off axis, 180-degree lens
-  const double expected[] = {theta / h, std::sin(theta / 2) / std::sin(h / 2),
-                             std::sin(theta) / std::sin(h),
+               h = kPi / 2;  // 30 degrees off axis, 180-degree lens
+  const double expected[] = {theta / h, std::sin(theta / 2) / std::sin(h / 2), std::sin(theta) / std::sin(h),
                              std::tan(theta / 2) / std::tan(h / 2)};
   for (int k = 0; k < 4; ++k) {
     const FisheyeMap f(400, 400, view(Vec3(0, 0, 1), 180, 0, kLenses[k]));
@@ -113,32 +106,25 @@ TEST(Views, FisheyeLensesPlaceKnownAnglesAtTheirRadii) {
   Vec3 d;
   ASSERT_TRUE(full.to_direction(Vec2(99.999999, 50), d));
   EXPECT_LT(angle_between(d, Vec3(0, 0, -1)), 1e-6);
-  EXPECT_THROW(
-      FisheyeMap(10, 10, view(Vec3(0, 0, 1), 200, 0, Lens::Orthographic)),
-      Error);
-  EXPECT_THROW(
-      FisheyeMap(10, 10, view(Vec3(0, 0, 1), 360, 0, Lens::Stereographic)),
-      Error);
+  EXPECT_THROW(FisheyeMap(10, 10, view(Vec3(0, 0, 1), 200, 0, Lens::Orthographic)), Error);
+  EXPECT_THROW(FisheyeMap(10, 10, view(Vec3(0, 0, 1), 360, 0, Lens::Stereographic)), Error);
 }
 
 TEST(Views, RoundTripsWithin1e6Radians) {
   std::vector<std::unique_ptr<Parameterization>> views;
-  views.push_back(std::make_unique<PerspectiveMap>(
-      320, 200, view(Vec3(0.3, 0.5, -1), 100, 17)));
+  views.push_back(std::make_unique<PerspectiveMap>(320, 200, view(Vec3(0.3, 0.5, -1), 100, 17)));
   for (Lens l : kLenses)
-    views.push_back(std::make_unique<FisheyeMap>(
-        256, 256,
-        view(Vec3(1, -0.2, 0.1), l == Lens::Orthographic ? 180 : 270, -30, l)));
+    views.push_back(
+        std::make_unique<FisheyeMap>(256, 256, view(Vec3(1, -0.2, 0.1), l == Lens::Orthographic ? 180 : 270, -30, l)));
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (const auto &v : views) {
+  for (const auto& v : views) {
     double worst = 0.0;
     int checked = 0;
     for (int k = 0; k < 20000; ++k) {
       const Vec2 p(u(rng) * v->width(), u(rng) * v->height());
       Vec3 d, back;
-      if (!v->to_direction(p, d))
-        continue;
+      if (!v->to_direction(p, d)) continue;
       const Vec2 q = v->to_image(d);
       ASSERT_TRUE(v->to_direction(q, back)) << v->describe();
       worst = std::max(worst, angle_between(d, back));
@@ -155,18 +141,13 @@ TEST(Views, RoundTripsWithin1e6Radians) {
 TEST(Views, SolidAnglesSumToTheViewsClosedForms) {
   const PerspectiveMap p(160, 90, view(Vec3(0, 1, 1), 120));
   const double a = std::atan(p.tan_half_x()), b = std::atan(p.tan_half_y());
-  EXPECT_NEAR(SolidAngleTable(p).total(),
-              4 * std::asin(std::sin(a) * std::sin(b)),
-              1e-6 * p.view_solid_angle());
+  EXPECT_NEAR(SolidAngleTable(p).total(), 4 * std::asin(std::sin(a) * std::sin(b)), 1e-6 * p.view_solid_angle());
   for (Lens l : kLenses)
     for (double fov : {90.0, 180.0, 300.0}) {
-      if ((l == Lens::Orthographic && fov > 180) ||
-          (l == Lens::Stereographic && fov >= 360))
-        continue;
+      if ((l == Lens::Orthographic && fov > 180) || (l == Lens::Stereographic && fov >= 360)) continue;
       const FisheyeMap f(120, 100, view(Vec3(0, 0, 1), fov, 0, l));
       const double expected = kTwoPi * (1 - std::cos(fov * kPi / 360));
-      EXPECT_NEAR(SolidAngleTable(f).total(), expected, 1e-6 * expected)
-          << f.describe();
+      EXPECT_NEAR(SolidAngleTable(f).total(), expected, 1e-6 * expected) << f.describe();
     }
 }
 
@@ -182,11 +163,10 @@ TEST(Views, NinetyDegreeViewEqualsTheMatchingCubeFace) {
   // Envkit cube faces +X, +Z, -Z have right = forward x (+Y) and down = -Y: the
   // default view basis.
   for (int face : {0, 4, 5}) {
-    const CubeFace &cf = cube.face(face);
+    const CubeFace& cf = cube.face(face);
     const PerspectiveMap v(n, n, view(cf.axis, 90));
     const Image crop = resample({src, ll, kId}, v, kId);
-    ASSERT_EQ(crop.channels, 3)
-        << "a view cropped from a whole map is covered everywhere";
+    ASSERT_EQ(crop.channels, 3) << "a view cropped from a whole map is covered everywhere";
     double worst = 0.0;
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
@@ -243,8 +223,7 @@ TEST(Views, CropFromAn8kMapDoesNotAlias) {
   const LatLongMap ll(8192, 4096);
   Image src(8192, 4096, 1);
   for (int j = 0; j < 4096; ++j)
-    for (int i = 0; i < 8192; ++i)
-      src.at(i, j, 0) = float((i + j) & 1);
+    for (int i = 0; i < 8192; ++i) src.at(i, j, 0) = float((i + j) & 1);
   const PerspectiveMap v(48, 32, view(Vec3(0.2, 0.3, 1), 60, 10));
   const Image area = resample({src, ll, kId}, v, kId);
   ResampleOptions nearest;
@@ -254,12 +233,11 @@ TEST(Views, CropFromAn8kMapDoesNotAlias) {
   for (int j = 0; j < v.height(); ++j)
     for (int i = 0; i < v.width(); ++i) {
       worst_area = std::max(worst_area, std::abs(area.at(i, j, 0) - 0.5));
-      mean_point_dev +=
-          std::abs(point.at(i, j, 0) - 0.5) / (v.width() * v.height());
+      mean_point_dev += std::abs(point.at(i, j, 0) - 0.5) / (v.width() * v.height());
     }
   EXPECT_LT(worst_area, 0.05);
   EXPECT_GT(mean_point_dev,
-            0.4); // the comparison can fail: point sampling does alias here
+            0.4);  // the comparison can fail: point sampling does alias here
 }
 
 // Embedding a view into a lat-long: alpha is the covered fraction, its
@@ -269,11 +247,9 @@ TEST(Views, EmbeddingAViewGivesCoverageAlpha) {
   for (int k = 0; k < 2; ++k) {
     std::unique_ptr<Parameterization> v;
     if (k == 0)
-      v = std::make_unique<PerspectiveMap>(96, 64,
-                                           view(Vec3(1, 0.2, 0.3), 80, 5));
+      v = std::make_unique<PerspectiveMap>(96, 64, view(Vec3(1, 0.2, 0.3), 80, 5));
     else
-      v = std::make_unique<FisheyeMap>(
-          96, 96, view(Vec3(0, 1, 0), 200, 0, Lens::Equisolid));
+      v = std::make_unique<FisheyeMap>(96, 96, view(Vec3(0, 1, 0), 200, 0, Lens::Equisolid));
     const Image shot = rasterize(*v, smooth_env);
     const LatLongMap ll(256, 128);
     const Image embedded = resample({shot, *v, kId}, ll, kId);
@@ -286,8 +262,7 @@ TEST(Views, EmbeddingAViewGivesCoverageAlpha) {
         const float a = embedded.at(i, j, 3);
         covered += a * omega(i, j);
         if (a == 0.0f) {
-          for (int c = 0; c < 3; ++c)
-            ASSERT_EQ(embedded.at(i, j, c), 0.0f);
+          for (int c = 0; c < 3; ++c) ASSERT_EQ(embedded.at(i, j, c), 0.0f);
         }
       }
     const double expected = SolidAngleTable(*v).total();
@@ -298,22 +273,18 @@ TEST(Views, EmbeddingAViewGivesCoverageAlpha) {
 // envconvert crops a view, records it in metadata (envkit:view), envinfo
 // re-reads it, and the view goes back into a lat-long with alpha.
 TEST(Views, ToolsRecordAndRereadViews) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("envkit_test_views_" + std::to_string(::getpid()));
+  const fs::path dir = fs::temp_directory_path() / ("envkit_test_views_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   EnvMap m;
   m.param = std::make_unique<LatLongMap>(256, 128);
   m.image = rasterize(*m.param, smooth_env);
   m.image.channel_names = {"R", "G", "B"};
-  const std::string src = (dir / "src.exr").string(),
-                    v = (dir / "view.exr").string(),
-                    fish = (dir / "fish.exr").string(),
-                    back = (dir / "back.exr").string();
+  const std::string src = (dir / "src.exr").string(), v = (dir / "view.exr").string(),
+                    fish = (dir / "fish.exr").string(), back = (dir / "back.exr").string();
   save_envmap(src, m);
   auto r = test::run_tool("envconvert",
-                          {src, "-o", v, "--to", "perspective", "--view-dir",
-                           "90,0", "--fov", "70", "--aspect", "2", "--size",
-                           "64", "--roll", "12", "-q"},
+                          {src, "-o", v, "--to", "perspective", "--view-dir", "90,0", "--fov", "70", "--aspect", "2",
+                           "--size", "64", "--roll", "12", "-q"},
                           dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const EnvMap loaded = load_envmap(v);
@@ -327,22 +298,16 @@ TEST(Views, ToolsRecordAndRereadViews) {
   r = test::run_tool("envinfo", {v}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("perspective"), std::string::npos) << r.out;
-  r = test::run_tool("envconvert",
-                     {src, "-o", fish, "--to", "fisheye", "--lens",
-                      "stereographic", "--fov", "200", "--size", "64", "-q"},
-                     dir);
+  r = test::run_tool(
+      "envconvert",
+      {src, "-o", fish, "--to", "fisheye", "--lens", "stereographic", "--fov", "200", "--size", "64", "-q"}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(load_envmap(fish).param->view()->lens, Lens::Stereographic);
-  r = test::run_tool(
-      "envconvert", {fish, "-o", back, "--to", "latlong", "--size", "64", "-q"},
-      dir);
+  r = test::run_tool("envconvert", {fish, "-o", back, "--to", "latlong", "--size", "64", "-q"}, dir);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(load_envmap(back).image.channels, 4);
   // View options without a view are a usage error.
-  r = test::run_tool(
-      "envconvert",
-      {src, "-o", (dir / "x.exr").string(), "--to", "cube", "--fov", "90"},
-      dir);
+  r = test::run_tool("envconvert", {src, "-o", (dir / "x.exr").string(), "--to", "cube", "--fov", "90"}, dir);
   EXPECT_EQ(r.code, 2);
   fs::remove_all(dir);
 }

@@ -1,9 +1,5 @@
 // envbake: bakes importance-sampling tables (cdf, alias, sum pyramid, MIS-compensated) of an environment map
 // into a versioned table file that envsample, envinfo and envrender load.
-#include "common/cli.h"
-#include "common/input.h"
-#include "common/progress.h"
-
 #include <envkit/atomic_file.h>
 #include <envkit/env_tables.h>
 #include <envkit/error.h>
@@ -12,6 +8,10 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+
+#include "common/cli.h"
+#include "common/input.h"
+#include "common/progress.h"
 
 namespace {
 
@@ -129,12 +129,11 @@ int run(Options& o) {
   } else if (!o.quiet) {
     std::cout << o.out << ": " << envkit::kind_name(t.grid()) << " " << t.width() << " x " << t.height() << ", "
               << envkit::importance_name(t.importance_mode()) << " importance"
-              << (t.conservative() ? " (conservative)" : "") << ", total " << tools::fmt(t.total_importance())
-              << "\n";
+              << (t.conservative() ? " (conservative)" : "") << ", total " << tools::fmt(t.total_importance()) << "\n";
     const double texels = double(t.width()) * t.height();
     for (const auto& [name, bytes] : t.table_bytes())
-      std::cout << "  " << tools::pad(name, 24) << tools::rpad(tools::fmt(double(bytes) / (1 << 20), 4), 10)
-                << " MiB  " << tools::fmt(double(bytes) / texels, 3) << " bytes/texel\n";
+      std::cout << "  " << tools::pad(name, 24) << tools::rpad(tools::fmt(double(bytes) / (1 << 20), 4), 10) << " MiB  "
+                << tools::fmt(double(bytes) / texels, 3) << " bytes/texel\n";
     std::cout << "  baked in " << tools::fmt(seconds, 3) << " s\n";
   }
   return tools::kExitOk;

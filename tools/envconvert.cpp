@@ -1,9 +1,5 @@
 // envconvert: converts an environment map between parameterizations, conventions and orientations.
 // A thin shell over libenv: load_envmap -> resample -> save_envmap, with checks up front and one-line errors.
-#include "common/cli.h"
-#include "common/input.h"
-#include "common/progress.h"
-
 #include <envkit/atomic_file.h>
 #include <envkit/envmap.h>
 #include <envkit/error.h>
@@ -23,6 +19,10 @@
 #include <optional>
 #include <sstream>
 #include <string>
+
+#include "common/cli.h"
+#include "common/input.h"
+#include "common/progress.h"
 
 namespace {
 
@@ -179,9 +179,12 @@ envkit::ViewParams view_params(const Options& o, Kind kind) {
     std::istringstream in(o.view_dir);
     for (std::string item; std::getline(in, item, ',');)
       c.push_back(tools::parse_number("--view-dir", item, -1e300, 1e300));
-    if (c.size() == 2) v.forward = envkit::direction_from_yaw_pitch(c[0], c[1]);
-    else if (c.size() == 3 && Vec3(c[0], c[1], c[2]).length() > 0.0) v.forward = Vec3(c[0], c[1], c[2]);
-    else throw CLI::ValidationError("--view-dir", "'" + o.view_dir + "' is not x,y,z (non-zero) or yaw,pitch");
+    if (c.size() == 2)
+      v.forward = envkit::direction_from_yaw_pitch(c[0], c[1]);
+    else if (c.size() == 3 && Vec3(c[0], c[1], c[2]).length() > 0.0)
+      v.forward = Vec3(c[0], c[1], c[2]);
+    else
+      throw CLI::ValidationError("--view-dir", "'" + o.view_dir + "' is not x,y,z (non-zero) or yaw,pitch");
   }
   try {
     envkit::check_view(kind, v);
@@ -244,10 +247,12 @@ int convert(Options& o) {
   check_combinations(o);
   if (o.size > 0) {  // before anything is read: an impossible size is a usage error, not a late "out of memory"
     std::optional<envkit::CubeLayout> layout;
-    if (envkit::is_face_pattern(o.out)) layout = envkit::CubeLayout::VerticalStrip;
-    else if (!o.layout.empty()) layout = envkit::parse_layout(o.layout);
-    check_output_size(envkit::parse_kind(o.to), o.size, envkit::convention(o.convention.empty() ? "envkit" : o.convention),
-                      layout);
+    if (envkit::is_face_pattern(o.out))
+      layout = envkit::CubeLayout::VerticalStrip;
+    else if (!o.layout.empty())
+      layout = envkit::parse_layout(o.layout);
+    check_output_size(envkit::parse_kind(o.to), o.size,
+                      envkit::convention(o.convention.empty() ? "envkit" : o.convention), layout);
   }
   // Nothing is read before the paths are known to be sane: no surprises after a long conversion.
   envkit::install_temp_cleanup_on_signal();
@@ -265,15 +270,18 @@ int convert(Options& o) {
   const envkit::Convention& conv = envkit::convention(conv_name);
   const Kind kind = envkit::parse_kind(o.to);
   std::optional<envkit::CubeLayout> layout;
-  if (envkit::is_face_pattern(o.out)) layout = envkit::CubeLayout::VerticalStrip;
-  else if (!o.layout.empty()) layout = envkit::parse_layout(o.layout);
+  if (envkit::is_face_pattern(o.out))
+    layout = envkit::CubeLayout::VerticalStrip;
+  else if (!o.layout.empty())
+    layout = envkit::parse_layout(o.layout);
   const auto spec_of_size = [&](int n) {
     if (kind == Kind::Perspective || kind == Kind::Fisheye)
       return envkit::view_spec(kind, n, o.aspect, view_params(o, kind), conv);
     return envkit::spec_for(kind, n, conv, layout);
   };
   const int n =
-      o.size > 0 ? o.size : envkit::matching_natural_size(envkit::data_texel_count(in.map.image, *in.map.param), spec_of_size);
+      o.size > 0 ? o.size
+                 : envkit::matching_natural_size(envkit::data_texel_count(in.map.image, *in.map.param), spec_of_size);
   check_output_size(kind, n, conv, layout);
 
   envkit::EnvMap out;
@@ -309,9 +317,10 @@ int convert(Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app("Converts an environment map between parameterizations (lat-long, cube, mirror ball, angular,\n"
-               "octahedral, dual paraboloid, HEALPix, perspective and fisheye views), conventions and orientations.",
-               "envconvert");
+  CLI::App app(
+      "Converts an environment map between parameterizations (lat-long, cube, mirror ball, angular,\n"
+      "octahedral, dual paraboloid, HEALPix, perspective and fisheye views), conventions and orientations.",
+      "envconvert");
   Options options;
   add_options(app, options);
   return tools::run_cli(app, argc, argv, [&] { return convert(options); });

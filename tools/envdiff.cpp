@@ -1,20 +1,19 @@
 // envdiff: compares two environment maps of any parameterizations and conventions (envkit::compare_maps,
 // map_compare.h: B resampled onto A's texels, errors weighted by solid angle) and prints the result.
-#include "common/cli.h"
-#include "common/input.h"
-
 #include <envkit/error.h>
 #include <envkit/filter.h>
 #include <envkit/map_compare.h>
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "common/cli.h"
+#include "common/input.h"
 
 namespace {
 
@@ -54,7 +53,9 @@ json comparison_json(const Options& o, const tools::LoadedInput& a, const tools:
                      double value, bool failed) {
   json power = json::array();
   for (std::size_t k = 0; k < c.channels.size(); ++k)
-    power.push_back({{"channel", c.channels[k]}, {"a", c.power_a[k]}, {"b", c.power_b[k]},
+    power.push_back({{"channel", c.channels[k]},
+                     {"a", c.power_a[k]},
+                     {"b", c.power_b[k]},
                      {"relative_difference", c.power_rel[k]}});
   json max = {{"value", c.max.value}};
   if (c.max.i >= 0) {
@@ -94,14 +95,16 @@ void print_text(const Options& o, const tools::LoadedInput& a, const tools::Load
   if (c.max.i >= 0)
     std::cout << " at A texel (" << c.max.i << ", " << c.max.j << ") channel " << c.channels[c.max.channel]
               << ", direction " << tools::vec_text(c.max.direction);
-  std::cout << "\n\n" << tools::pad("channel", 10) << tools::rpad("power A", 15) << tools::rpad("power B", 15)
+  std::cout << "\n\n"
+            << tools::pad("channel", 10) << tools::rpad("power A", 15) << tools::rpad("power B", 15)
             << tools::rpad("rel. diff", 15) << "\n";
   for (std::size_t k = 0; k < c.channels.size(); ++k)
     std::cout << tools::pad(c.channels[k], 10) << tools::rpad(tools::fmt(c.power_a[k]), 15)
               << tools::rpad(tools::fmt(c.power_b[k]), 15) << tools::rpad(tools::fmt(c.power_rel[k], 4), 15) << "\n";
   if (o.fail_above)
-    std::cout << "\n" << o.metric << " " << tools::fmt(value) << (failed ? " > " : " <= ") << tools::fmt(*o.fail_above)
-              << ": " << (failed ? "FAIL" : "ok") << "\n";
+    std::cout << "\n"
+              << o.metric << " " << tools::fmt(value) << (failed ? " > " : " <= ") << tools::fmt(*o.fail_above) << ": "
+              << (failed ? "FAIL" : "ok") << "\n";
 }
 
 int diff(Options& o) {
@@ -113,8 +116,10 @@ int diff(Options& o) {
   const Comparison c = envkit::compare_maps(a.map, b.map, envkit::parse_filter(o.filter), a.path, b.path);
   const double value = envkit::comparison_metric(c, o.metric);
   const bool failed = o.fail_above && !(value <= *o.fail_above);  // NaN fails
-  if (o.json) std::cout << tools::json_text(comparison_json(o, a, b, c, value, failed)) << "\n";
-  else print_text(o, a, b, c, value, failed);
+  if (o.json)
+    std::cout << tools::json_text(comparison_json(o, a, b, c, value, failed)) << "\n";
+  else
+    print_text(o, a, b, c, value, failed);
   return failed ? tools::kExitThreshold : tools::kExitOk;
 }
 

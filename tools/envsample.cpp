@@ -1,7 +1,5 @@
 // envsample: draws directions from baked tables and writes them as CSV, or as a picture of where they land
 // on the lat-long image (the seed's "Resulting Sample Distribution" figure).
-#include "common/cli.h"
-
 #include <envkit/atomic_file.h>
 #include <envkit/env_tables.h>
 #include <envkit/error.h>
@@ -18,6 +16,8 @@
 #include <span>
 #include <string>
 #include <vector>
+
+#include "common/cli.h"
 
 namespace {
 
@@ -185,7 +185,8 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("TABLES", o.tables, "table file from envbake")->required()->type_name("FILE");
   app.add_option("-o,--output", o.out, "output: .csv, .png/.jpg or .exr")->required()->type_name("OUT");
-  app.add_option("-n,--samples", o.n, "number of samples")->transform(tools::integer_in(1, 1LL << 32))
+  app.add_option("-n,--samples", o.n, "number of samples")
+      ->transform(tools::integer_in(1, 1LL << 32))
       ->capture_default_str();
   app.add_option("--method", o.method, "cdf, alias or hierarchical")
       ->check(tools::method_validator())
@@ -193,7 +194,9 @@ int main(int argc, char** argv) {
   app.add_option("--sequence", o.sequence, "random or sobol")
       ->check(CLI::IsMember({"random", "sobol"}))
       ->capture_default_str();
-  app.add_option("--seed", o.seed, "seed of the sequence")->transform(tools::integer_in(0, 4294967295LL))->capture_default_str();
+  app.add_option("--seed", o.seed, "seed of the sequence")
+      ->transform(tools::integer_in(0, 4294967295LL))
+      ->capture_default_str();
   app.add_option("--width", o.width, "picture width (height = width / 2)")->transform(tools::integer_in(2, 16384));
   app.add_flag("--compensated", o.compensated, "sample the MIS-compensated table");
   app.add_flag("-f,--force", o.force, "allow OUT to overwrite TABLES");

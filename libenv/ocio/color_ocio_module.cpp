@@ -1,9 +1,8 @@
 // envkit's OpenColorIO module (libenvkit_ocio.so): the colour functions of envkit/color.h behind the ColorBackend
 // interface of libenv/src/color_backend.h. libenv loads it with dlopen on the first question its table of the shipped
 // config cannot answer (libenv/src/color.cpp), so runs that never convert a colour never load OpenColorIO.
-#include <envkit/error.h>
-
 #include <OpenColorIO/OpenColorIO.h>
+#include <envkit/error.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -119,8 +118,9 @@ std::shared_ptr<const ActiveConfig> active_config() {
 const std::map<std::string, std::vector<std::string>>& synonyms() {
   static const std::map<std::string, std::vector<std::string>> table = {
       {"lin_rec709", {"Linear Rec.709 (sRGB)", "Utility - Linear - sRGB", "Utility - Linear - Rec.709", "lin_srgb"}},
-      {"srgb", {"sRGB - Texture", "sRGB Encoded Rec.709 (sRGB)", "Utility - sRGB - Texture", "srgb_tx",
-                "Input - Generic - sRGB - Texture", "srgb_texture"}},
+      {"srgb",
+       {"sRGB - Texture", "sRGB Encoded Rec.709 (sRGB)", "Utility - sRGB - Texture", "srgb_tx",
+        "Input - Generic - sRGB - Texture", "srgb_texture"}},
       {"rec709", {"Camera Rec.709", "Utility - Rec.709 - Camera", "rec709_camera"}},
       {"acescg", {"ACES - ACEScg", "lin_ap1"}},
       {"aces2065-1", {"ACES - ACES2065-1", "lin_ap0", "aces_interchange"}},

@@ -40,7 +40,8 @@ std::vector<Convention> build_presets() {
   angmap.frames[static_cast<int>(Kind::MirrorBall)] = mirror_z;
   presets.push_back(angmap);
 
-  Convention blender = make("blender", "Blender/Cycles: Z up, equirect centre +X_b, u=1/4 +Y_b; mirror ball as Cycles (centre +Y_b)");
+  Convention blender =
+      make("blender", "Blender/Cycles: Z up, equirect centre +X_b, u=1/4 +Y_b; mirror ball as Cycles (centre +Y_b)");
   // Equirect: envkit's formula rotated about the up axis (+Z -> +X, +X -> -Z): Blender's centre sees its +X.
   const Mat3 yaw90 = from_columns(Vec3(0, 0, -1), Vec3(0, 1, 0), Vec3(1, 0, 0));
   for (Mat3& m : blender.frames) m = yaw90;
@@ -63,7 +64,8 @@ std::vector<Convention> build_presets() {
   // the equirect centre sees +X and u = 3/4 sees +Z, envkit's formula turned about +Y like Blender's. Its
   // envmap_fragment reads a CubeTexture as textureCube(envMap, vec3(flipEnvMap * r.x, r.yz)) with flipEnvMap = -1:
   // GL cube faces looked up with x mirrored.
-  Convention three = make("threejs", "three.js: equirect centre +X (equirectUv); CubeTexture = GL faces with x mirrored");
+  Convention three =
+      make("threejs", "three.js: equirect centre +X (equirectUv); CubeTexture = GL faces with x mirrored");
   for (Mat3& m : three.frames) m = yaw90;
   const Mat3 mirror_x(-1, 0, 0, 0, 1, 0, 0, 0, 1);
   three.frames[static_cast<int>(Kind::CubeMap)] = mirror_x;
@@ -174,7 +176,8 @@ Mat3 parse_rotation(const std::string& text) {
     try {
       std::size_t used = 0;
       const double v = std::stod(item, &used);
-      if (item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(v)) throw std::invalid_argument(item);
+      if (item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(v))
+        throw std::invalid_argument(item);
       values.push_back(v);
     } catch (const std::exception&) {
       throw Error("rotation '" + text + "': '" + item + "' is not a number");

@@ -34,19 +34,26 @@ void strip_basis(CubeBasis basis, int face, Vec3& right, Vec3& down) {
 
 // Unfolds the cube around a front face f with up u and image-right r. Each cell of the net gets
 // (axis, right, down) so that neighbouring cells agree along their shared edge.
-struct NetCell { int cx, cy; Vec3 axis, right, down; };
+struct NetCell {
+  int cx, cy;
+  Vec3 axis, right, down;
+};
 
 std::array<NetCell, 6> cross_cells(CubeLayout layout, CubeBasis basis) {
   const Vec3 f(0, 0, 1), u(0, 1, 0);
   // Seen from inside a right-handed frame, right = f x u (-X); the GL table is mirrored (+X).
   const Vec3 r = basis == CubeBasis::GL ? Vec3(1, 0, 0) : f % u;
   if (layout == CubeLayout::HorizontalCross) {
-    return {{{1, 1, f, r, -u}, {2, 1, r, -f, -u}, {3, 1, -f, -r, -u},
-             {0, 1, -r, f, -u}, {1, 0, u, r, f}, {1, 2, -u, r, -f}}};
+    return {{{1, 1, f, r, -u},
+             {2, 1, r, -f, -u},
+             {3, 1, -f, -r, -u},
+             {0, 1, -r, f, -u},
+             {1, 0, u, r, f},
+             {1, 2, -u, r, -f}}};
   }
   // Vertical cross: the back face continues below the down face, upside down.
-  return {{{1, 1, f, r, -u}, {2, 1, r, -f, -u}, {1, 3, -f, r, u},
-           {0, 1, -r, f, -u}, {1, 0, u, r, f}, {1, 2, -u, r, -f}}};
+  return {
+      {{1, 1, f, r, -u}, {2, 1, r, -f, -u}, {1, 3, -f, r, u}, {0, 1, -r, f, -u}, {1, 0, u, r, f}, {1, 2, -u, r, -f}}};
 }
 
 std::string lower(std::string s) {
@@ -58,10 +65,14 @@ std::string lower(std::string s) {
 
 std::string layout_name(CubeLayout layout) {
   switch (layout) {
-    case CubeLayout::VerticalStrip: return "vstrip";
-    case CubeLayout::HorizontalStrip: return "hstrip";
-    case CubeLayout::HorizontalCross: return "hcross";
-    case CubeLayout::VerticalCross: return "vcross";
+    case CubeLayout::VerticalStrip:
+      return "vstrip";
+    case CubeLayout::HorizontalStrip:
+      return "hstrip";
+    case CubeLayout::HorizontalCross:
+      return "hcross";
+    case CubeLayout::VerticalCross:
+      return "vcross";
   }
   return "vstrip";
 }
@@ -78,10 +89,22 @@ CubeLayout parse_layout(const std::string& name) {
 
 void layout_size(CubeLayout layout, int n, int& width, int& height) {
   switch (layout) {
-    case CubeLayout::VerticalStrip: width = n; height = 6 * n; return;
-    case CubeLayout::HorizontalStrip: width = 6 * n; height = n; return;
-    case CubeLayout::HorizontalCross: width = 4 * n; height = 3 * n; return;
-    case CubeLayout::VerticalCross: width = 3 * n; height = 4 * n; return;
+    case CubeLayout::VerticalStrip:
+      width = n;
+      height = 6 * n;
+      return;
+    case CubeLayout::HorizontalStrip:
+      width = 6 * n;
+      height = n;
+      return;
+    case CubeLayout::HorizontalCross:
+      width = 4 * n;
+      height = 3 * n;
+      return;
+    case CubeLayout::VerticalCross:
+      width = 3 * n;
+      height = 4 * n;
+      return;
   }
 }
 
@@ -196,9 +219,12 @@ Vec2 CubeMap::to_image(const Vec3& d) const {
   // Major axis picks the face; ties go to the first face in order (as OpenEXR does).
   const double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
   int f;
-  if (ax >= ay && ax >= az) f = d.x >= 0 ? 0 : 1;
-  else if (ay >= az) f = d.y >= 0 ? 2 : 3;
-  else f = d.z >= 0 ? 4 : 5;
+  if (ax >= ay && ax >= az)
+    f = d.x >= 0 ? 0 : 1;
+  else if (ay >= az)
+    f = d.y >= 0 ? 2 : 3;
+  else
+    f = d.z >= 0 ? 4 : 5;
   const CubeFace& cf = faces_[f];
   const double major = d ^ cf.axis;
   if (!(major > 0.0)) return Vec2(cf.origin_x + 0.5 * n_, cf.origin_y + 0.5 * n_);  // zero vector

@@ -1,5 +1,4 @@
 #include <envkit/distribution_alias.h>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -8,8 +7,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace envkit {
@@ -123,9 +122,7 @@ void drawn_shares(const Bin* bins, std::size_t n, std::vector<double>& share) {
 
 /// Restored tables are checked against what they claim: a drawn share and the share the weights give may differ
 /// by float rounding of the coins (about 2^-24 per donation), not more.
-bool share_matches(double drawn, double expected) {
-  return std::abs(drawn - expected) <= 1e-4 * expected + 1e-6;
-}
+bool share_matches(double drawn, double expected) { return std::abs(drawn - expected) <= 1e-4 * expected + 1e-6; }
 
 }  // namespace
 
@@ -153,7 +150,8 @@ AliasTable1D::AliasTable1D(std::span<const float> weights) {
   }
   std::vector<double> scaled(weights.size());
   std::vector<std::uint32_t> work(weights.size());
-  build_vose(n, [&](int i) { return double(bins_[i].weight); }, sum, bins_.data(), scaled.data(), work.data());
+  build_vose(
+      n, [&](int i) { return double(bins_[i].weight); }, sum, bins_.data(), scaled.data(), work.data());
   fill_alias_weights(bins_.data(), bins_.size());
   pdf_scale_ = n / sum;
 }
@@ -191,9 +189,10 @@ AliasDistribution2D::AliasDistribution2D(BlobReader& in) : Distribution2D(in) {
   height_f_ = height_;
   // One pass over the aliases: a corrupt index would read outside the table. (keep and alias_weight are not
   // re-checked: wrong values change probabilities, not memory safety, and the section checksums catch corruption.)
-  const bool texels_ok =
-      std::all_of(std::as_const(texels_).begin(), std::as_const(texels_).end(), [W](const AliasBin& b) { return b.alias < W; });
-  const bool rows_ok = std::all_of(std::as_const(rows_).begin(), std::as_const(rows_).end(), [H](const RowBin& b) { return b.alias < H; });
+  const bool texels_ok = std::all_of(std::as_const(texels_).begin(), std::as_const(texels_).end(),
+                                     [W](const AliasBin& b) { return b.alias < W; });
+  const bool rows_ok = std::all_of(std::as_const(rows_).begin(), std::as_const(rows_).end(),
+                                   [H](const RowBin& b) { return b.alias < H; });
   if (!texels_ok || !rows_ok) throw Error(in.context() + ": alias index out of range");
   validate(in.context());
 }
@@ -258,7 +257,8 @@ AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int he
       }
       row_sum[y] = sum;
       if (sum > 0.0)
-        build_vose(width, [bins](int x) { return double(bins[x].weight); }, sum, bins, scaled.data(), work.data());
+        build_vose(
+            width, [bins](int x) { return double(bins[x].weight); }, sum, bins, scaled.data(), work.data());
       else
         make_uniform(width, bins);  // never drawn (zero marginal) unless the whole map is zero
       fill_alias_weights(bins, W);
@@ -285,7 +285,8 @@ AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int he
   }
   std::vector<double> scaled(H);
   std::vector<std::uint32_t> work(H);
-  build_vose(height, [&](int y) { return row_sum[y]; }, sum, rows_.data(), scaled.data(), work.data());
+  build_vose(
+      height, [&](int y) { return row_sum[y]; }, sum, rows_.data(), scaled.data(), work.data());
   pdf_scale_ = (double(W) * double(H)) / sum;
 }
 
@@ -345,8 +346,6 @@ double AliasDistribution2D::texel_probability(int x, int y) const {
          alias_probability(texels_.data() + std::size_t(y) * std::size_t(width_), width_, x);
 }
 
-std::size_t AliasDistribution2D::bytes() const {
-  return texels_.bytes() + rows_.bytes();
-}
+std::size_t AliasDistribution2D::bytes() const { return texels_.bytes() + rows_.bytes(); }
 
 }  // namespace envkit

@@ -23,7 +23,7 @@ constexpr std::size_t kParallelTexels = std::size_t(1) << 16;
 using detail::TwoSidedCdf;
 
 struct CdfBuild {
-  double sum = 0.0;             // sum of the (sanitised) weights, double
+  double sum = 0.0;  // sum of the (sanitised) weights, double
   int split = 0;
   bool uniform = false;         // all weights were zero: uniform bins instead
   std::size_t unreachable = 0;  // positive-weight bins that got a zero step
@@ -62,8 +62,7 @@ CdfBuild build_two_sided(int n, const WeightFn& weight, float* t) {
   }
   // Keep the junction monotone (lower(split) >= lower(split - 1)) if both halves rounded towards each other.
   // (Only possible when the junction bin is at the rounding level; the loop keeps later entries monotone too.)
-  while (1.0 - double(t[b.split]) < double(t[b.split - 1]))
-    t[b.split] = std::nextafter(t[b.split], 0.0f);
+  while (1.0 - double(t[b.split]) < double(t[b.split - 1])) t[b.split] = std::nextafter(t[b.split], 0.0f);
   for (int j = b.split + 1; j <= n && t[j] > t[j - 1]; ++j) t[j] = t[j - 1];
 
   if (!b.uniform) {
@@ -146,7 +145,8 @@ CdfDistribution2D::CdfDistribution2D(const float* weights, int width, int height
     build_rows(0, height);
 
   marginal_.resize(H + 1);
-  const CdfBuild m = build_two_sided(height, [&](int y) { return row_sum[y]; }, marginal_.data());
+  const CdfBuild m = build_two_sided(
+      height, [&](int y) { return row_sum[y]; }, marginal_.data());
   marginal_split_ = m.split;
 
   // Sequential, fixed-order reductions: identical whatever the thread count.
@@ -196,7 +196,8 @@ CdfDistribution2D::CdfDistribution2D(BlobReader& in) : Distribution2D(in) {
     throw Error(in.context() + ": invalid marginal CDF (not a non-decreasing CDF from 0 to 1)");
   for (std::size_t y = 0; y < H; ++y)
     if (!valid_cdf(conditional.data() + y * (W + 1), width_, row_split[y]))
-      throw Error(in.context() + ": invalid CDF of row " + std::to_string(y) + " (not a non-decreasing CDF from 0 to 1)");
+      throw Error(in.context() + ": invalid CDF of row " + std::to_string(y) +
+                  " (not a non-decreasing CDF from 0 to 1)");
   if (!std::isfinite(integral_)) throw Error(in.context() + ": invalid distribution integral");
 }
 
@@ -350,8 +351,6 @@ Vec2 CdfDistribution2D::invert(Vec2 uv) const {
   return Vec2(clamp_decision(row.invert(x, uv.x * width_ - x)), clamp_decision(marginal.invert(y, uv.y * height_ - y)));
 }
 
-std::size_t CdfDistribution2D::bytes() const {
-  return conditional_.bytes() + row_split_.bytes() + marginal_.bytes();
-}
+std::size_t CdfDistribution2D::bytes() const { return conditional_.bytes() + row_split_.bytes() + marginal_.bytes(); }
 
 }  // namespace envkit

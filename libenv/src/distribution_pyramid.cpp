@@ -105,10 +105,11 @@ void PyramidDistribution2D::validate(const std::string& context) const {
             refuse("non-zero node outside the grid at level " + std::to_string(k));
           sum += c[d];
         }
-        const double stored = k + 1 < top ? double(nodes_[levels_[k + 1].offset +
-                                                           (std::size_t(j / 2) * levels_[k + 1].blocks_per_row +
-                                                            std::size_t(i / 2)) * 4 + std::size_t((i & 1) + 2 * (j & 1))])
-                                           : root_;
+        const double stored =
+            k + 1 < top ? double(nodes_[levels_[k + 1].offset +
+                                        (std::size_t(j / 2) * levels_[k + 1].blocks_per_row + std::size_t(i / 2)) * 4 +
+                                        std::size_t((i & 1) + 2 * (j & 1))])
+                        : root_;
         if (!close(stored, sum)) refuse("node is not the sum of its children at level " + std::to_string(k + 1));
       }
   }
@@ -188,8 +189,8 @@ PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, in
     const int shift = std::ilogb(total);  // scaled total in [1, 2): no upper node can overflow
     sums.assign(std::size_t(w1) * std::size_t(h1), 0.0);
     fill_leaves([&](int x, int y) {
-      return static_cast<float>(std::ldexp(double(sanitize_weight(weights[std::size_t(y) * W + std::size_t(x)])),
-                                           -shift));
+      return static_cast<float>(
+          std::ldexp(double(sanitize_weight(weights[std::size_t(y) * W + std::size_t(x)])), -shift));
     });
     root = build_upper();
   }
@@ -218,8 +219,8 @@ __m128d mask_select(__m128d m, __m128d a, __m128d b) { return _mm_or_pd(_mm_and_
 
 /// detail::pyramid_step() with selects instead of conditional jumps, bit for bit the same operations on the same
 /// values: a group descent (pick_group) has prefetched the blocks, and what is left of a step's cost is mostly its
-/// two decisions, each taken at random, which the CPU cannot predict. The divisions are those of the chosen sides only (numerator and denominator are
-/// selected first), and std::min(kOneMinusEpsilon, q) is minsd(q, kOneMinusEpsilon).
+/// two decisions, each taken at random, which the CPU cannot predict. The divisions are those of the chosen sides only
+/// (numerator and denominator are selected first), and std::min(kOneMinusEpsilon, q) is minsd(q, kOneMinusEpsilon).
 [[gnu::always_inline]] inline double pyramid_step_select(const float* c, double& ux, double& uy, std::size_t& i,
                                                          std::size_t& j) {
 #if defined(__SSE2__)
@@ -347,8 +348,6 @@ Vec2 PyramidDistribution2D::invert(Vec2 uv) const {
   return Vec2(clamp_decision(ux), clamp_decision(uy));
 }
 
-std::size_t PyramidDistribution2D::bytes() const {
-  return nodes_.bytes() + levels_.capacity() * sizeof(Level);
-}
+std::size_t PyramidDistribution2D::bytes() const { return nodes_.bytes() + levels_.capacity() * sizeof(Level); }
 
 }  // namespace envkit

@@ -18,9 +18,12 @@ namespace envkit {
 
 const char* method_name(SamplingMethod method) {
   switch (method) {
-    case SamplingMethod::Cdf: return "cdf";
-    case SamplingMethod::Alias: return "alias";
-    case SamplingMethod::Hierarchical: return "hierarchical";
+    case SamplingMethod::Cdf:
+      return "cdf";
+    case SamplingMethod::Alias:
+      return "alias";
+    case SamplingMethod::Hierarchical:
+      return "hierarchical";
   }
   return "?";
 }
@@ -193,7 +196,7 @@ double SphericalDistribution::texel_solid_angle(int x, int y) const {
 
 template <bool kOneStep>
 [[gnu::always_inline]] inline Vec3 SphericalDistribution::latlong_direction(const RowBand& band, int x, double fx,
-                                                                           double fy) const {
+                                                                            double fy) const {
   // Uniform in solid angle inside the row: cos theta linear in fy. from_pole is in [0, 2): every term is >= 0, and
   // it stays within rounding of the row's far edge, 1 - cos theta1 <= 1 + sin(pi / 2H) (north) or
   // 1 + cos theta0 < that (south): at most 1.5 for H >= 2. A single row (H = 1) has start 0 and span exactly 2,

@@ -20,19 +20,22 @@
 #include <xxhash.h>
 
 #include <algorithm>
-#include <utility>
-#include <cmath>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <utility>
 
 namespace envkit {
 
 const char* importance_name(ImportanceMode mode) {
   switch (mode) {
-    case ImportanceMode::Luminance: return "luminance";
-    case ImportanceMode::Average: return "average";
-    case ImportanceMode::Max: return "max";
+    case ImportanceMode::Luminance:
+      return "luminance";
+    case ImportanceMode::Average:
+      return "average";
+    case ImportanceMode::Max:
+      return "max";
   }
   return "?";
 }
@@ -71,7 +74,8 @@ std::string file_content_hash(const std::vector<std::string>& paths) {
   XXH3_128bits_reset(state);
   std::vector<char> buffer(std::size_t(1) << 22);
   for (const std::string& path : paths) {
-    if (std::filesystem::exists(path)) require_regular_file(path);  // fopen() would block on a FIFO, /dev/zero would never end
+    if (std::filesystem::exists(path))
+      require_regular_file(path);  // fopen() would block on a FIFO, /dev/zero would never end
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) {
       XXH3_freeState(state);
@@ -178,8 +182,8 @@ void natural_grid_size(Kind grid, double texels, int& W, int& H) {
 /// Scalar importance of one texel from its colour channels (alpha is coverage, not light).
 struct ImportanceFunction {
   ImportanceMode mode;
-  Vec3 weights;           // luminance weights of the working space
-  std::vector<int> color; // indices of the colour channels
+  Vec3 weights;            // luminance weights of the working space
+  std::vector<int> color;  // indices of the colour channels
 
   float operator()(const float* texel) const {
     double value = 0.0;
@@ -306,8 +310,8 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
     TW = options.importance_width;
     TH = options.importance_height;
     if (TW > W || TH > H)
-      throw Error("bake: --resolution " + std::to_string(TW) + "x" + std::to_string(TH) +
-                  " exceeds the bake grid " + std::to_string(W) + "x" + std::to_string(H));
+      throw Error("bake: --resolution " + std::to_string(TW) + "x" + std::to_string(TH) + " exceeds the bake grid " +
+                  std::to_string(W) + "x" + std::to_string(H));
     if (!valid_grid_size(options.grid, TW, TH))
       throw Error(std::string("bake: importance resolution ") + std::to_string(TW) + "x" + std::to_string(TH) + ": " +
                   grid_size_rule(options.grid));
@@ -324,7 +328,8 @@ EnvTables EnvTables::bake(const EnvMap& map, const BakeOptions& options, const s
   t.height_ = TH;
   const std::unique_ptr<Parameterization> table_grid = make_grid(options.grid, TW, TH);
   if (options.conservative) importance = dilate_3x3(importance, *table_grid, TW, TH);
-  for (float& v : importance) v = static_cast<float>(ImportanceFunction::positive(v));  // resampling may leave -0 or tiny negatives
+  for (float& v : importance)
+    v = static_cast<float>(ImportanceFunction::positive(v));  // resampling may leave -0 or tiny negatives
   t.importance_.adopt(std::move(importance));
 
   t.build_distributions(options);
@@ -362,8 +367,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
     for (int m = 0; m < 3; ++m) {
       if (!wanted[m]) continue;
       if (options.progress)
-        options.progress(0.3 + 0.35 * set + 0.1 * m,
-                         m == 0 ? "cdf tables" : m == 1 ? "alias tables" : "sum pyramid");
+        options.progress(0.3 + 0.35 * set + 0.1 * m, m == 0 ? "cdf tables" : m == 1 ? "alias tables" : "sum pyramid");
       std::shared_ptr<const Distribution2D> d = make_distribution_2d(SamplingMethod(m), weights.data(), W, H);
       distributions_[set][m] = first ? std::make_unique<SphericalDistribution>(*first, std::move(d))
                                      : std::make_unique<SphericalDistribution>(grid_, std::move(d));

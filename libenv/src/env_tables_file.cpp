@@ -176,9 +176,12 @@ std::string section_name(int method, int set) {
 
 std::shared_ptr<const Distribution2D> restore_distribution(int method, BlobReader& in) {
   switch (SamplingMethod(method)) {
-    case SamplingMethod::Cdf: return std::make_shared<CdfDistribution2D>(in);
-    case SamplingMethod::Alias: return std::make_shared<AliasDistribution2D>(in);
-    case SamplingMethod::Hierarchical: return std::make_shared<PyramidDistribution2D>(in);
+    case SamplingMethod::Cdf:
+      return std::make_shared<CdfDistribution2D>(in);
+    case SamplingMethod::Alias:
+      return std::make_shared<AliasDistribution2D>(in);
+    case SamplingMethod::Hierarchical:
+      return std::make_shared<PyramidDistribution2D>(in);
   }
   throw Error(in.context() + ": unknown method");
 }
@@ -262,8 +265,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
   if (size < sizeof(FileHeader)) throw fail_with("not an envkit table file (too short)");
   FileHeader header;
   std::memcpy(&header, data, sizeof(header));
-  if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0)
-    throw fail_with("not an envkit table file (bad magic)");
+  if (std::memcmp(header.magic, kMagic, sizeof(kMagic)) != 0) throw fail_with("not an envkit table file (bad magic)");
   if (header.byte_order != kByteOrderMark) throw fail_with("written on a machine of the other byte order");
   if (header.version != kTableFormatVersion)
     throw fail_with("table format version " + std::to_string(header.version) + " is not supported (this build reads " +

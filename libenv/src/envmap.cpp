@@ -43,13 +43,18 @@ bool looks_like_disk(const Image& img, int x0, int n) {
 std::string size_mismatch(Kind kind, int w, int h, std::optional<CubeLayout> layout, bool ball_given) {
   switch (kind) {
     case Kind::LatLong:
-    case Kind::DualParaboloid: return w == 2 * h ? "" : "expects 2:1";
+    case Kind::DualParaboloid:
+      return w == 2 * h ? "" : "expects 2:1";
     case Kind::Octahedral:
-    case Kind::AngularMap: return w == h ? "" : "expects 1:1";
-    case Kind::MirrorBall: return (w == h || ball_given) ? "" : "expects 1:1 (or give the ball's centre and radius)";
-    case Kind::HEALPix: return (w % 4 == 0 && 3 * w == 4 * h) ? "" : "expects 4 N_side x 3 N_side";
+    case Kind::AngularMap:
+      return w == h ? "" : "expects 1:1";
+    case Kind::MirrorBall:
+      return (w == h || ball_given) ? "" : "expects 1:1 (or give the ball's centre and radius)";
+    case Kind::HEALPix:
+      return (w % 4 == 0 && 3 * w == 4 * h) ? "" : "expects 4 N_side x 3 N_side";
     case Kind::Perspective:
-    case Kind::Fisheye: return "";
+    case Kind::Fisheye:
+      return "";
     case Kind::CubeMap:
       if (layout) return face_size_for(*layout, w, h) ? "" : "expects " + layout_name(*layout) + " proportions";
       for (CubeLayout l : {CubeLayout::VerticalStrip, CubeLayout::HorizontalStrip, CubeLayout::HorizontalCross,
@@ -61,8 +66,8 @@ std::string size_mismatch(Kind kind, int w, int h, std::optional<CubeLayout> lay
 }
 
 std::optional<CubeLayout> layout_from_size(int w, int h) {
-  for (CubeLayout l : {CubeLayout::VerticalStrip, CubeLayout::HorizontalStrip, CubeLayout::HorizontalCross,
-                       CubeLayout::VerticalCross})
+  for (CubeLayout l :
+       {CubeLayout::VerticalStrip, CubeLayout::HorizontalStrip, CubeLayout::HorizontalCross, CubeLayout::VerticalCross})
     if (face_size_for(l, w, h)) return l;
   return std::nullopt;
 }
@@ -89,8 +94,8 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
   const std::string exr_envmap = meta(img, "envmap");
   // OpenEXR tools (exrenvmap) rewrite the envmap attribute but copy other attributes verbatim: when the two
   // disagree, the attribute describes the pixels and the envkit:* keys are stale.
-  const bool stale_tags = (exr_envmap == "latlong" || exr_envmap == "cube") && !tagged_kind.empty() &&
-                          tagged_kind != exr_envmap;
+  const bool stale_tags =
+      (exr_envmap == "latlong" || exr_envmap == "cube") && !tagged_kind.empty() && tagged_kind != exr_envmap;
   if (stale_tags) tagged_kind.clear();
   const std::string tagged_convention = meta(img, "envkit:convention");
   // OIIO's environment tags only speak for files that say nothing more specific.
@@ -117,8 +122,10 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
                      kind_name(d.kind) + " (" + bad + ")");
     if (d.kind == Kind::CubeMap && !opt.layout) {
       const std::string tagged_layout = meta(img, "envkit:layout");
-      if (!tagged_layout.empty() && face_size_for(parse_layout(tagged_layout), w, h)) d.layout = parse_layout(tagged_layout);
-      else d.layout = *layout_from_size(w, h);
+      if (!tagged_layout.empty() && face_size_for(parse_layout(tagged_layout), w, h))
+        d.layout = parse_layout(tagged_layout);
+      else
+        d.layout = *layout_from_size(w, h);
     }
     d.reason = "as given by --from";
     return d;
@@ -127,10 +134,13 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
     d.kind = parse_kind(tagged_kind);
     if (d.kind == Kind::CubeMap && !opt.layout) {
       const std::string tagged_layout = meta(img, "envkit:layout");
-      d.layout = tagged_layout.empty() ? layout_from_size(w, h).value_or(CubeLayout::VerticalStrip) : parse_layout(tagged_layout);
+      d.layout = tagged_layout.empty() ? layout_from_size(w, h).value_or(CubeLayout::VerticalStrip)
+                                       : parse_layout(tagged_layout);
     }
-    const std::string bad = size_mismatch(d.kind, w, h, d.kind == Kind::CubeMap ? std::optional(d.layout) : std::nullopt, ball_given);
-    if (!bad.empty()) fail(path, "metadata says " + tagged_kind + " but the image is " + size_text(w, h) + " (" + bad + ")");
+    const std::string bad =
+        size_mismatch(d.kind, w, h, d.kind == Kind::CubeMap ? std::optional(d.layout) : std::nullopt, ball_given);
+    if (!bad.empty())
+      fail(path, "metadata says " + tagged_kind + " but the image is " + size_text(w, h) + " (" + bad + ")");
     d.reason = "from its envkit:parameterization metadata";
     return d;
   }
@@ -138,7 +148,8 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
     d.kind = exr_envmap == "latlong" ? Kind::LatLong : Kind::CubeMap;
     d.layout = CubeLayout::VerticalStrip;
     const std::string bad = size_mismatch(d.kind, w, h, d.layout, false);
-    if (!bad.empty()) fail(path, "OpenEXR envmap attribute says " + exr_envmap + " but the image is " + size_text(w, h));
+    if (!bad.empty())
+      fail(path, "OpenEXR envmap attribute says " + exr_envmap + " but the image is " + size_text(w, h));
     d.reason = "from its OpenEXR envmap attribute (" + exr_envmap + ")";
     return d;
   }
@@ -172,15 +183,18 @@ EnvMap make_envmap(Image image, const std::string& path, const LoadOptions& opt,
   spec.height = image.height;
   spec.layout = d.layout;
   spec.basis = conv.cube_basis;
-  spec.grid = d.kind == Kind::LatLong ? conv.latlong_grid : (d.kind == Kind::CubeMap ? conv.cube_grid : TexelGrid::Centre);
+  spec.grid =
+      d.kind == Kind::LatLong ? conv.latlong_grid : (d.kind == Kind::CubeMap ? conv.cube_grid : TexelGrid::Centre);
   if (d.grid && (d.kind == Kind::LatLong || d.kind == Kind::CubeMap)) spec.grid = *d.grid;
   spec.ball_cx = opt.ball_cx;
   spec.ball_cy = opt.ball_cy;
   spec.ball_radius = opt.ball_radius;
   EnvMap map;
   try {
-    if (opt.view) spec.view = *opt.view;
-    else if (const std::string v = meta(image, "envkit:view"); !v.empty()) spec.view = parse_view(v);
+    if (opt.view)
+      spec.view = *opt.view;
+    else if (const std::string v = meta(image, "envkit:view"); !v.empty())
+      spec.view = parse_view(v);
     map.param = make_parameterization(spec);
   } catch (const Error& e) {
     fail(path, e.what());
@@ -263,7 +277,8 @@ ClampReport save_envmap(const std::string& path, const EnvMap& map, const SaveOp
   w.metadata["envkit:parameterization"] = kind_name(map.param->kind());
   w.metadata["envkit:convention"] = map.convention;
   w.metadata["envkit:description"] = map.param->describe();
-  if (const auto* cube = dynamic_cast<const CubeMap*>(map.param.get())) w.metadata["envkit:layout"] = layout_name(cube->layout());
+  if (const auto* cube = dynamic_cast<const CubeMap*>(map.param.get()))
+    w.metadata["envkit:layout"] = layout_name(cube->layout());
   if (!opt.filter.empty()) w.metadata["envkit:filter"] = opt.filter;
   if (!opt.source.empty()) w.metadata["envkit:source"] = opt.source;
   if (const ViewParams* view = map.param->view()) w.metadata["envkit:view"] = format_view(*view);

@@ -1,6 +1,5 @@
 #include <envkit/error.h>
 #include <envkit/filter.h>
-
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -11,10 +10,14 @@ namespace envkit {
 
 std::string filter_name(Filter filter) {
   switch (filter) {
-    case Filter::Nearest: return "nearest";
-    case Filter::Bilinear: return "bilinear";
-    case Filter::Bicubic: return "bicubic";
-    case Filter::Area: return "area";
+    case Filter::Nearest:
+      return "nearest";
+    case Filter::Bilinear:
+      return "bilinear";
+    case Filter::Bicubic:
+      return "bicubic";
+    case Filter::Area:
+      return "area";
   }
   return "area";
 }

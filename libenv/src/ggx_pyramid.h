@@ -81,13 +81,13 @@ class GgxPyramid {
   void sum_upward();
 
   int channels_;
-  int alpha_channel_;                            // excluded from the weight of the flux means
-  int finest_ = 0;                               // level of the gathered cube (face size 2^finest_)
+  int alpha_channel_;  // excluded from the weight of the flux means
+  int finest_ = 0;     // level of the gathered cube (face size 2^finest_)
   // Level k >= 1: family n holds the children of node n of level k - 1 (node index = face * 4^k + Morton(i, j));
   // level 0: two families, the six faces and two empty lanes. Uninitialised storage: the gather and sum_upward
   // write every lane, on every core.
   std::vector<std::vector<NodeFamily, UninitialisedAllocator<NodeFamily>>> levels_;
-  std::vector<double> radius_;                   // texel_radius(2^k)
+  std::vector<double> radius_;  // texel_radius(2^k)
   // With keep_texels: the texels of finest node n (face * 4^finest + Morton(i, j)) are
   // texels_[first_texel_[n] .. first_texel_[n + 1]), in source order; both empty without.
   std::vector<std::uint32_t> first_texel_;

@@ -1,5 +1,4 @@
 #include <envkit/huge_page_allocator.h>
-
 #include <sys/mman.h>
 #include <tbb/parallel_for.h>
 

@@ -1,28 +1,23 @@
-#include <envkit/atomic_file.h>
-#include <envkit/color.h>
-#include <envkit/error.h>
-#include <envkit/huge_page_allocator.h>
-#include <envkit/image_io.h>
-#include <envkit/input_checks.h>
-#include <envkit/oiio_env_tags.h>
-
-#include "image_backend.h"
-#include "image_io_exr.h"
-#include "image_io_native.h"
-#include <envkit/image_codecs.h>
-
 #include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfChromaticitiesAttribute.h>
 #include <OpenEXR/ImfEnvmapAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
-#include <OpenEXR/ImfIntAttribute.h>
 #include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfIntAttribute.h>
 #include <OpenEXR/ImfMultiPartInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfThreading.h>
+#include <envkit/atomic_file.h>
+#include <envkit/color.h>
+#include <envkit/error.h>
+#include <envkit/huge_page_allocator.h>
+#include <envkit/image_codecs.h>
+#include <envkit/image_io.h>
+#include <envkit/input_checks.h>
+#include <envkit/oiio_env_tags.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -33,6 +28,7 @@
 #include <cctype>
 #include <cfloat>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -41,8 +37,11 @@
 #include <memory>
 #include <optional>
 #include <set>
-#include <cstdio>
 #include <thread>
+
+#include "image_backend.h"
+#include "image_io_exr.h"
+#include "image_io_native.h"
 
 namespace envkit {
 namespace fs = std::filesystem;
@@ -98,8 +97,10 @@ NonFiniteCounts count_nonfinite(std::span<const float> values) {
       [&](const Range& r, NonFiniteCounts acc) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const float v = values[i];
-          if (std::isnan(v)) ++acc.nan;
-          else if (std::isinf(v)) ++(v > 0 ? acc.posinf : acc.neginf);
+          if (std::isnan(v))
+            ++acc.nan;
+          else if (std::isinf(v))
+            ++(v > 0 ? acc.posinf : acc.neginf);
         }
         return acc;
       },
@@ -170,8 +171,8 @@ void check_dimensions(const std::string& path, int width, int height, int channe
     fail(path, "image too large: " + size + " = " + std::to_string(texels) + " texels (limit " +
                    std::to_string(options.max_texels) + ")");
   if (channels > 4)
-    fail(path, "unsupported channel count " + std::to_string(channels) +
-                   " (envkit reads 1 to 4 channels: Y, YA, RGB, RGBA)");
+    fail(path,
+         "unsupported channel count " + std::to_string(channels) + " (envkit reads 1 to 4 channels: Y, YA, RGB, RGBA)");
   // The float pixels, plus one more image of the same size for the conversions that follow a read.
   const std::uint64_t bytes = std::uint64_t(texels) * std::uint64_t(channels) * sizeof(float);
   check_memory_for(path, "image too large: " + size + " (" + std::to_string(channels) + " channels, float)", bytes);
@@ -298,7 +299,8 @@ Decoding decide_decoding(const detail::FileSpec& spec, const std::string& format
     report.notes.push_back("unknown colour-space tag '" + tag + "' ignored");
   }
   if (eight_bit) {
-    if (tag_is_linear) report.notes.push_back("8-bit data tagged " + tag + ": decoded as sRGB (8 bits cannot hold linear light)");
+    if (tag_is_linear)
+      report.notes.push_back("8-bit data tagged " + tag + ": decoded as sRGB (8 bits cannot hold linear light)");
     return {canonical_colorspace("srgb"), 0.0, "default for 8-bit data"};
   }
   if (!integer) {
@@ -379,14 +381,16 @@ PixelType choose_pixel_type(const std::string& path, const Target& t, PixelType 
                   (requested == PixelType::UInt16 && t.uint16_ok);
   if (!ok) {
     static const char* names[] = {"auto", "half", "float", "uint8", "uint16"};
-    fail(path, std::string("the ") + t.format + " format cannot store " + names[static_cast<int>(requested)] + " pixels");
+    fail(path,
+         std::string("the ") + t.format + " format cannot store " + names[static_cast<int>(requested)] + " pixels");
   }
   return requested;
 }
 
 void check_writable_image(const std::string& path, const Image& image) {
   if (image.empty()) fail(path, "cannot write an empty image");
-  if (image.channels > 4) fail(path, "cannot write " + std::to_string(image.channels) + " channels (envkit writes 1 to 4)");
+  if (image.channels > 4)
+    fail(path, "cannot write " + std::to_string(image.channels) + " channels (envkit writes 1 to 4)");
   if (image.pixels.size() != image.texel_count() * static_cast<std::size_t>(image.channels))
     fail(path, "pixel buffer size does not match " + std::to_string(image.width) + "x" + std::to_string(image.height) +
                    "x" + std::to_string(image.channels));
@@ -465,8 +469,8 @@ void clamp_all(Image& image, float lo, float hi) {
 }
 
 bool carried_metadata_key(const std::string& key) {
-  static const std::set<std::string> descriptive = {"ImageDescription", "Copyright", "Artist", "DateTime",
-                                                    "owner", "comments", "capDate"};
+  static const std::set<std::string> descriptive = {"ImageDescription", "Copyright", "Artist", "DateTime", "owner",
+                                                    "comments",         "capDate"};
   return key.rfind("envkit:", 0) == 0 || descriptive.count(key) > 0;
 }
 
@@ -481,7 +485,7 @@ detail::WriteSpec make_spec(const Image& data, const Target& t, PixelType type, 
                             const WriteOptions& options) {
   detail::WriteSpec spec;
   spec.width = data.width, spec.height = data.height, spec.channels = data.channels;
-  spec.pixel_type = type == PixelType::Half    ? "half"
+  spec.pixel_type = type == PixelType::Half     ? "half"
                     : type == PixelType::UInt8  ? "uint8"
                     : type == PixelType::UInt16 ? "uint16"
                                                 : "float";
@@ -495,7 +499,8 @@ detail::WriteSpec make_spec(const Image& data, const Target& t, PixelType type, 
 
   const bool encoded = type == PixelType::UInt8 || type == PixelType::UInt16;
   if (encoded && canonical_colorspace(encode_colorspace_for(t, options)) == canonical_colorspace("srgb"))
-    spec.attributes.emplace_back("oiio:ColorSpace", "sRGB");  // PNG writes its sRGB chunk, TIFF/JPEG readers decode right
+    spec.attributes.emplace_back("oiio:ColorSpace",
+                                 "sRGB");  // PNG writes its sRGB chunk, TIFF/JPEG readers decode right
   spec.unassociated_alpha = encoded && data.alpha_channel >= 0;  // already divided
 
   std::map<std::string, std::string> strings;
@@ -519,9 +524,9 @@ void check_envmap_option(const std::string& path, const Image& image, const Targ
 
 const std::map<std::string, Imf::Compression>& exr_compressions() {
   static const std::map<std::string, Imf::Compression> names = {
-      {"none", Imf::NO_COMPRESSION}, {"rle", Imf::RLE_COMPRESSION},     {"zips", Imf::ZIPS_COMPRESSION},
-      {"zip", Imf::ZIP_COMPRESSION}, {"piz", Imf::PIZ_COMPRESSION},     {"pxr24", Imf::PXR24_COMPRESSION},
-      {"b44", Imf::B44_COMPRESSION}, {"b44a", Imf::B44A_COMPRESSION},   {"dwaa", Imf::DWAA_COMPRESSION},
+      {"none", Imf::NO_COMPRESSION},  {"rle", Imf::RLE_COMPRESSION},   {"zips", Imf::ZIPS_COMPRESSION},
+      {"zip", Imf::ZIP_COMPRESSION},  {"piz", Imf::PIZ_COMPRESSION},   {"pxr24", Imf::PXR24_COMPRESSION},
+      {"b44", Imf::B44_COMPRESSION},  {"b44a", Imf::B44A_COMPRESSION}, {"dwaa", Imf::DWAA_COMPRESSION},
       {"dwab", Imf::DWAB_COMPRESSION}};
   return names;
 }
@@ -554,8 +559,8 @@ std::string exr_attribute_name(const std::string& key) {
 /// OpenEXR files are written with the OpenEXR library itself: the envmap attribute must be OpenEXR's typed
 /// attribute. OIIO 2.4 can produce it (textureformat hint) but also stores a "textureformat" string that
 /// tools copying attributes (exrenvmap) carry into files where it contradicts the typed one.
-void write_exr(const std::string& path, const std::string& file, const Image& data, PixelType type,
-               const Image& source, const WriteOptions& options) {
+void write_exr(const std::string& path, const std::string& file, const Image& data, PixelType type, const Image& source,
+               const WriteOptions& options) {
   Imf::Header header(data.width, data.height);
   float dwa_level = header.dwaCompressionLevel();
   header.compression() = exr_compression(path, options.compression, dwa_level);
@@ -563,7 +568,8 @@ void write_exr(const std::string& path, const std::string& file, const Image& da
   const Imf::PixelType pixel = type == PixelType::Half ? Imf::HALF : Imf::FLOAT;
   for (const std::string& name : data.channel_names) header.channels().insert(name, Imf::Channel(pixel));
   if (!options.envmap_attribute.empty())
-    header.insert("envmap", Imf::EnvmapAttribute(options.envmap_attribute == "cube" ? Imf::ENVMAP_CUBE : Imf::ENVMAP_LATLONG));
+    header.insert("envmap",
+                  Imf::EnvmapAttribute(options.envmap_attribute == "cube" ? Imf::ENVMAP_CUBE : Imf::ENVMAP_LATLONG));
   // Tag the primaries when the working space is envkit's (Imf::Chromaticities() is Rec.709 / D65).
   if (working_space() == known_colorspace("lin_rec709"))
     header.insert("chromaticities", Imf::ChromaticitiesAttribute(Imf::Chromaticities()));
@@ -742,9 +748,12 @@ NonFinitePolicy parse_nonfinite_policy(const std::string& name) {
 
 const char* nonfinite_policy_name(NonFinitePolicy policy) {
   switch (policy) {
-    case NonFinitePolicy::Error: return "error";
-    case NonFinitePolicy::Zero: return "zero";
-    case NonFinitePolicy::Clamp: return "clamp";
+    case NonFinitePolicy::Error:
+      return "error";
+    case NonFinitePolicy::Zero:
+      return "zero";
+    case NonFinitePolicy::Clamp:
+      return "clamp";
   }
   return "?";
 }
@@ -771,8 +780,8 @@ namespace {
 /// goes through the XYZ -> Rec.709 matrix first.
 Image read_native_image(const std::string& path, detail::NativeFormat format, const ReadOptions& options,
                         ReadReport& report) {
-  detail::NativeRead r = detail::read_native(
-      path, format, [&](int w, int h, int c) { check_dimensions(path, w, h, c, options); });
+  detail::NativeRead r =
+      detail::read_native(path, format, [&](int w, int h, int c) { check_dimensions(path, w, h, c, options); });
   Image& image = r.image;
   report.format = r.format;
   report.pixel_type = r.pixel_type;

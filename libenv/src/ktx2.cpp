@@ -19,10 +19,14 @@ namespace envkit {
 
 std::string gpu_format_name(GpuFormat format) {
   switch (format) {
-    case GpuFormat::Rgba16f: return "rgba16f";
-    case GpuFormat::Rgba32f: return "rgba32f";
-    case GpuFormat::B10G11R11: return "rg11b10f";
-    case GpuFormat::E5B9G9R9: return "rgb9e5";
+    case GpuFormat::Rgba16f:
+      return "rgba16f";
+    case GpuFormat::Rgba32f:
+      return "rgba32f";
+    case GpuFormat::B10G11R11:
+      return "rg11b10f";
+    case GpuFormat::E5B9G9R9:
+      return "rgb9e5";
   }
   return "rgba16f";
 }
@@ -37,28 +41,39 @@ GpuFormat parse_gpu_format(const std::string& name) {
 
 int gpu_format_bytes(GpuFormat format) {
   switch (format) {
-    case GpuFormat::Rgba16f: return 8;
-    case GpuFormat::Rgba32f: return 16;
-    default: return 4;
+    case GpuFormat::Rgba16f:
+      return 8;
+    case GpuFormat::Rgba32f:
+      return 16;
+    default:
+      return 4;
   }
 }
 
 std::uint32_t vk_format(GpuFormat format) {
   switch (format) {
-    case GpuFormat::Rgba16f: return 97;
-    case GpuFormat::Rgba32f: return 109;
-    case GpuFormat::B10G11R11: return 122;
-    case GpuFormat::E5B9G9R9: return 123;
+    case GpuFormat::Rgba16f:
+      return 97;
+    case GpuFormat::Rgba32f:
+      return 109;
+    case GpuFormat::B10G11R11:
+      return 122;
+    case GpuFormat::E5B9G9R9:
+      return 123;
   }
   return 0;
 }
 
 std::uint32_t dxgi_format(GpuFormat format) {
   switch (format) {
-    case GpuFormat::Rgba16f: return 10;
-    case GpuFormat::Rgba32f: return 2;
-    case GpuFormat::B10G11R11: return 26;
-    case GpuFormat::E5B9G9R9: return 67;
+    case GpuFormat::Rgba16f:
+      return 10;
+    case GpuFormat::Rgba32f:
+      return 2;
+    case GpuFormat::B10G11R11:
+      return 26;
+    case GpuFormat::E5B9G9R9:
+      return 67;
   }
   return 0;
 }
@@ -141,7 +156,9 @@ void pack_texel(const Image& image, GpuFormat format, std::size_t t, std::uint8_
   if (colour == 1) v[1] = v[2] = v[0];  // grey maps fill RGB
   if (image.alpha_channel >= 0) v[3] = finite_or_zero(px[image.alpha_channel]);
   switch (format) {
-    case GpuFormat::Rgba32f: std::memcpy(dst, v, 16); break;
+    case GpuFormat::Rgba32f:
+      std::memcpy(dst, v, 16);
+      break;
     case GpuFormat::Rgba16f:
       for (int c = 0; c < 4; ++c) {
         // Beyond half's range: the largest finite half, never Inf.

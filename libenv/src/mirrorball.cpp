@@ -18,8 +18,8 @@ MirrorBallMap::MirrorBallMap(int width, int height, double cx, double cy, double
 std::string MirrorBallMap::describe() const {
   std::ostringstream s;
   const Disk& d = disks_[0];
-  s << "mirrorball " << width_ << "x" << height_ << ", ball centre (" << d.cx << ", " << d.cy << ") radius "
-    << d.radius << " px";
+  s << "mirrorball " << width_ << "x" << height_ << ", ball centre (" << d.cx << ", " << d.cy << ") radius " << d.radius
+    << " px";
   return s.str();
 }
 

@@ -81,10 +81,20 @@ bool OctahedralMap::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int&
   // Crossing an edge lands on the mirror image across that edge's mid-point: (u, v) -> (-u, 1 - v).
   const int n = width_;
   for (int pass = 0; pass < 2; ++pass) {
-    if (i < 0) { i = -1 - i; j = n - 1 - j; }
-    else if (i >= n) { i = 2 * n - 1 - i; j = n - 1 - j; }
-    if (j < 0) { j = -1 - j; i = n - 1 - i; }
-    else if (j >= n) { j = 2 * n - 1 - j; i = n - 1 - i; }
+    if (i < 0) {
+      i = -1 - i;
+      j = n - 1 - j;
+    } else if (i >= n) {
+      i = 2 * n - 1 - i;
+      j = n - 1 - j;
+    }
+    if (j < 0) {
+      j = -1 - j;
+      i = n - 1 - i;
+    } else if (j >= n) {
+      j = 2 * n - 1 - j;
+      i = n - 1 - i;
+    }
   }
   i = std::clamp(i, 0, n - 1);
   j = std::clamp(j, 0, n - 1);

@@ -18,7 +18,9 @@ std::string DualParaboloidMap::describe() const {
 
 // The formula extends beyond the rim (theta > pi/2 for r > 1), which resolve_tap uses to re-project.
 double DualParaboloidMap::polar_angle(double r) const { return 2.0 * std::atan(std::max(r, 0.0)); }
-double DualParaboloidMap::radius_of_angle(double theta) const { return std::tan(0.5 * std::clamp(theta, 0.0, kPi / 2)); }
+double DualParaboloidMap::radius_of_angle(double theta) const {
+  return std::tan(0.5 * std::clamp(theta, 0.0, kPi / 2));
+}
 // 1 - cos(2 atan r) = 2 r^2 / (1 + r^2).
 double DualParaboloidMap::cap_density(double r) const { return 2.0 / (1.0 + r * r); }
 

@@ -5,8 +5,8 @@
 #include <envkit/latlong.h>
 #include <envkit/mirrorball.h>
 #include <envkit/octahedral.h>
-#include <envkit/param_factory.h>
 #include <envkit/paraboloid.h>
+#include <envkit/param_factory.h>
 #include <envkit/perspective.h>
 
 namespace envkit {
@@ -16,14 +16,16 @@ std::unique_ptr<Parameterization> make_parameterization(const ParamSpec& s) {
     throw Error("image size " + std::to_string(s.width) + "x" + std::to_string(s.height) + " is empty");
   const std::string size = std::to_string(s.width) + "x" + std::to_string(s.height);
   switch (s.kind) {
-    case Kind::LatLong: return std::make_unique<LatLongMap>(s.width, s.height, s.grid);
+    case Kind::LatLong:
+      return std::make_unique<LatLongMap>(s.width, s.height, s.grid);
     case Kind::MirrorBall:
       if (s.ball_cx || s.ball_cy || s.ball_radius)
         return std::make_unique<MirrorBallMap>(s.width, s.height, s.ball_cx.value_or(0.5 * s.width),
                                                s.ball_cy.value_or(0.5 * s.height),
                                                s.ball_radius.value_or(0.5 * std::min(s.width, s.height)));
       return std::make_unique<MirrorBallMap>(s.width, s.height);
-    case Kind::AngularMap: return std::make_unique<AngularMap>(s.width, s.height);
+    case Kind::AngularMap:
+      return std::make_unique<AngularMap>(s.width, s.height);
     case Kind::CubeMap: {
       const int n = face_size_for(s.layout, s.width, s.height);
       if (n == 0) throw Error("size " + size + " does not fit a cube map laid out as " + layout_name(s.layout));
@@ -32,13 +34,16 @@ std::unique_ptr<Parameterization> make_parameterization(const ParamSpec& s) {
     case Kind::Octahedral:
       if (s.width != s.height) throw Error("an octahedral map must be square, not " + size);
       return std::make_unique<OctahedralMap>(s.width);
-    case Kind::DualParaboloid: return std::make_unique<DualParaboloidMap>(s.width, s.height);
+    case Kind::DualParaboloid:
+      return std::make_unique<DualParaboloidMap>(s.width, s.height);
     case Kind::HEALPix:
       if (s.width % 4 != 0 || s.width * 3 != s.height * 4)
         throw Error("a HEALPix image is 4 N_side x 3 N_side (twelve base pixels), not " + size);
       return std::make_unique<HealpixMap>(s.width / 4);
-    case Kind::Perspective: return std::make_unique<PerspectiveMap>(s.width, s.height, s.view);
-    case Kind::Fisheye: return std::make_unique<FisheyeMap>(s.width, s.height, s.view);
+    case Kind::Perspective:
+      return std::make_unique<PerspectiveMap>(s.width, s.height, s.view);
+    case Kind::Fisheye:
+      return std::make_unique<FisheyeMap>(s.width, s.height, s.view);
   }
   throw Error("unknown parameterization");
 }
@@ -46,10 +51,21 @@ std::unique_ptr<Parameterization> make_parameterization(const ParamSpec& s) {
 void natural_image_size(Kind kind, int n, CubeLayout layout, int& width, int& height) {
   switch (kind) {
     case Kind::LatLong:
-    case Kind::DualParaboloid: width = 2 * n; height = n; return;
-    case Kind::CubeMap: layout_size(layout, n, width, height); return;
-    case Kind::HEALPix: width = 4 * n; height = 3 * n; return;
-    default: width = n; height = n; return;
+    case Kind::DualParaboloid:
+      width = 2 * n;
+      height = n;
+      return;
+    case Kind::CubeMap:
+      layout_size(layout, n, width, height);
+      return;
+    case Kind::HEALPix:
+      width = 4 * n;
+      height = 3 * n;
+      return;
+    default:
+      width = n;
+      height = n;
+      return;
   }
 }
 

@@ -8,15 +8,24 @@ namespace envkit {
 
 std::string kind_name(Kind kind) {
   switch (kind) {
-    case Kind::LatLong: return "latlong";
-    case Kind::MirrorBall: return "mirrorball";
-    case Kind::AngularMap: return "angular";
-    case Kind::CubeMap: return "cube";
-    case Kind::Octahedral: return "octahedral";
-    case Kind::DualParaboloid: return "paraboloid";
-    case Kind::HEALPix: return "healpix";
-    case Kind::Perspective: return "perspective";
-    case Kind::Fisheye: return "fisheye";
+    case Kind::LatLong:
+      return "latlong";
+    case Kind::MirrorBall:
+      return "mirrorball";
+    case Kind::AngularMap:
+      return "angular";
+    case Kind::CubeMap:
+      return "cube";
+    case Kind::Octahedral:
+      return "octahedral";
+    case Kind::DualParaboloid:
+      return "paraboloid";
+    case Kind::HEALPix:
+      return "healpix";
+    case Kind::Perspective:
+      return "perspective";
+    case Kind::Fisheye:
+      return "fisheye";
   }
   return "unknown";
 }
@@ -24,7 +33,8 @@ std::string kind_name(Kind kind) {
 Kind parse_kind(const std::string& name) {
   std::string n = name;
   std::transform(n.begin(), n.end(), n.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (n == "latlong" || n == "latlon" || n == "equirect" || n == "equirectangular" || n == "spherical") return Kind::LatLong;
+  if (n == "latlong" || n == "latlon" || n == "equirect" || n == "equirectangular" || n == "spherical")
+    return Kind::LatLong;
   if (n == "mirrorball" || n == "ball" || n == "chrome" || n == "mirror") return Kind::MirrorBall;
   if (n == "angular" || n == "angmap" || n == "lightprobe" || n == "probe") return Kind::AngularMap;
   if (n == "cube" || n == "cubemap") return Kind::CubeMap;
@@ -65,8 +75,6 @@ bool Parameterization::covered_point(int i, int j, Vec2& pos) const {
   return false;
 }
 
-bool Parameterization::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const {
-  return clamp_tap(i, j);
-}
+bool Parameterization::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const { return clamp_tap(i, j); }
 
 }  // namespace envkit

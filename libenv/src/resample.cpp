@@ -1,14 +1,13 @@
-#include "resample_common.h"
-
 #include <envkit/error.h>
 #include <envkit/latlong.h>
 #include <envkit/resample.h>
 #include <envkit/texel_directions.h>
-
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
+
+#include "resample_common.h"
 
 namespace envkit {
 
@@ -219,7 +218,8 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
       float* px = out.at(i, j);
       if (covered_weight > 0.0)
         for (int c = 0; c < C; ++c) px[c] = static_cast<float>(sum[c] / covered_weight);
-      if (o.add_coverage) px[o.alpha] = static_cast<float>(covered_weight / std::max(total_weight, 1e-300));
+      if (o.add_coverage)
+        px[o.alpha] = static_cast<float>(covered_weight / std::max(total_weight, 1e-300));
       else if (o.alpha >= 0 && covered_weight > 0.0)
         px[o.alpha] = static_cast<float>(sum[o.alpha] / total_weight);  // source alpha, fading where uncovered
     }

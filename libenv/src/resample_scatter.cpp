@@ -90,8 +90,8 @@ constexpr int kSlotBits = 14;
 /// the chunk's texels, never on the thread that projected it.
 struct Chunk {
   int first_row = 0, end_row = 0;
-  std::vector<std::size_t> cells;  // output texel of each run
-  std::vector<double> sums;        // per run: C flux-weighted channel sums, then the weight
+  std::vector<std::size_t> cells;      // output texel of each run
+  std::vector<double> sums;            // per run: C flux-weighted channel sums, then the weight
   std::vector<std::size_t> slot_cell;  // output texel held by each slot, kEmpty when none
   std::vector<double> slot_sums;       // per slot: as sums
   static constexpr std::size_t kEmpty = std::size_t(-1);
@@ -224,41 +224,36 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
       static_cast<int>(std::clamp<std::size_t>(kChunkBytes / std::max<std::size_t>(row_bytes, 1), 1, kMaxRowsPerChunk));
   const std::size_t chunk_bytes =
       row_bytes * rows_per_chunk + (std::size_t(1) << kSlotBits) * (sizeof(std::size_t) + sizeof(double) * stride);
-  const std::size_t tokens =
-      std::clamp<std::size_t>(kScratchBytes / chunk_bytes, 2,
-                              std::max<std::size_t>(2, 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency())));
+  const std::size_t tokens = std::clamp<std::size_t>(
+      kScratchBytes / chunk_bytes, 2,
+      std::max<std::size_t>(2, 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency())));
   tbb::parallel_pipeline(
-      tokens,
-      tbb::make_filter<void, Chunk*>(tbb::filter_mode::serial_in_order,
-                                     [&](tbb::flow_control& fc) -> Chunk* {
-                                       if (next_row >= H) {
-                                         fc.stop();
-                                         return nullptr;
-                                       }
-                                       Chunk* chunk = nullptr;
-                                       if (!free_chunks.try_pop(chunk)) {
-                                         chunks.push_back(std::make_unique<Chunk>());
-                                         chunk = chunks.back().get();
-                                       }
-                                       const int first = next_row;
-                                       next_row = std::min(H, next_row + rows_per_chunk);
-                                       chunk->start(first, next_row, stride);
-                                       return chunk;
-                                     }) &
-          tbb::make_filter<Chunk*, Chunk*>(tbb::filter_mode::parallel,
-                                           [&](Chunk* chunk) {
-                                             project(*chunk);
-                                             return chunk;
-                                           }) &
-          tbb::make_filter<Chunk*, void>(tbb::filter_mode::serial_in_order, [&](Chunk* chunk) {
-            for (std::size_t r = 0; r < chunk->cells.size(); ++r) {
-              Real* cell = sum.data() + chunk->cells[r] * stride;
-              const double* run = chunk->sums.data() + r * stride;
-              for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(run[c]);
-            }
-            progress.add(static_cast<std::size_t>(chunk->end_row - chunk->first_row));
-            free_chunks.push(chunk);
-          }));
+      tokens, tbb::make_filter<void, Chunk*>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) -> Chunk* {
+                if (next_row >= H) {
+                  fc.stop();
+                  return nullptr;
+                }
+                Chunk* chunk = nullptr;
+                if (!free_chunks.try_pop(chunk)) {
+                  chunks.push_back(std::make_unique<Chunk>());
+                  chunk = chunks.back().get();
+                }
+                const int first = next_row;
+                next_row = std::min(H, next_row + rows_per_chunk);
+                chunk->start(first, next_row, stride);
+                return chunk;
+              }) & tbb::make_filter<Chunk*, Chunk*>(tbb::filter_mode::parallel, [&](Chunk* chunk) {
+                project(*chunk);
+                return chunk;
+              }) & tbb::make_filter<Chunk*, void>(tbb::filter_mode::serial_in_order, [&](Chunk* chunk) {
+                for (std::size_t r = 0; r < chunk->cells.size(); ++r) {
+                  Real* cell = sum.data() + chunk->cells[r] * stride;
+                  const double* run = chunk->sums.data() + r * stride;
+                  for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(run[c]);
+                }
+                progress.add(static_cast<std::size_t>(chunk->end_row - chunk->first_row));
+                free_chunks.push(chunk);
+              }));
 
   // Normalise by the weight each output texel received (a constant map stays exactly constant). An output texel no
   // square reached (possible only where output texels are smaller than source texels) takes the nearest source

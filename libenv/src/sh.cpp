@@ -13,9 +13,12 @@ namespace envkit {
 
 std::string sh_window_name(ShWindow window) {
   switch (window) {
-    case ShWindow::None: return "none";
-    case ShWindow::Hanning: return "hanning";
-    case ShWindow::Lanczos: return "lanczos";
+    case ShWindow::None:
+      return "none";
+    case ShWindow::Hanning:
+      return "hanning";
+    case ShWindow::Lanczos:
+      return "lanczos";
   }
   return "none";
 }
@@ -69,28 +72,39 @@ template <int kOrder>
 
 void sh_basis(int order, const Vec3& d, double* out) {
   switch (order) {
-    case 1: return basis<1>(d, out);
-    case 2: return basis<2>(d, out);
-    case 3: return basis<3>(d, out);
-    default: return basis<0>(d, out);  // order < 1: band 0 only; order > 3 is refused by project_sh
+    case 1:
+      return basis<1>(d, out);
+    case 2:
+      return basis<2>(d, out);
+    case 3:
+      return basis<3>(d, out);
+    default:
+      return basis<0>(d, out);  // order < 1: band 0 only; order > 3 is refused by project_sh
   }
 }
 
 double sh_cosine_lobe(int l) {
   switch (l) {
-    case 0: return kPi;
-    case 1: return 2.0 * kPi / 3.0;
-    case 2: return kPi / 4.0;
-    default: return 0.0;  // l = 3 (and every odd l > 1)
+    case 0:
+      return kPi;
+    case 1:
+      return 2.0 * kPi / 3.0;
+    case 2:
+      return kPi / 4.0;
+    default:
+      return 0.0;  // l = 3 (and every odd l > 1)
   }
 }
 
 double sh_window_factor(ShWindow window, int l, int order) {
   const double t = kPi * l / (order + 1.0);
   switch (window) {
-    case ShWindow::None: return 1.0;
-    case ShWindow::Hanning: return 0.5 * (1.0 + std::cos(t));
-    case ShWindow::Lanczos: return l == 0 ? 1.0 : std::sin(t) / t;
+    case ShWindow::None:
+      return 1.0;
+    case ShWindow::Hanning:
+      return 0.5 * (1.0 + std::cos(t));
+    case ShWindow::Lanczos:
+      return l == 0 ? 1.0 : std::sin(t) / t;
   }
   return 1.0;
 }
@@ -225,9 +239,12 @@ ShCoefficients project_sh(const MapRef& src, int order, ShWindow window) {
   const RowProjection projection{src, dirs, omega, coverage, colour};
   tbb::parallel_for(0, img.height, [&](int y) {
     switch (order) {
-      case 1: return projection.add<1>(y, rows[y].data());
-      case 2: return projection.add<2>(y, rows[y].data());
-      default: return projection.add<3>(y, rows[y].data());
+      case 1:
+        return projection.add<1>(y, rows[y].data());
+      case 2:
+        return projection.add<2>(y, rows[y].data());
+      default:
+        return projection.add<3>(y, rows[y].data());
     }
   });
   sh.radiance.assign(colour.size(), std::vector<double>(count, 0.0));

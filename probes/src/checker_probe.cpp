@@ -85,8 +85,8 @@ Vec3 CheckerProbe::total_power() const {
   const double cell_phi = kTwoPi / n_phi_;
   const int first = (n_phi_ + 1) / 2, second = n_phi_ / 2;
   for (int a = 0; a < n_theta_; ++a) {
-    const double band = cell_phi * cos_pi_difference(static_cast<double>(a) / n_theta_,
-                                                     static_cast<double>(a + 1) / n_theta_);
+    const double band =
+        cell_phi * cos_pi_difference(static_cast<double>(a) / n_theta_, static_cast<double>(a + 1) / n_theta_);
     power += (colour(a, 0) * first + colour(a, 1) * second) * band;
   }
   return power;

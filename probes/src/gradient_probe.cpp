@@ -39,7 +39,7 @@ bool GradientProbe::integrate_latlong(double u0, double u1, double v0, double v1
   }
   const double c0 = std::cos(kPi * v0), c1 = std::cos(kPi * v1);
   const double dc = cos_pi_difference(v0, v1);  // c0 - c1, accurate
-  double moment;                                 // integral of the shape over theta, times sin theta
+  double moment;                                // integral of the shape over theta, times sin theta
   if (form_ == Form::Quadratic) {
     moment = dc * (c0 * c0 + c0 * c1 + c1 * c1) / 3.0;  // (c0^3 - c1^3) / 3
   } else {

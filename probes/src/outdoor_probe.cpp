@@ -84,9 +84,9 @@ struct Marker {
   double azimuth;
   Vec3 colour;
 };
-const Marker kMarkers[3] = {{radians(90.0), Vec3(6.0, 0.25, 0.2)},    // +X red
-                            {radians(0.0), Vec3(0.25, 5.0, 0.3)},     // +Z green
-                            {radians(-90.0), Vec3(0.3, 0.6, 9.0)}};   // -X blue
+const Marker kMarkers[3] = {{radians(90.0), Vec3(6.0, 0.25, 0.2)},   // +X red
+                            {radians(0.0), Vec3(0.25, 5.0, 0.3)},    // +Z green
+                            {radians(-90.0), Vec3(0.3, 0.6, 9.0)}};  // -X blue
 const Vec3 kMarkerDirections[3] = {direction_from_elevation_azimuth(kMarkerElevation, kMarkers[0].azimuth),
                                    direction_from_elevation_azimuth(kMarkerElevation, kMarkers[1].azimuth),
                                    direction_from_elevation_azimuth(kMarkerElevation, kMarkers[2].azimuth)};

@@ -61,7 +61,7 @@ struct Context {
   const Parameterization& map;
   const RasterOptions& options;
   const std::vector<Feature>& features;
-  bool rotate = false;           // map_to_world is not the identity
+  bool rotate = false;                  // map_to_world is not the identity
   const LatLongMap* latlong = nullptr;  // set when exact lat-long integrals may be used
   Mask all_features = 0;
 
@@ -76,7 +76,7 @@ struct CellGeometry {
   bool has_centre = false;
   bool partial = false;  // some probed point of the cell has no data
   Vec3 centre;
-  double radius = 0;     // angular radius bound around centre (rad)
+  double radius = 0;  // angular radius bound around centre (rad)
 };
 
 // Centre direction and an angular radius bound from the corners, plus the edge midpoints for cells wider than
@@ -111,9 +111,7 @@ CellGeometry cell_geometry(const Context& ctx, double x0, double y0, double x1, 
   return g;
 }
 
-double angle_of_chord(const Vec3& a, const Vec3& b) {
-  return 2.0 * std::asin(std::min(1.0, 0.5 * (a - b).length()));
-}
+double angle_of_chord(const Vec3& a, const Vec3& b) { return 2.0 * std::asin(std::min(1.0, 0.5 * (a - b).length())); }
 
 // Leaves that straddle a background discontinuity are sampled with a 16-point Hammersley set:
 // x = (k + 1/2) / 16, y = bit-reversed k / 16 + 1/32.
@@ -193,8 +191,7 @@ void integrate(const Context& ctx, const Refinement& ref, double x0, double y0, 
     const double xs[3] = {x0, xm, x1}, ys[3] = {y0, ym, y1};
     // Split only for smoothness, with children (about half as wide) that will be plain leaves: sample their
     // centres directly instead of working out their geometry.
-    if (ref.background && !g.partial && !varies && near == 0 && inside == 0 &&
-        0.5 * g.radius <= opt.smooth_radius) {
+    if (ref.background && !g.partial && !varies && near == 0 && inside == 0 && 0.5 * g.radius <= opt.smooth_radius) {
       for (int b = 0; b < 2; ++b)
         for (int a = 0; a < 2; ++a) {
           const double cw = ctx.map.solid_angle(xs[a], ys[b], xs[a + 1], ys[b + 1]);
@@ -271,7 +268,6 @@ struct Hit {
   double fraction = 0.0;  // part of the texel's solid angle inside feature k
 };
 
-
 }  // namespace
 
 void rasterize_into(const Probe& probe, const Parameterization& map, Image& image, const RasterOptions& options,
@@ -342,7 +338,7 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
           channels.store(image, i, j, Vec3(0.0), true);
           continue;
         }
-        const Vec3 average = exact ? exact_integral / weight
+        const Vec3 average = exact     ? exact_integral / weight
                              : uniform ? probe.background(Vec3(0, 1, 0))
                                        : sums.background / weight;
         channels.store(image, i, j, average, true);
@@ -373,9 +369,8 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
     const Vec3 local = ctx.rotate ? apply(transposed(options.map_to_world), features[k].centre) : features[k].centre;
     const Vec2 p = map.to_image(local);
     const int ti = static_cast<int>(std::floor(p.x)), tj = static_cast<int>(std::floor(p.y));
-    const double omega = (ti >= 0 && tj >= 0 && ti < width && tj < height)
-                             ? omegas[static_cast<std::size_t>(tj) * width + ti]
-                             : 0.0;
+    const double omega =
+        (ti >= 0 && tj >= 0 && ti < width && tj < height) ? omegas[static_cast<std::size_t>(tj) * width + ti] : 0.0;
     if (omega > 0.0)
       channels.add(image, ti, tj, features[k].excess * (s.target / omega));
     else
@@ -384,13 +379,13 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
   for (int j = 0; j < height; ++j)
     for (const Hit& h : hits[static_cast<std::size_t>(j)]) {
       const FeatureStats& s = fstats[static_cast<std::size_t>(h.k)];
-      if (!s.missed) channels.add(image, h.i, j, features[static_cast<std::size_t>(h.k)].excess * (s.scale * h.fraction));
+      if (!s.missed)
+        channels.add(image, h.i, j, features[static_cast<std::size_t>(h.k)].excess * (s.scale * h.fraction));
     }
   if (stats) stats->features = std::move(fstats);
 }
 
-Image rasterize(const Probe& probe, const Parameterization& map, const RasterOptions& options,
-                RasterStats* stats) {
+Image rasterize(const Probe& probe, const Parameterization& map, const RasterOptions& options, RasterStats* stats) {
   Image image(map.width(), map.height(), options.alpha ? 4 : 3);
   rasterize_into(probe, map, image, options, stats);
   return image;

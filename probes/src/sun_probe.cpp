@@ -25,9 +25,10 @@ SunProbe::SunProbe(Vec3 direction, double alpha, Vec3 sun, Vec3 sky) : alpha_(al
 std::string SunProbe::describe() const {
   const Vec3& d = direction();
   std::ostringstream s;
-  s << "sun: radius " << alpha_ * 180.0 / kPi << " deg, elevation " << std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / kPi
-    << " deg, azimuth " << std::atan2(d.x, d.z) * 180.0 / kPi << " deg, L = (" << sun_.x << ", " << sun_.y << ", "
-    << sun_.z << ") over sky (" << sky_.x << ", " << sky_.y << ", " << sky_.z << ")";
+  s << "sun: radius " << alpha_ * 180.0 / kPi << " deg, elevation "
+    << std::asin(std::clamp(d.y, -1.0, 1.0)) * 180.0 / kPi << " deg, azimuth " << std::atan2(d.x, d.z) * 180.0 / kPi
+    << " deg, L = (" << sun_.x << ", " << sun_.y << ", " << sun_.z << ") over sky (" << sky_.x << ", " << sky_.y << ", "
+    << sky_.z << ")";
   return s.str();
 }
 

@@ -13,8 +13,7 @@ TexelProbe::TexelProbe(const Parameterization& map, int i, int j, Vec3 value, Ve
   if (i < 0 || j < 0 || i >= map.width() || j >= map.height())
     throw Error("texel probe: texel " + std::to_string(i) + "," + std::to_string(j) + " is outside the " +
                 std::to_string(map.width()) + "x" + std::to_string(map.height()) + " map");
-  if (!valid_radiance(value) || !valid_radiance(floor))
-    throw Error("texel probe: radiances must be finite and >= 0");
+  if (!valid_radiance(value) || !valid_radiance(floor)) throw Error("texel probe: radiances must be finite and >= 0");
   Feature f;
   f.solid_angle = map.texel_solid_angle(i, j);
   // Centre direction; a texel cut by a mirror ball's rim may have no data at its centre: take any point that has.
@@ -46,8 +45,8 @@ TexelProbe::TexelProbe(const Parameterization& map, int i, int j, Vec3 value, Ve
 
 std::string TexelProbe::describe() const {
   std::ostringstream s;
-  s << "texel: (" << i_ << ", " << j_ << ") of " << map_->describe() << " = (" << value_.x << ", " << value_.y
-    << ", " << value_.z << ") over floor (" << floor_.x << ", " << floor_.y << ", " << floor_.z << ")";
+  s << "texel: (" << i_ << ", " << j_ << ") of " << map_->describe() << " = (" << value_.x << ", " << value_.y << ", "
+    << value_.z << ") over floor (" << floor_.x << ", " << floor_.y << ", " << floor_.z << ")";
   return s.str();
 }
 

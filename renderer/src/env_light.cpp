@@ -191,7 +191,8 @@ std::shared_ptr<const EnvTables> load_or_bake_tables(const EnvMap& map, const st
   // Tables record the hash of the source FILE bytes (what envbake checks and writes), six faces for a cube pattern.
   auto source_hash = [&]() -> std::string {
     if (image_path.empty()) return "";
-    return file_content_hash(is_face_pattern(image_path) ? face_paths(image_path) : std::vector<std::string>{image_path});
+    return file_content_hash(is_face_pattern(image_path) ? face_paths(image_path)
+                                                         : std::vector<std::string>{image_path});
   };
   if (bake) {
     BakeOptions options;

@@ -1,9 +1,3 @@
-#include <envkit/atomic_file.h>
-#include <envkit/color.h>
-#include <envkit/error.h>
-#include <envkit/image_io.h>
-#include <envkit/render/film.h>
-
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfChromaticitiesAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -12,6 +6,11 @@
 #include <OpenEXR/ImfOutputPart.h>
 #include <OpenEXR/ImfPartType.h>
 #include <OpenEXR/ImfStringAttribute.h>
+#include <envkit/atomic_file.h>
+#include <envkit/color.h>
+#include <envkit/error.h>
+#include <envkit/image_io.h>
+#include <envkit/render/film.h>
 
 #include <algorithm>
 #include <cmath>

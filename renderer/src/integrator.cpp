@@ -27,12 +27,18 @@ bool takes_sun_samples(const Material& material) { return material.widest_lobe_a
 
 const char* strategy_name(Strategy s) {
   switch (s) {
-    case Strategy::Bsdf: return "bsdf";
-    case Strategy::Light: return "light";
-    case Strategy::Mis: return "mis";
-    case Strategy::MisCompensated: return "mis-compensated";
-    case Strategy::Product: return "product";
-    case Strategy::ProductMis: return "product-mis";
+    case Strategy::Bsdf:
+      return "bsdf";
+    case Strategy::Light:
+      return "light";
+    case Strategy::Mis:
+      return "mis";
+    case Strategy::MisCompensated:
+      return "mis-compensated";
+    case Strategy::Product:
+      return "product";
+    case Strategy::ProductMis:
+      return "product-mis";
   }
   return "?";
 }
@@ -62,8 +68,9 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if ((s == Strategy::Mis || s == Strategy::MisCompensated) && n_min + m_min < 1)
     throw Error("strategy mis needs at least one sample");
   if (s == Strategy::MisCompensated && n_min < 1)
-    throw Error("strategy mis-compensated needs --bsdf-samples >= 1 (BSDF sampling covers what the compensated "
-                "table leaves out)");
+    throw Error(
+        "strategy mis-compensated needs --bsdf-samples >= 1 (BSDF sampling covers what the compensated "
+        "table leaves out)");
   if (options_.sun_samples < 0) throw Error("--sun-samples must be >= 0");
   const bool product = s == Strategy::Product || s == Strategy::ProductMis;
   if (s == Strategy::Product && m_min < 1) throw Error("strategy product needs --light-samples >= 1");

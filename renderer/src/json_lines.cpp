@@ -143,7 +143,8 @@ LineTrackedJson parse_json_with_lines(const std::string& text, const std::string
   } catch (const nlohmann::json::exception& e) {
     // Not a syntax error but a value the parser cannot hold (a number like 1e999 overflows a double).
     std::string message = e.what();
-    if (const std::size_t bracket = message.find("] "); bracket != std::string::npos) message = message.substr(bracket + 2);
+    if (const std::size_t bracket = message.find("] "); bracket != std::string::npos)
+      message = message.substr(bracket + 2);
     throw Error(name + ":" + std::to_string(line_at(text, position)) +
                 ": invalid JSON value: " + excerpt(message, kJsonReasonChars));
   }

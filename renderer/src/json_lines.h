@@ -1,8 +1,7 @@
 #pragma once
 // JSON parsing that remembers the line of every key, for error messages "file:line: key.path: problem".
-#include <nlohmann/json.hpp>
-
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace envkit::render {

@@ -24,7 +24,8 @@ double diffuse_fresnel_external(double ior) {
 class PlasticMaterial final : public Material {
  public:
   PlasticMaterial(const Vec3& diffuse, double roughness, double ior)
-      : diffuse_(clean(diffuse)), alpha_(detail::clamp_alpha(roughness)),
+      : diffuse_(clean(diffuse)),
+        alpha_(detail::clamp_alpha(roughness)),
         ior_(std::isfinite(ior) && ior >= 1.0 ? ior : 1.5) {
     const double fdr_int = 1.0 - (1.0 - diffuse_fresnel_external(ior_)) / (ior_ * ior_);
     const auto scale = [&](double kd) { return kd / (kPi * ior_ * ior_ * (1.0 - kd * fdr_int)); };
@@ -44,8 +45,8 @@ class PlasticMaterial final : public Material {
     if (!detail::above(wo) || !detail::above(wi) || !detail::half_vector(wo, wi, h)) return Vec3(0.0);
     const double spec = detail::fresnel_dielectric(wo ^ h, ior_) * detail::ggx_d(alpha_, h) *
                         detail::smith_g2_cos_over_4cos(alpha_, wo.z, wi.z);
-    const double transmit = (1.0 - detail::fresnel_dielectric(wo.z, ior_)) *
-                            (1.0 - detail::fresnel_dielectric(wi.z, ior_)) * wi.z;
+    const double transmit =
+        (1.0 - detail::fresnel_dielectric(wo.z, ior_)) * (1.0 - detail::fresnel_dielectric(wi.z, ior_)) * wi.z;
     return diffuse_scale_ * transmit + Vec3(spec);
   }
 

@@ -1,9 +1,8 @@
 #include <envkit/render/render.h>
-
+#include <pmmintrin.h>
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 #include <xmmintrin.h>
-#include <pmmintrin.h>
 
 #include <atomic>
 #include <chrono>
@@ -55,7 +54,8 @@ void render_pass(const Camera& camera, const Integrator& integrator, Film& film,
 
 }  // namespace
 
-Film render_image(const Camera& camera, const Integrator& integrator, const RenderOptions& options, RenderStats* stats) {
+Film render_image(const Camera& camera, const Integrator& integrator, const RenderOptions& options,
+                  RenderStats* stats) {
   Crop crop = options.crop;
   if (crop.x0 == 0 && crop.y0 == 0 && crop.x1 == 0 && crop.y1 == 0) crop = Crop{0, 0, camera.width(), camera.height()};
   Film film(camera.width(), camera.height(), crop);

@@ -1,7 +1,6 @@
+#include <embree3/rtcore.h>
 #include <envkit/error.h>
 #include <envkit/render/scene.h>
-
-#include <embree3/rtcore.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,7 +21,8 @@ namespace {
 
 void check_device(RTCDevice device, const char* what) {
   const RTCError err = rtcGetDeviceError(device);
-  if (err != RTC_ERROR_NONE) throw Error(std::string("embree: ") + what + " failed (error " + std::to_string(err) + ")");
+  if (err != RTC_ERROR_NONE)
+    throw Error(std::string("embree: ") + what + " failed (error " + std::to_string(err) + ")");
 }
 
 bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -36,8 +36,8 @@ RTCRayHit make_rayhit(const Ray& ray, double t_max) {
   rh.ray.dir_y = float(ray.direction.y);
   rh.ray.dir_z = float(ray.direction.z);
   rh.ray.tnear = 0.0f;
-  rh.ray.tfar = t_max >= double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity()
-                                                                   : float(t_max);
+  rh.ray.tfar =
+      t_max >= double(std::numeric_limits<float>::max()) ? std::numeric_limits<float>::infinity() : float(t_max);
   rh.ray.mask = 0xFFFFFFFFu;
   rh.ray.flags = 0;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -49,7 +49,8 @@ RTCRayHit make_rayhit(const Ray& ray, double t_max) {
 
 Scene::Scene() : impl_(std::make_unique<Impl>()) {
   impl_->device = rtcNewDevice(nullptr);
-  if (!impl_->device) throw Error("embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
+  if (!impl_->device)
+    throw Error("embree: cannot create a device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
   impl_->scene = rtcNewScene(impl_->device);
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
   check_device(impl_->device, "rtcNewScene");
@@ -108,7 +109,8 @@ void Scene::add_mesh(TriangleMesh mesh, int material, const std::string& label) 
   for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
     const auto& tri = mesh.triangles[i];
     for (int k : tri)
-      if (k < 0 || k >= nv) throw Error(label + ": triangle " + std::to_string(i) + " has an out-of-range vertex index");
+      if (k < 0 || k >= nv)
+        throw Error(label + ": triangle " + std::to_string(i) + " has an out-of-range vertex index");
     const Vec3 e1 = mesh.positions[tri[1]] - mesh.positions[tri[0]];
     const Vec3 e2 = mesh.positions[tri[2]] - mesh.positions[tri[0]];
     const double area2 = (e1 % e2).length();
@@ -208,7 +210,8 @@ bool Scene::intersect(const Ray& ray, Hit& hit, double t_max) const {
   hit.geometric_normal = ((p1 - p0) % (p2 - p0)).normalized();
   hit.shading_normal = hit.geometric_normal;
   if (!shape.mesh.normals.empty()) {
-    Vec3 n = shape.mesh.normals[tri[0]] * (1.0 - u - v) + shape.mesh.normals[tri[1]] * u + shape.mesh.normals[tri[2]] * v;
+    Vec3 n =
+        shape.mesh.normals[tri[0]] * (1.0 - u - v) + shape.mesh.normals[tri[1]] * u + shape.mesh.normals[tri[2]] * v;
     const double len = n.length();
     if (len > 1e-12) {
       n /= len;
@@ -233,8 +236,8 @@ bool Scene::inside_geometry(const Vec3& p, std::string* which) const {
       return true;
     }
   // Closed meshes: every probe ray (axes, slightly tilted to avoid edges) first hits a mesh from behind.
-  static const Vec3 probes[6] = {Vec3(1, 0.0123, 0.0071), Vec3(-1, 0.0093, -0.0137), Vec3(0.0111, 1, 0.0057),
-                                 Vec3(-0.0077, -1, 0.0131), Vec3(0.0067, -0.0101, 1), Vec3(0.0143, 0.0089, -1)};
+  static const Vec3 probes[6] = {Vec3(1, 0.0123, 0.0071),   Vec3(-1, 0.0093, -0.0137), Vec3(0.0111, 1, 0.0057),
+                                 Vec3(-0.0077, -1, 0.0131), Vec3(0.0067, -0.0101, 1),  Vec3(0.0143, 0.0089, -1)};
   int behind = 0;
   int shape = -1;
   for (const Vec3& d : probes) {

@@ -1,5 +1,3 @@
-#include "json_lines.h"
-
 #include <envkit/color.h>
 #include <envkit/convention.h>
 #include <envkit/error.h>
@@ -10,7 +8,6 @@
 #include <envkit/render/material.h>
 #include <envkit/render/scene_loader.h>
 #include <envkit/request_limits.h>
-
 #include <tiny_obj_loader.h>
 
 #include <cmath>
@@ -19,6 +16,8 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+
+#include "json_lines.h"
 
 namespace envkit::render {
 
@@ -65,7 +64,9 @@ class Reader {
                 (path.empty() ? "" : shown_field(path) + ": ") + problem);
   }
 
-  static std::string join(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+  static std::string join(const std::string& path, const std::string& key) {
+    return path.empty() ? key : path + "." + key;
+  }
 
   /// Fails on keys outside `allowed`.
   void check_keys(const json& object, const std::string& path, const std::set<std::string>& allowed) const {
@@ -139,7 +140,8 @@ class Reader {
     const std::string p = join(path, key);
     const Vec3 c = v.is_number() ? Vec3(number(v, p)) : vec3(v, p);
     for (int i = 0; i < 3; ++i)
-      if (c[i] < 0.0 || c[i] > max_value) fail(p, "colour components must be in [0, " + std::to_string(max_value) + "]");
+      if (c[i] < 0.0 || c[i] > max_value)
+        fail(p, "colour components must be in [0, " + std::to_string(max_value) + "]");
     return c;
   }
 
@@ -293,8 +295,9 @@ EnvMap make_probe_map(const Reader& r, const json& e, const std::string& path, s
   return env;
 }
 
-const std::set<std::string> kEnvironmentKeys = {"image", "tables", "probe", "size", "radiance", "sky", "elevation_deg",
-                                                "azimuth_deg", "radius_deg", "rotation", "intensity", "convention"};
+const std::set<std::string> kEnvironmentKeys = {"image",      "tables",   "probe",         "size",
+                                                "radiance",   "sky",      "elevation_deg", "azimuth_deg",
+                                                "radius_deg", "rotation", "intensity",     "convention"};
 
 void load_environment(const Reader& r, const json& e, const std::string& base_dir, const SceneLoadOptions& options,
                       LoadedScene& out) {
@@ -338,8 +341,7 @@ void load_environment(const Reader& r, const json& e, const std::string& base_di
   const std::string tables_field = has_probe ? "environment" : "environment.tables";
   try {
     std::string note;
-    out.tables = load_or_bake_tables(map, has_probe ? std::string() : image_path,
-                                     tables_path, bake, &note);
+    out.tables = load_or_bake_tables(map, has_probe ? std::string() : image_path, tables_path, bake, &note);
     if (!note.empty())
       out.notes.push_back((has_probe ? "probe '" + e.at("probe").get<std::string>() + "': " : std::string()) + note);
   } catch (const Error& err) {
@@ -394,7 +396,8 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
   out.scene = std::make_unique<Scene>();
   const json& materials = r.require(root, "", "materials");
   if (!materials.is_object() || materials.empty()) r.fail("materials", "expected an object of named materials");
-  for (const auto& [name, m] : materials.items()) out.scene->add_material(name, parse_material(r, m, "materials." + name));
+  for (const auto& [name, m] : materials.items())
+    out.scene->add_material(name, parse_material(r, m, "materials." + name));
 
   // Shapes
   const json& shapes = r.require(root, "", "shapes");
@@ -438,7 +441,8 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
       const json& t = r.require(s, path, "triangles");
       if (!v.is_array() || v.size() < 3) r.fail(path + ".vertices", "expected an array of [x, y, z] points");
       if (!t.is_array() || t.empty()) r.fail(path + ".triangles", "expected an array of [i, j, k] index triples");
-      for (std::size_t k = 0; k < v.size(); ++k) mesh.positions.push_back(r.point(v[k], path + ".vertices[" + std::to_string(k) + "]"));
+      for (std::size_t k = 0; k < v.size(); ++k)
+        mesh.positions.push_back(r.point(v[k], path + ".vertices[" + std::to_string(k) + "]"));
       for (std::size_t k = 0; k < t.size(); ++k) {
         const std::string tp = path + ".triangles[" + std::to_string(k) + "]";
         if (!t[k].is_array() || t[k].size() != 3) r.fail(tp, "expected [i, j, k]");

@@ -1,11 +1,10 @@
 // Benchmarks of the 2D sampling distributions (cdf, alias, pyramid) on sky-plus-sun maps at 1024x512 and
 // 8192x4096: build time, ns per sample / pdf / invert with independent random u, bytes per texel.
 //   bench_distribution --benchmark_filter=sample   (etc.)
+#include <benchmark/benchmark.h>
 #include <envkit/distribution_alias.h>
 #include <envkit/distribution_cdf.h>
 #include <envkit/distribution_pyramid.h>
-
-#include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <cstdint>
@@ -54,9 +53,12 @@ const char* name(Method m) { return m == Method::Cdf ? "cdf" : m == Method::Alia
 
 std::unique_ptr<Distribution2D> make(Method m, const std::vector<float>& w, int W, int H) {
   switch (m) {
-    case Method::Cdf: return std::make_unique<CdfDistribution2D>(w.data(), W, H);
-    case Method::Alias: return std::make_unique<AliasDistribution2D>(w.data(), W, H);
-    case Method::Pyramid: return std::make_unique<PyramidDistribution2D>(w.data(), W, H);
+    case Method::Cdf:
+      return std::make_unique<CdfDistribution2D>(w.data(), W, H);
+    case Method::Alias:
+      return std::make_unique<AliasDistribution2D>(w.data(), W, H);
+    case Method::Pyramid:
+      return std::make_unique<PyramidDistribution2D>(w.data(), W, H);
   }
   return nullptr;
 }

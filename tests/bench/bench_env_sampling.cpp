@@ -3,11 +3,11 @@
 // alias and hierarchical; the bake from an in-memory image; loading the same tables from a file.
 //   bench_env_sampling --benchmark_filter=Sample      (Sample: one sample() per call; SampleBatch: batched)
 //   bench_env_sampling --benchmark_filter='Bake|Load'
+#include <benchmark/benchmark.h>
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/latlong.h>
-
-#include <benchmark/benchmark.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -15,7 +15,6 @@
 #include <memory>
 #include <random>
 #include <span>
-#include <unistd.h>
 
 using namespace envkit;
 

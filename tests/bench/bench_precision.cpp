@@ -23,8 +23,6 @@
 // (tests/chi2.h: cells of expected count < 5 pooled; any sample in a zero-expectation cell fails).
 // Output: '#' comment lines, then a tab-separated table with a header row (machine-readable), on stdout;
 // progress on stderr.
-#include "../chi2.h"
-
 #include <envkit/distribution_cdf.h>
 #include <envkit/distribution_pyramid.h>
 
@@ -39,6 +37,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "../chi2.h"
 
 using namespace envkit;
 
@@ -108,15 +108,16 @@ struct NaiveFloatCdf2D {
     conditional.resize(std::size_t(W + 1) * std::size_t(H));
     std::vector<float> row_integral(static_cast<std::size_t>(H));
     for (int y = 0; y < H; ++y)
-      row_integral[std::size_t(y)] =
-          build_1d(w.data() + std::size_t(y) * std::size_t(W), W, conditional.data() + std::size_t(y) * std::size_t(W + 1));
+      row_integral[std::size_t(y)] = build_1d(w.data() + std::size_t(y) * std::size_t(W), W,
+                                              conditional.data() + std::size_t(y) * std::size_t(W + 1));
     marginal.resize(std::size_t(H) + 1);
     total = build_1d(row_integral.data(), H, marginal.data());
   }
 
   double texel_probability(int x, int y) const {
     const float* c = conditional.data() + std::size_t(y) * std::size_t(W + 1);
-    return (double(marginal[std::size_t(y) + 1]) - double(marginal[std::size_t(y)])) * (double(c[x + 1]) - double(c[x]));
+    return (double(marginal[std::size_t(y) + 1]) - double(marginal[std::size_t(y)])) *
+           (double(c[x + 1]) - double(c[x]));
   }
 
   /// Texel drawn for u (continuous inversion: the bin i with cdf[i] <= u < cdf[i+1]).
@@ -181,7 +182,8 @@ Chi2Out chi_square(const Map& m, int cols, int rows, std::size_t samples, std::u
     const double ux = testmaps::uniform53(rng), uy = testmaps::uniform53(rng);
     int x = 0, y = 0;
     draw(ux, uy, x, y);
-    observed[std::size_t((long long)y * rows / m.H) * std::size_t(cols) + std::size_t((long long)x * cols / m.W)] += 1.0;
+    observed[std::size_t((long long)y * rows / m.H) * std::size_t(cols) + std::size_t((long long)x * cols / m.W)] +=
+        1.0;
   }
   const chi2::Result r = chi2::test(observed, expected, 0.01);
   return {r.p_value, r.dof, r.zero_cell_samples};
@@ -209,14 +211,16 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
-    if (a == "--sizes" && has) sizes = parse_list(argv[++i]);
-    else if (a == "--samples" && has) samples = std::size_t(std::atof(argv[++i]));
+    if (a == "--sizes" && has)
+      sizes = parse_list(argv[++i]);
+    else if (a == "--samples" && has)
+      samples = std::size_t(std::atof(argv[++i]));
     else if (a == "--cells" && has) {
       if (std::sscanf(argv[++i], "%dx%d", &cols, &rows) != 2) return 2;
-    } else if (a == "--seed" && has) seed = std::strtoull(argv[++i], nullptr, 10);
+    } else if (a == "--seed" && has)
+      seed = std::strtoull(argv[++i], nullptr, 10);
     else {
-      std::fprintf(stderr,
-                   "usage: bench_precision [--sizes 1024,2048,...] [--samples N] [--cells 64x32] [--seed S]\n");
+      std::fprintf(stderr, "usage: bench_precision [--sizes 1024,2048,...] [--samples N] [--cells 64x32] [--seed S]\n");
       return 2;
     }
   }
@@ -226,13 +230,15 @@ int main(int argc, char** argv) {
       return 2;
     }
 
-  std::printf("# map: lat-long W x W/2, sky %g + sun %g (radius %.1f texel heights at theta %.2f pi, phi %.2f pi), "
-              "weights = radiance x exact texel solid angle, float\n",
-              kSky, kSun, kSunRadiusTexels, kSunTheta / kPi, kSunPhi / kPi);
+  std::printf(
+      "# map: lat-long W x W/2, sky %g + sun %g (radius %.1f texel heights at theta %.2f pi, phi %.2f pi), "
+      "weights = radiance x exact texel solid angle, float\n",
+      kSky, kSun, kSunRadiusTexels, kSunTheta / kPi, kSunPhi / kPi);
   std::printf("# reference: w / sum(w) in long double; chi-square: %zu samples, %dx%d cells, exact cell sums\n",
               samples, cols, rows);
-  std::printf("width\theight\tsun_texels\tsun_share\tmethod\tmax_rel_err\tmean_rel_err\tunreachable\tlit_texels\t"
-              "lost_mass\ttv_distance\ttotal_rel_err\tchi2_p\tchi2_dof\tchi2_zero_cell_samples\tbuild_s\n");
+  std::printf(
+      "width\theight\tsun_texels\tsun_share\tmethod\tmax_rel_err\tmean_rel_err\tunreachable\tlit_texels\t"
+      "lost_mass\ttv_distance\ttotal_rel_err\tchi2_p\tchi2_dof\tchi2_zero_cell_samples\tbuild_s\n");
   std::fflush(stdout);
 
   for (int W : sizes) {

@@ -4,12 +4,11 @@
 // The resample uses the default oneTBB thread pool (all cores), like envconvert.
 //   bench_resample --benchmark_min_time=0.2   (Debian's Google Benchmark 1.7 wants a plain double)
 //   bench_resample --benchmark_filter=area
+#include <benchmark/benchmark.h>
 #include <envkit/cubemap.h>
 #include <envkit/latlong.h>
 #include <envkit/octahedral.h>
 #include <envkit/resample.h>
-
-#include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <cmath>

@@ -122,8 +122,10 @@ int main(int argc, char** argv) {
     for (Vec2& v : u) v = Vec2(double(rng() >> 11) * 0x1p-53, double(rng() >> 11) * 0x1p-53);
 
     std::vector<std::string> levels;
-    if (level_arg == "both") levels = {"2d", "sphere"};
-    else levels = {level_arg};
+    if (level_arg == "both")
+      levels = {"2d", "sphere"};
+    else
+      levels = {level_arg};
     for (const std::string& level : levels)
       for (long long count : twice ? std::vector<long long>{n, 2 * n} : std::vector<long long>{n}) {
         const std::vector<Vec2> us(u.begin(), u.begin() + count);

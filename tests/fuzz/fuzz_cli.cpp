@@ -17,10 +17,10 @@
 // are absent (the built-in default scene bakes a 1024x512 probe: inputs giving an empty --scene, which means the
 // default scene too, are skipped), and inputs asking for more than a few samples are skipped (envrender_too_costly).
 // See tests/fuzz/README.md.
-#include "fuzz_support.h"
-
 #include <envkit/envmap.h>
 #include <envkit/image.h>
+
+#include "fuzz_support.h"
 #if __has_include(<envkit/env_tables.h>)
 #include <envkit/env_tables.h>
 #define ENVKIT_FUZZ_HAVE_TABLES 1
@@ -82,15 +82,22 @@ void write_tagged(const std::string& name, const envkit::Image& img, const std::
 void write_scene_files() {
   auto scene = [](const std::string& name, const std::string& environment) {
     std::ofstream(name, std::ios::binary)
-        << R"({"camera": {"position": [0, 1, -5], "look_at": [0, 0.5, 0], "fov": 40, "resolution": [4, 2]},)" "\n"
+        << R"({"camera": {"position": [0, 1, -5], "look_at": [0, 0.5, 0], "fov": 40, "resolution": [4, 2]},)"
+           "\n"
         << R"( "environment": {)" << environment << "},\n"
         << R"( "materials": {"d": {"type": "diffuse", "albedo": 0.5}, "c": {"type": "conductor", "roughness": 0.2},)"
-        << R"( "p": {"type": "plastic", "roughness": 0.05}, "m": {"type": "mirror"}},)" "\n"
-        << R"( "shapes": [{"type": "triangles", "material": "d", "triangles": [[0, 2, 1], [0, 3, 2]],)" "\n"
-        << R"(             "vertices": [[-9, 0, -9], [9, 0, -9], [9, 0, 9], [-9, 0, 9]]},)" "\n"
-        << R"(            {"type": "sphere", "center": [-1, 0.5, 0], "radius": 0.5, "material": "c"},)" "\n"
-        << R"(            {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "p"},)" "\n"
-        << R"(            {"type": "mesh", "file": "mesh.obj", "material": "m"}]})" "\n";
+        << R"( "p": {"type": "plastic", "roughness": 0.05}, "m": {"type": "mirror"}},)"
+           "\n"
+        << R"( "shapes": [{"type": "triangles", "material": "d", "triangles": [[0, 2, 1], [0, 3, 2]],)"
+           "\n"
+        << R"(             "vertices": [[-9, 0, -9], [9, 0, -9], [9, 0, 9], [-9, 0, 9]]},)"
+           "\n"
+        << R"(            {"type": "sphere", "center": [-1, 0.5, 0], "radius": 0.5, "material": "c"},)"
+           "\n"
+        << R"(            {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5, "material": "p"},)"
+           "\n"
+        << R"(            {"type": "mesh", "file": "mesh.obj", "material": "m"}]})"
+           "\n";
   };
   std::ofstream("mesh.obj", std::ios::binary)
       << "v 1 0 0\nv 2 0 0\nv 1.5 0 1\nv 1.5 1 0.4\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
@@ -120,7 +127,8 @@ void write_seed_files() {
       if ((x - 7.5) * (x - 7.5) + (y - 7.5) * (y - 7.5) > 64.0)
         for (int c = 0; c < 3; ++c) ball.at(x, y, c) = 0.0f;
   write_tagged("ball.exr", ball, "");
-  for (const char* f : {"+X", "-X", "+Y", "-Y", "+Z", "-Z"}) write_tagged(std::string("face_") + f + ".exr", gradient(4, 4, 3), "");
+  for (const char* f : {"+X", "-X", "+Y", "-Y", "+Z", "-Z"})
+    write_tagged(std::string("face_") + f + ".exr", gradient(4, 4, 3), "");
 #ifdef ENVKIT_FUZZ_HAVE_TABLES
   {  // a table file for envsample / envinfo / envrender, recording in.exr's file hash as envbake does (fresh)
     envkit::EnvMap map;

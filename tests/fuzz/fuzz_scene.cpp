@@ -5,8 +5,6 @@
 // Anything else (another exception type, a crash, a sanitizer report) is a finding.
 // Cost limit: inputs with a number above 512 (or an exponent, or 0x) are skipped, so probe sizes and camera
 // resolutions stay small; meshes named by the input cannot escape the scratch directory (no '/' or '..').
-#include "fuzz_support.h"
-
 #include <envkit/error.h>
 #include <envkit/render/scene_loader.h>
 
@@ -14,6 +12,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+
+#include "fuzz_support.h"
 
 namespace {
 
@@ -31,7 +31,8 @@ bool too_costly(const std::string& text) {
       number = number * 10 + (c - '0');
       if (number > 512) return true;
     } else {
-      if ((c == 'e' || c == 'E' || c == 'x' || c == 'X') && i > 0 && std::isdigit(static_cast<unsigned char>(text[i - 1])))
+      if ((c == 'e' || c == 'E' || c == 'x' || c == 'X') && i > 0 &&
+          std::isdigit(static_cast<unsigned char>(text[i - 1])))
         return true;
       number = 0;
     }

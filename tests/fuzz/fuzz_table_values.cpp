@@ -55,21 +55,34 @@ void put(std::vector<std::byte>& file, std::size_t at, T value) {
 // Writes value kind `kind` at `at` (already aligned and inside the section); returns the value's size.
 void patch(std::vector<std::byte>& file, std::size_t begin, std::size_t size, std::uint8_t kind, std::uint32_t offset,
            std::uint8_t raw) {
-  static const float floats[] = {std::numeric_limits<float>::quiet_NaN(), -1.0f, 0.0f, -0.0f,
-                                 std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
-                                 FLT_TRUE_MIN, FLT_MAX, 2.0f, 0.5f, 1e-30f, 1.0f};
-  static const double doubles[] = {std::numeric_limits<double>::quiet_NaN(), -1.0, 0.0, 1e300,
-                                   std::numeric_limits<double>::infinity(), 1e-300};
+  static const float floats[] = {std::numeric_limits<float>::quiet_NaN(),
+                                 -1.0f,
+                                 0.0f,
+                                 -0.0f,
+                                 std::numeric_limits<float>::infinity(),
+                                 -std::numeric_limits<float>::infinity(),
+                                 FLT_TRUE_MIN,
+                                 FLT_MAX,
+                                 2.0f,
+                                 0.5f,
+                                 1e-30f,
+                                 1.0f};
+  static const double doubles[] = {std::numeric_limits<double>::quiet_NaN(), -1.0,  0.0, 1e300,
+                                   std::numeric_limits<double>::infinity(),  1e-300};
   static const std::int32_t ints[] = {-1, 0, 1, 0x7fffffff, std::int32_t(0x80000000u), 65536};
   constexpr int nf = std::size(floats), nd = std::size(doubles), ni = std::size(ints);
   const int k = kind % (nf + nd + ni + 1);
   const std::size_t width = k < nf ? 4 : k < nf + nd ? 8 : 4;
   if (size < width) return;
   const std::size_t at = begin + (std::size_t(offset) % (size - width + 1)) / width * width;
-  if (k < nf) put(file, at, floats[k]);
-  else if (k < nf + nd) put(file, at, doubles[k - nf]);
-  else if (k < nf + nd + ni) put(file, at, ints[k - nf - nd]);
-  else file[at] = std::byte(raw);  // one raw byte
+  if (k < nf)
+    put(file, at, floats[k]);
+  else if (k < nf + nd)
+    put(file, at, doubles[k - nf]);
+  else if (k < nf + nd + ni)
+    put(file, at, ints[k - nf - nd]);
+  else
+    file[at] = std::byte(raw);  // one raw byte
 }
 
 // 64 samples of `d` (one of the tables or a stored sun split's part): finite positive pdfs, texels inside the grid,

@@ -6,9 +6,6 @@
 // Seed: with ENVKIT_FUZZ_WRITE_SEED=<path> the target bakes a small valid table file (16x8 lat-long, every
 // method, compensated twins) to <path> and exits; scripts/fuzz.sh does this before fuzzing, so the seed always
 // has the current format version.
-#include "fuzz_support.h"
-#include "seed_tables.h"
-
 #include <envkit/env_tables.h>
 #include <envkit/envmap.h>
 #include <envkit/error.h>
@@ -19,6 +16,9 @@
 #include <cstdio>
 #include <fstream>
 #include <string>
+
+#include "fuzz_support.h"
+#include "seed_tables.h"
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   envkit::fuzz::run_on_one_thread();
@@ -32,7 +32,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   envkit::fuzz::load_and_check(envkit::fuzz::write_input(data, size), [](const envkit::EnvTables& tables) {
-    for (auto method : {envkit::SamplingMethod::Cdf, envkit::SamplingMethod::Alias, envkit::SamplingMethod::Hierarchical})
+    for (auto method :
+         {envkit::SamplingMethod::Cdf, envkit::SamplingMethod::Alias, envkit::SamplingMethod::Hierarchical})
       for (bool comp : {false, true}) {
         const envkit::SphericalDistribution* d = tables.distribution(method, comp);
         if (!d) continue;

@@ -114,8 +114,8 @@ std::string kind_choices() {
 
 std::string layout_choices() {
   std::vector<std::string> names;
-  for (CubeLayout l : {CubeLayout::VerticalStrip, CubeLayout::HorizontalStrip, CubeLayout::HorizontalCross,
-                       CubeLayout::VerticalCross})
+  for (CubeLayout l :
+       {CubeLayout::VerticalStrip, CubeLayout::HorizontalStrip, CubeLayout::HorizontalCross, CubeLayout::VerticalCross})
     names.push_back(layout_name(l));
   return choices(names);
 }
@@ -183,8 +183,9 @@ CLI::Validator integer_in(long long lo, long long hi) {
 }
 
 CLI::Validator number_in(double lo, double hi, bool min_exclusive) {
-  return CLI::Validator([lo, hi, min_exclusive](std::string& text) { return check_number(text, lo, hi, min_exclusive); },
-                        "NUMBER in " + range_text(lo, hi, min_exclusive));
+  return CLI::Validator(
+      [lo, hi, min_exclusive](std::string& text) { return check_number(text, lo, hi, min_exclusive); },
+      "NUMBER in " + range_text(lo, hi, min_exclusive));
 }
 
 double parse_number(const std::string& option, const std::string& text, double lo, double hi) {
@@ -208,8 +209,8 @@ void check_request(const std::string& option, const std::string& value, const st
   }
 }
 
-void check_image_size(const std::string& option, const std::string& value, const std::string& what,
-                      long long width, long long height, double bytes_per_texel) {
+void check_image_size(const std::string& option, const std::string& value, const std::string& what, long long width,
+                      long long height, double bytes_per_texel) {
   check_request(option, value, [&] { check_request_size(what, width, height, bytes_per_texel); });
 }
 

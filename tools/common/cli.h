@@ -3,13 +3,12 @@
 /// What every envkit command-line tool shares: exit codes, one-line messages prefixed by the program name,
 /// CLI11 validators backed by libenv's own parsers (so the error text is libenv's), and the thread limit.
 #include <envkit/vec.h>
-
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
+#include <CLI/CLI.hpp>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -64,8 +63,8 @@ long long parse_integer(const std::string& option, const std::string& text, long
 /// Refuses, up front, an image or table whose size the machine or envkit's readers cannot take: libenv's
 /// check_request_size (request_limits.h) for `what` of width x height, bytes_per_texel bytes per texel, its refusal
 /// thrown as CLI::ValidationError(option, "'<value>': <what> of W x H ...") naming the option and its value.
-void check_image_size(const std::string& option, const std::string& value, const std::string& what,
-                      long long width, long long height, double bytes_per_texel);
+void check_image_size(const std::string& option, const std::string& value, const std::string& what, long long width,
+                      long long height, double bytes_per_texel);
 /// Runs one of libenv's request checks (request_limits.h) for `option`'s value; its RequestTooLarge is thrown as
 /// CLI::ValidationError(option, "'<value>': <message>").
 void check_request(const std::string& option, const std::string& value, const std::function<void()>& check);

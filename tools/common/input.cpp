@@ -1,8 +1,8 @@
 #include "common/input.h"
 
-#include "common/cli.h"
-
 #include <envkit/cubemap.h>
+
+#include "common/cli.h"
 
 namespace envkit::tools {
 
@@ -68,13 +68,18 @@ nlohmann::json input_json(const LoadedInput& in) {
       {"format", r.format},
       {"pixel_type", r.pixel_type},
       {"colorspace",
-       {{"file", r.file_colorspace}, {"reason", r.colorspace_reason}, {"converted", r.converted},
+       {{"file", r.file_colorspace},
+        {"reason", r.colorspace_reason},
+        {"converted", r.converted},
         {"working", r.working_space}}},
       {"parameterization", param},
       {"convention", in.map.convention},
       {"nonfinite",
-       {{"nan", r.nan_count}, {"posinf", r.posinf_count}, {"neginf", r.neginf_count},
-        {"replaced", r.replaced_count}, {"policy", nonfinite_policy_name(r.policy)}}},
+       {{"nan", r.nan_count},
+        {"posinf", r.posinf_count},
+        {"neginf", r.neginf_count},
+        {"replaced", r.replaced_count},
+        {"policy", nonfinite_policy_name(r.policy)}}},
       {"negative", r.negative_count},
       {"notes", r.notes},
       {"summary", r.summary()},

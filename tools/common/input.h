@@ -5,7 +5,6 @@
 #include <envkit/envmap.h>
 
 #include <nlohmann/json.hpp>
-
 #include <optional>
 #include <string>
 

@@ -16,8 +16,10 @@ constexpr int kBarWidth = 30;
 std::string duration_text(double seconds) {
   const long s = std::lround(std::max(seconds, 0.0));
   char buf[32];
-  if (s >= 3600) std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
-  else std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
+  if (s >= 3600)
+    std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
+  else
+    std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
   return buf;
 }
 
@@ -29,7 +31,10 @@ bool want_progress(bool forced, bool quiet, std::size_t work_texels) {
 }
 
 ProgressBar::ProgressBar(std::string label, bool enabled)
-    : label_(std::move(label)), enabled_(enabled), tty_(::isatty(STDERR_FILENO) != 0), start_(Clock::now()),
+    : label_(std::move(label)),
+      enabled_(enabled),
+      tty_(::isatty(STDERR_FILENO) != 0),
+      start_(Clock::now()),
       last_draw_(start_) {}
 
 ProgressBar::~ProgressBar() {
@@ -65,8 +70,10 @@ void ProgressBar::draw(double fraction, bool final_line) {
   std::string bar(static_cast<std::size_t>(filled), '=');
   if (filled < kBarWidth) bar += '>' + std::string(static_cast<std::size_t>(kBarWidth - filled - 1), ' ');
   std::string tail;
-  if (final_line) tail = "done in " + duration_text(elapsed);
-  else if (fraction >= 0.02 && elapsed >= 0.5) tail = "ETA " + duration_text(elapsed * (1.0 - fraction) / fraction);
+  if (final_line)
+    tail = "done in " + duration_text(elapsed);
+  else if (fraction >= 0.02 && elapsed >= 0.5)
+    tail = "ETA " + duration_text(elapsed * (1.0 - fraction) / fraction);
   std::fprintf(stderr, "%s%s [%s] %3d%% %s%s", tty_ ? "\r\033[K" : "", label_.c_str(), bar.c_str(),
                static_cast<int>(fraction * 100.0), tail.c_str(), tty_ && !final_line ? "" : "\n");
   std::fflush(stderr);

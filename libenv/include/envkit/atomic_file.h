@@ -69,10 +69,10 @@ class AtomicOutput {
   bool committed() const { return committed_; }
 
  private:
-  std::string target_;     // as given
-  std::string final_path_; // target_ with a symlink resolved
+  std::string target_;      // as given
+  std::string final_path_;  // target_ with a symlink resolved
   std::string temp_;
-  int slot_ = -1;          // signal-cleanup registry slot, -1 when not registered
+  int slot_ = -1;  // signal-cleanup registry slot, -1 when not registered
   unsigned long xfsz_at_start_ = 0;
   bool committed_ = false;
   bool passthrough_ = false;  // target_ is another AtomicOutput's temp file: write into it, do not rename

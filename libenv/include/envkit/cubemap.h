@@ -43,8 +43,8 @@ int face_size_for(CubeLayout layout, int width, int height);
 
 /// One face as placed in the image.
 struct CubeFace {
-  int face = 0;              ///< 0..5: +X, -X, +Y, -Y, +Z, -Z
-  Vec3 axis, right, down;    ///< direction = axis + a right + b down
+  int face = 0;                    ///< 0..5: +X, -X, +Y, -Y, +Z, -Z
+  Vec3 axis, right, down;          ///< direction = axis + a right + b down
   int origin_x = 0, origin_y = 0;  ///< top-left texel of the face in the image
 };
 
@@ -79,14 +79,14 @@ class CubeMap final : public Parameterization {
   static double face_rect_solid_angle(double a0, double b0, double a1, double b1);
 
  private:
-  double face_coord(double local) const;   // face-local pixel coordinate -> a (or b)
-  double local_coord(double a) const;      // inverse
+  double face_coord(double local) const;  // face-local pixel coordinate -> a (or b)
+  double local_coord(double a) const;     // inverse
   int n_;
   CubeLayout layout_;
   CubeBasis basis_;
   TexelGrid grid_;
   std::array<CubeFace, 6> faces_;
-  std::array<int, 16> slot_face_;       // face in each N x N cell of the layout (up to 4 x 4 cells), or -1
+  std::array<int, 16> slot_face_;  // face in each N x N cell of the layout (up to 4 x 4 cells), or -1
   int cells_x_ = 1;
   std::array<double, 6> max_x_, max_y_;  // largest positions inside each face
 };

@@ -51,10 +51,10 @@ std::string dfg_layout_name(DfgLayout layout);
 DfgLayout parse_dfg_layout(const std::string& name);  ///< "scale-bias" (also "karis", "gltf"), "filament"
 
 struct DfgOptions {
-  int width = 128;          ///< n.v samples
-  int height = 128;         ///< roughness samples
-  int theta_samples = 20;   ///< Gauss-Legendre nodes per interval of theta_h
-  int phi_samples = 8;      ///< Gauss-Legendre nodes over the visible half-range of azimuth
+  int width = 128;         ///< n.v samples
+  int height = 128;        ///< roughness samples
+  int theta_samples = 20;  ///< Gauss-Legendre nodes per interval of theta_h
+  int phi_samples = 8;     ///< Gauss-Legendre nodes over the visible half-range of azimuth
   DfgLayout layout = DfgLayout::ScaleBias;
 };
 

@@ -164,8 +164,8 @@ class AliasDistribution2D final : public Distribution2D {
   };
   TableArray<AliasBin> texels_;  // H rows of W bins
   TableArray<RowBin> rows_;      // marginal over rows
-  double pdf_scale_ = 0.0;        // pdf = weight * pdf_scale_ = W H / sum(weights)
-  double width_f_ = 0.0;          // W and H as doubles (the candidate is u x W)
+  double pdf_scale_ = 0.0;       // pdf = weight * pdf_scale_ = W H / sum(weights)
+  double width_f_ = 0.0;         // W and H as doubles (the candidate is u x W)
   double height_f_ = 0.0;
 };
 

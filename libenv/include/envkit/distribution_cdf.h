@@ -159,9 +159,9 @@ class CdfDistribution2D final : public Distribution2D {
   void pick_group(const Vec2* u, TexelSample* out, std::size_t n) const;
 
  private:
-  TableArray<float> conditional_;          // H rows of W + 1 two-sided entries
-  TableArray<std::int32_t> row_split_;     // per row: first entry stored as remaining mass
-  TableArray<float> marginal_;             // H + 1 two-sided entries
+  TableArray<float> conditional_;       // H rows of W + 1 two-sided entries
+  TableArray<std::int32_t> row_split_;  // per row: first entry stored as remaining mass
+  TableArray<float> marginal_;          // H + 1 two-sided entries
   int marginal_split_ = 0;
 };
 

@@ -67,8 +67,10 @@ namespace detail {
   const __m128d columns = _mm_add_pd(a, b);
   const double left = _mm_cvtsd_f64(columns), right = _mm_cvtsd_f64(_mm_unpackhi_pd(columns, columns));
   const auto child = [&](int d) {
-    return d == 0 ? _mm_cvtsd_f64(a) : d == 1 ? _mm_cvtsd_f64(_mm_unpackhi_pd(a, a))
-                  : d == 2 ? _mm_cvtsd_f64(b) : _mm_cvtsd_f64(_mm_unpackhi_pd(b, b));
+    return d == 0   ? _mm_cvtsd_f64(a)
+           : d == 1 ? _mm_cvtsd_f64(_mm_unpackhi_pd(a, a))
+           : d == 2 ? _mm_cvtsd_f64(b)
+                    : _mm_cvtsd_f64(_mm_unpackhi_pd(b, b));
   };
 #else
   const double left = double(c[0]) + double(c[2]), right = double(c[1]) + double(c[3]);
@@ -166,9 +168,9 @@ class PyramidDistribution2D final : public Distribution2D {
   /// Throws Error("<context>: invalid pyramid (...)") unless the restored nodes form a pyramid.
   void validate(const std::string& context) const;
   struct Level {
-    int width = 0;            // nodes in this level
+    int width = 0;  // nodes in this level
     int height = 0;
-    std::size_t offset = 0;   // start of this level's blocked children array in nodes_ (levels below the top)
+    std::size_t offset = 0;          // start of this level's blocked children array in nodes_ (levels below the top)
     std::size_t blocks_per_row = 0;  // width of the level above: blocks per row of this level's children array
   };
   /// Fills levels_ (and prefetch_top_) from width_ x height_; returns the number of floats nodes_ needs.
@@ -183,7 +185,7 @@ class PyramidDistribution2D final : public Distribution2D {
   /// Prefetches each next level's candidate blocks while reading levels 1..prefetch_top_.
   double descend(int k, std::size_t& i, std::size_t& j, double& ux, double& uy) const;
 
-  TableArray<float> nodes_;   // levels 0 .. top-1, each blocked by parent
+  TableArray<float> nodes_;    // levels 0 .. top-1, each blocked by parent
   std::vector<Level> levels_;  // levels 0 .. top (top is 1 x 1, its value is the root sum)
   double pdf_scale_ = 0.0;     // pdf = leaf * pdf_scale_ = leaf * W H / (sum of stored leaves)
   double root_ = 0.0;          // the root sum (double)

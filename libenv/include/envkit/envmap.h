@@ -36,9 +36,9 @@ struct EnvMap {
 };
 
 struct LoadOptions {
-  std::optional<Kind> kind;           ///< --from; empty = detect
-  std::optional<CubeLayout> layout;   ///< cube layout; empty = from metadata or the aspect ratio
-  std::string convention;             ///< empty = from metadata, "openexr" for files with the envmap attribute, else "envkit"
+  std::optional<Kind> kind;          ///< --from; empty = detect
+  std::optional<CubeLayout> layout;  ///< cube layout; empty = from metadata or the aspect ratio
+  std::string convention;  ///< empty = from metadata, "openexr" for files with the envmap attribute, else "envkit"
   ReadOptions read;
   std::optional<double> ball_cx, ball_cy, ball_radius;  ///< mirror-ball photographs, pixels
   /// Perspective and fisheye inputs: the view (empty = from the envkit:view metadata, else view.h's defaults).
@@ -54,8 +54,8 @@ struct Detection {
   std::string convention_reason;
   /// Texel grid of a lat-long or cube when the file's oiio:sampleborder differs from the convention's grid.
   std::optional<TexelGrid> grid;
-  std::string reason;   ///< e.g. "from the aspect ratio 2:1"
-  bool assumed = false; ///< true when guessed from the aspect ratio (tools say so)
+  std::string reason;    ///< e.g. "from the aspect ratio 2:1"
+  bool assumed = false;  ///< true when guessed from the aspect ratio (tools say so)
 };
 
 /// Decides the parameterization of an image. `path` is used in error messages. Throws Error when --from

@@ -19,33 +19,31 @@
 namespace envkit {
 
 class FisheyeMap final : public RadialMap {
-public:
+ public:
   /// fov (view.fov_degrees) in (0, 360] ((0, 180] orthographic, (0, 360)
   /// stereographic). Throws Error.
-  FisheyeMap(int width, int height, const ViewParams &view);
+  FisheyeMap(int width, int height, const ViewParams& view);
 
   Kind kind() const override { return Kind::Fisheye; }
   std::string describe() const override;
-  std::unique_ptr<Parameterization> clone() const override {
-    return std::make_unique<FisheyeMap>(*this);
-  }
+  std::unique_ptr<Parameterization> clone() const override { return std::make_unique<FisheyeMap>(*this); }
   bool covers_sphere() const override;
-  const ViewParams *view() const override { return &view_; }
+  const ViewParams* view() const override { return &view_; }
 
-  Vec2 to_image(const Vec3 &dir) const override;
+  Vec2 to_image(const Vec3& dir) const override;
   double polar_angle(double r) const override;
   double radius_of_angle(double theta) const override;
   /// Exact solid angle inside the image circle: 2 pi (1 - cos(fov / 2)).
   double view_solid_angle() const { return kTwoPi * (1.0 - std::cos(half_)); }
 
-protected:
+ protected:
   double cap_density(double r) const override;
   double area_density(double r) const override;
 
-private:
+ private:
   ViewParams view_;
-  double half_; // fov / 2, radians
-  double k_;    // lens constant: h, sin(h/2), sin(h) or tan(h/2)
+  double half_;  // fov / 2, radians
+  double k_;     // lens constant: h, sin(h/2), sin(h) or tan(h/2)
 };
 
-} // namespace envkit
+}  // namespace envkit

@@ -38,7 +38,9 @@ struct HugePageAllocator {
   void deallocate(T* p, std::size_t n) noexcept { detail::deallocate_huge(p, n * sizeof(T)); }
 
   template <class U>
-  bool operator==(const HugePageAllocator<U>&) const noexcept { return true; }
+  bool operator==(const HugePageAllocator<U>&) const noexcept {
+    return true;
+  }
 };
 
 /// HugePageAllocator whose containers leave elements without initialisers uninitialised (vector(n), resize(n)):

@@ -30,9 +30,7 @@ struct Image {
   Image(int w, int h, int c);
 
   float* at(int x, int y) { return pixels.data() + (static_cast<std::size_t>(y) * width + x) * channels; }
-  const float* at(int x, int y) const {
-    return pixels.data() + (static_cast<std::size_t>(y) * width + x) * channels;
-  }
+  const float* at(int x, int y) const { return pixels.data() + (static_cast<std::size_t>(y) * width + x) * channels; }
   float& at(int x, int y, int c) { return at(x, y)[c]; }
   float at(int x, int y, int c) const { return at(x, y)[c]; }
   std::size_t texel_count() const { return static_cast<std::size_t>(width) * height; }

@@ -97,12 +97,12 @@ struct ReadOptions {
 
 /// What read_image found and did.
 struct ReadReport {
-  std::string format;            ///< "openexr", "hdr", "pfm" (envkit's codecs), or OIIO's name: "png", "tiff", ...
-  std::string pixel_type;        ///< the file's pixel type: "half", "float", "uint8", "uint16", ...
-  std::string file_colorspace;   ///< colour space the pixels were decoded from ("srgb", "gamma 2.2", ...)
-  std::string colorspace_reason; ///< why: "option", "file tag oiio:ColorSpace=sRGB", "default for integer data"
-  bool converted = false;        ///< true if a colour conversion to the working space was applied
-  std::string working_space;     ///< colour space of the returned pixels
+  std::string format;             ///< "openexr", "hdr", "pfm" (envkit's codecs), or OIIO's name: "png", "tiff", ...
+  std::string pixel_type;         ///< the file's pixel type: "half", "float", "uint8", "uint16", ...
+  std::string file_colorspace;    ///< colour space the pixels were decoded from ("srgb", "gamma 2.2", ...)
+  std::string colorspace_reason;  ///< why: "option", "file tag oiio:ColorSpace=sRGB", "default for integer data"
+  bool converted = false;         ///< true if a colour conversion to the working space was applied
+  std::string working_space;      ///< colour space of the returned pixels
   // Counts over all channels of the file's values (before any colour conversion).
   std::size_t nan_count = 0;
   std::size_t posinf_count = 0;
@@ -129,8 +129,8 @@ Image read_image(const std::string& path, const ReadOptions& options = {}, ReadR
 
 /// Pixel type of the written file.
 enum class PixelType {
-  Auto,    ///< float for EXR/TIFF/PFM (HDR is RGBE), uint8 for integer-only formats
-  Half,    ///< EXR only; values beyond +/-65504 are stored as +/-65504 (not Inf) and reported
+  Auto,  ///< float for EXR/TIFF/PFM (HDR is RGBE), uint8 for integer-only formats
+  Half,  ///< EXR only; values beyond +/-65504 are stored as +/-65504 (not Inf) and reported
   Float,
   UInt8,   ///< sRGB-encoded (see encode_colorspace)
   UInt16,  ///< sRGB-encoded (PNG, TIFF)

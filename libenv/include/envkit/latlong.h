@@ -73,8 +73,8 @@ class LatLongMap final : public Parameterization {
   bool corner_columns() const { return grid_ == TexelGrid::Corner; }
   bool corner_rows() const { return grid_ == TexelGrid::Corner || grid_ == TexelGrid::CornerRows; }
   TexelGrid grid_;
-  double du_dx_, dv_dy_;    // domain units per pixel
-  double max_x_, max_y_;    // largest positions inside the image
+  double du_dx_, dv_dy_;  // domain units per pixel
+  double max_x_, max_y_;  // largest positions inside the image
 };
 
 }  // namespace envkit

@@ -33,14 +33,14 @@
 namespace envkit {
 
 struct Capture {
-  EnvMap map; ///< the capture, its parameterization and orientation (map frame
-              ///< -> world)
-  double exposure = 1.0; ///< colour multiplier (e.g. 2 for a shot one stop
-                         ///< darker than the reference)
+  EnvMap map;             ///< the capture, its parameterization and orientation (map frame
+                          ///< -> world)
+  double exposure = 1.0;  ///< colour multiplier (e.g. 2 for a shot one stop
+                          ///< darker than the reference)
   /// Same size as map.image, single channel used: values in [0, 1], 0 drops the
   /// texel. Empty: keep every texel.
   std::optional<Image> mask;
-  std::string name; ///< for reports
+  std::string name;  ///< for reports
 };
 
 struct MergeReport {
@@ -55,9 +55,7 @@ struct MergeReport {
 /// Merges the captures into an RGBA image laid out by `dst`, whose frame goes
 /// to the world by `dst_to_world`. Throws Error for an empty list, a capture
 /// without 1 or at least 3 colour channels, or a mask of the wrong size.
-Image merge_captures(const std::vector<Capture> &captures,
-                     const Parameterization &dst, const Mat3 &dst_to_world,
-                     MergeReport *report = nullptr,
-                     const ResampleOptions &options = {});
+Image merge_captures(const std::vector<Capture>& captures, const Parameterization& dst, const Mat3& dst_to_world,
+                     MergeReport* report = nullptr, const ResampleOptions& options = {});
 
-} // namespace envkit
+}  // namespace envkit

@@ -12,10 +12,10 @@ namespace envkit {
 
 struct ParamSpec {
   Kind kind = Kind::LatLong;
-  int width = 0, height = 0;       ///< image size in texels
-  TexelGrid grid = TexelGrid::Centre;                 ///< lat-long and cube only
-  CubeLayout layout = CubeLayout::VerticalStrip;      ///< cube only
-  CubeBasis basis = CubeBasis::Envkit;                ///< cube only
+  int width = 0, height = 0;                      ///< image size in texels
+  TexelGrid grid = TexelGrid::Centre;             ///< lat-long and cube only
+  CubeLayout layout = CubeLayout::VerticalStrip;  ///< cube only
+  CubeBasis basis = CubeBasis::Envkit;            ///< cube only
   /// Mirror-ball photographs: ball centre and radius in pixels (default: the inscribed circle).
   std::optional<double> ball_cx, ball_cy, ball_radius;
   /// Perspective and fisheye views: where they look, roll, field of view, lens.

@@ -17,32 +17,28 @@
 namespace envkit {
 
 class PerspectiveMap final : public Parameterization {
-public:
+ public:
   /// fov (view.fov_degrees, across view.fov_axis) in (0, 180). Throws Error on
   /// bad arguments.
-  PerspectiveMap(int width, int height, const ViewParams &view);
+  PerspectiveMap(int width, int height, const ViewParams& view);
 
   Kind kind() const override { return Kind::Perspective; }
   std::string describe() const override;
-  std::unique_ptr<Parameterization> clone() const override {
-    return std::make_unique<PerspectiveMap>(*this);
-  }
+  std::unique_ptr<Parameterization> clone() const override { return std::make_unique<PerspectiveMap>(*this); }
   bool covers_sphere() const override { return false; }
-  const ViewParams *view() const override { return &view_; }
+  const ViewParams* view() const override { return &view_; }
   bool same_grid(const Parameterization& other) const override {
     return same_kind_and_size(other) && *other.view() == view_;
   }
 
-  bool to_direction(Vec2 pos, Vec3 &dir) const override;
+  bool to_direction(Vec2 pos, Vec3& dir) const override;
   /// Outside [0, W] x [0, H] (at (-1, -1) behind the camera) for directions the
   /// view does not see.
-  Vec2 to_image(const Vec3 &dir) const override;
+  Vec2 to_image(const Vec3& dir) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
   double solid_angle_density(Vec2 pos) const override;
   /// Taps beyond the image's edges see what the view does not: dropped.
-  bool resolve_tap(int, int, int &i, int &j) const override {
-    return i >= 0 && j >= 0 && i < width_ && j < height_;
-  }
+  bool resolve_tap(int, int, int& i, int& j) const override { return i >= 0 && j >= 0 && i < width_ && j < height_; }
 
   /// Half-extents of the image plane at unit distance: tan(hfov / 2), tan(vfov
   /// / 2).
@@ -51,10 +47,10 @@ public:
   /// Exact solid angle of the whole view: 4 asin(sin(hfov / 2) sin(vfov / 2)).
   double view_solid_angle() const;
 
-private:
+ private:
   ViewParams view_;
   ViewBasis basis_;
   double tx_ = 1, ty_ = 1;
 };
 
-} // namespace envkit
+}  // namespace envkit

@@ -152,8 +152,7 @@ class BlobReader {
  public:
   /// context names the blob in errors, e.g. "table.envtbl: section cdf".
   /// owner (optional) keeps data alive: arrays are then returned as views into it, not copies.
-  BlobReader(const std::byte* data, std::size_t size, std::string context,
-             std::shared_ptr<const void> owner = nullptr)
+  BlobReader(const std::byte* data, std::size_t size, std::string context, std::shared_ptr<const void> owner = nullptr)
       : data_(data), size_(size), context_(std::move(context)), owner_(std::move(owner)) {}
 
   template <class T>

@@ -26,8 +26,7 @@ inline constexpr double kFourPi = 4.0 * std::numbers::pi;
 
 /// Column-vector product M v with M[row][col].
 inline Vec3 apply(const Mat3& m, const Vec3& v) {
-  return Vec3(m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
-              m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+  return Vec3(m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z, m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
               m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z);
 }
 

@@ -19,15 +19,15 @@ namespace envkit {
 /// Fisheye lens projections: r = f(theta), theta the angle from the optical
 /// axis, r normalised to 1 at the image circle (theta = fov / 2).
 enum class Lens {
-  Equidistant, ///< r proportional to theta (fov up to 360)
-  Equisolid,   ///< r proportional to sin(theta / 2): equal-area (fov up to 360)
-  Orthographic,  ///< r proportional to sin(theta) (fov up to 180)
-  Stereographic, ///< r proportional to tan(theta / 2) (fov below 360)
+  Equidistant,    ///< r proportional to theta (fov up to 360)
+  Equisolid,      ///< r proportional to sin(theta / 2): equal-area (fov up to 360)
+  Orthographic,   ///< r proportional to sin(theta) (fov up to 180)
+  Stereographic,  ///< r proportional to tan(theta / 2) (fov below 360)
 };
 std::string lens_name(Lens lens);
 /// "equidistant", "equisolid", "orthographic", "stereographic" (also
 /// "equal-area", "ortho", "stereo"). Throws Error.
-Lens parse_lens(const std::string &name);
+Lens parse_lens(const std::string& name);
 
 /// The narrowest field of view a camera view accepts, in degrees (0.0036 arcseconds, far below any camera or
 /// telescope). Narrower views would have texel solid angles near float's smallest normal number at the largest
@@ -38,8 +38,7 @@ inline constexpr double kMinFovDegrees = 1e-6;
 enum class FovAxis { Horizontal, Vertical };
 
 struct ViewParams {
-  Vec3 forward =
-      Vec3(0, 0, 1); ///< viewing direction, map frame (any non-zero length)
+  Vec3 forward = Vec3(0, 0, 1);  ///< viewing direction, map frame (any non-zero length)
   double roll_degrees = 0.0;
   /// Perspective: full angle across the image width (Horizontal) or height
   /// (Vertical), in [kMinFovDegrees, 180). Fisheye: full angle across the
@@ -47,7 +46,7 @@ struct ViewParams {
   /// 180, stereographic below 360).
   double fov_degrees = 90.0;
   FovAxis fov_axis = FovAxis::Horizontal;
-  Lens lens = Lens::Equidistant; ///< fisheye only
+  Lens lens = Lens::Equidistant;  ///< fisheye only
 
   bool operator==(const ViewParams&) const = default;
 };
@@ -57,7 +56,7 @@ struct ViewParams {
 struct ViewBasis {
   Vec3 forward, right, up;
 };
-ViewBasis view_basis(const ViewParams &view);
+ViewBasis view_basis(const ViewParams& view);
 
 /// Direction from yaw and pitch in degrees: yaw about +Y from +Z towards +X,
 /// pitch up towards +Y.
@@ -67,7 +66,7 @@ Vec3 direction_from_yaw_pitch(double yaw_degrees, double pitch_degrees);
 /// "forward=0,0,1;roll=0;fov=90;axis=h;lens=equidistant", and its parser
 /// (throws Error naming the bad field). Numbers are written with 17 significant
 /// digits: re-read views are identical.
-std::string format_view(const ViewParams &view);
-ViewParams parse_view(const std::string &text);
+std::string format_view(const ViewParams& view);
+ViewParams parse_view(const std::string& text);
 
-} // namespace envkit
+}  // namespace envkit

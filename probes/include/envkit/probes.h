@@ -47,12 +47,12 @@ bool valid_radiance(const Vec3& v);
 
 /// A small region that adds `excess` radiance on top of the background.
 struct Feature {
-  Vec3 centre;               ///< unit direction inside the region (the disk centre)
-  double bound = 0;          ///< the region lies within the cap of this angular radius (rad) around centre
-  bool is_disk = false;      ///< the region is exactly that cap (lets the rasterizer skip cells fully inside)
-  double solid_angle = 0;    ///< exact solid angle of the region (sr)
-  Vec3 excess;               ///< radiance added inside the region (per channel)
-  double leaf_radius = 0;    ///< cells near the region's boundary are refined to this angular radius (rad)
+  Vec3 centre;             ///< unit direction inside the region (the disk centre)
+  double bound = 0;        ///< the region lies within the cap of this angular radius (rad) around centre
+  bool is_disk = false;    ///< the region is exactly that cap (lets the rasterizer skip cells fully inside)
+  double solid_angle = 0;  ///< exact solid angle of the region (sr)
+  Vec3 excess;             ///< radiance added inside the region (per channel)
+  double leaf_radius = 0;  ///< cells near the region's boundary are refined to this angular radius (rad)
 };
 
 /// An environment: radiance of a direction, with closed-form integrals.
@@ -208,9 +208,9 @@ struct OutdoorSettings {
   /// Between +Z (0) and +X (90); not 45, which falls on a texel edge of every power-of-two lat-long.
   double sun_azimuth_deg = 40.0;
   double sun_radius_deg = 0.27;
-  Vec3 sun_radiance{3.2e4, 3.0e4, 2.7e4};    ///< added on top of the sky inside the disk
-  std::uint32_t seed = 7;                    ///< cloud noise seed
-  double cloud_cover = 0.35;                 ///< 0 = clear sky, 1 = overcast
+  Vec3 sun_radiance{3.2e4, 3.0e4, 2.7e4};  ///< added on top of the sky inside the disk
+  std::uint32_t seed = 7;                  ///< cloud noise seed
+  double cloud_cover = 0.35;               ///< 0 = clear sky, 1 = overcast
 };
 
 /// envkit's default probe: a procedural outdoor sky, deterministic for given settings.
@@ -275,11 +275,11 @@ struct RasterOptions {
 
 /// What the rasterizer did with each feature.
 struct FeatureStats {
-  double target = 0;       ///< exact solid angle of the feature
-  double sampled = 0;      ///< solid angle found by supersampling (before rescaling)
-  double scale = 1;        ///< target / sampled
-  bool missed = false;     ///< no subsample hit it: the whole flux went to the texel containing its centre
-  bool lost = false;       ///< that texel holds no data: the feature's flux is missing from the map
+  double target = 0;    ///< exact solid angle of the feature
+  double sampled = 0;   ///< solid angle found by supersampling (before rescaling)
+  double scale = 1;     ///< target / sampled
+  bool missed = false;  ///< no subsample hit it: the whole flux went to the texel containing its centre
+  bool lost = false;    ///< that texel holds no data: the feature's flux is missing from the map
 };
 struct RasterStats {
   std::vector<FeatureStats> features;
@@ -292,8 +292,8 @@ Image rasterize(const Probe& probe, const Parameterization& map, const RasterOpt
                 RasterStats* stats = nullptr);
 /// Same into an existing image of the map's size: the first three colour channels get R, G, B (a single
 /// colour channel gets Rec. 709 luminance), further colour channels 0, the alpha channel (if any) coverage.
-void rasterize_into(const Probe& probe, const Parameterization& map, Image& image,
-                    const RasterOptions& options = {}, RasterStats* stats = nullptr);
+void rasterize_into(const Probe& probe, const Parameterization& map, Image& image, const RasterOptions& options = {},
+                    RasterStats* stats = nullptr);
 
 /// About how many background evaluations rasterize() spends resolving the probe's discontinuities
 /// (Probe::discontinuity_length()) on `map`: the leaves of edge_levels refinement that a curve of that length

@@ -86,7 +86,7 @@ class EnvironmentLight {
   Mat3 rotation_;
   Mat3 inverse_rotation_;
   double intensity_ = 1.0;
-  int width_ = 0, height_ = 0;                        // radiance grid (the tables' bake grid)
+  int width_ = 0, height_ = 0;                       // radiance grid (the tables' bake grid)
   std::unique_ptr<Parameterization> radiance_grid_;  // set when finer than the distribution (--resolution)
   /// One texel's RGB (intensity applied), 16 bytes: a lookup reads one aligned cache line, never two. Float: the
   /// map's own precision.

@@ -43,9 +43,9 @@
 namespace envkit::render {
 
 struct BsdfSample {
-  Vec3 wi;            // sampled incident direction, LOCAL shading frame (z = shading normal), unit
-  Vec3 f_cos;         // f(wo, wi) * |cos theta_i| (RGB); for a delta lobe: the lobe's weight times the Dirac
-  double pdf = 0;     // solid-angle pdf of wi; for a delta lobe: the probability of choosing the lobe
+  Vec3 wi;         // sampled incident direction, LOCAL shading frame (z = shading normal), unit
+  Vec3 f_cos;      // f(wo, wi) * |cos theta_i| (RGB); for a delta lobe: the lobe's weight times the Dirac
+  double pdf = 0;  // solid-angle pdf of wi; for a delta lobe: the probability of choosing the lobe
   bool is_delta = false;
 };
 
@@ -59,7 +59,7 @@ class Material {
   virtual double pdf(const Vec3& wo, const Vec3& wi) const = 0;
   /// false when no sample (e.g. below the horizon); u2 for the direction, u_lobe to pick a lobe
   virtual bool sample(const Vec3& wo, Vec2 u2, double u_lobe, BsdfSample& out) const = 0;
-  virtual bool has_delta() const { return false; }   // perfect mirror
+  virtual bool has_delta() const { return false; }  // perfect mirror
   virtual bool is_pure_delta() const { return false; }
   /// GGX alpha of the material's widest non-delta lobe, 1 for a Lambertian part (as wide as lobes get), 0 when it
   /// has none: how much of the sky one of its shading points sees.

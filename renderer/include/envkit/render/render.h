@@ -18,7 +18,7 @@ struct RenderOptions {
   double time_seconds = 0.0;  ///< > 0: render passes until this much time has passed
   int pass_spp = 1;           ///< samples per pixel per pass in time mode
   std::uint32_t seed = 0;
-  Crop crop{};                ///< empty (all zero) = the whole image
+  Crop crop{};  ///< empty (all zero) = the whole image
   int tile_size = 16;
   /// Called with the fraction done (from any thread, serialised).
   std::function<void(double)> progress;
@@ -31,6 +31,6 @@ struct RenderStats {
 };
 
 Film render_image(const Camera& camera, const Integrator& integrator, const RenderOptions& options,
-            RenderStats* stats = nullptr);
+                  RenderStats* stats = nullptr);
 
 }  // namespace envkit::render

@@ -24,7 +24,7 @@ struct Hit {
   Vec3 geometric_normal;  ///< unit, outward (see file comment)
   Vec3 shading_normal;    ///< unit, interpolated vertex normal (or the geometric normal), same side as geometric
   int material = -1;
-  int shape = -1;         ///< index in shape order of insertion (spheres and meshes share one numbering)
+  int shape = -1;  ///< index in shape order of insertion (spheres and meshes share one numbering)
 };
 
 struct TriangleMesh {
