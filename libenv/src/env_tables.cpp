@@ -120,20 +120,39 @@ std::shared_ptr<const Distribution2D> make_distribution_2d(SamplingMethod method
   throw Error("unknown sampling method");
 }
 
+/// The power of two that keeps weights with this sum and this smallest positive weight inside float's comfortable
+/// range [2^-120, 2^120] (above subnormals, 2^8 below overflow for the sums of pyramids and CDFs): 1 for every
+/// weight set already inside it, so real maps keep their absolute weights; else the sum brought down to 2^120, or
+/// the smallest weight up towards 2^-120 as far as the sum allows.
+double weight_scale(double sum, double smallest) {
+  constexpr int kRange = 120;
+  if (!(sum > 0.0) || !std::isfinite(sum)) return 1.0;
+  if (sum > std::ldexp(1.0, kRange)) return std::ldexp(1.0, kRange - 1 - std::ilogb(sum));
+  if (smallest >= std::ldexp(1.0, -kRange)) return 1.0;
+  const int up = -kRange - std::ilogb(smallest) + 1, headroom = kRange - 1 - std::ilogb(sum);
+  return std::ldexp(1.0, std::min(up, headroom));
+}
+
 /// The weights importance x exact texel solid angle of a W x H grid (value(i): importance of texel i, row-major), as
-/// float, multiplied by one power of two that brings the largest into [1, 2). A distribution normalises its weights,
-/// so the scale changes nothing it samples; without it, importance near float's subnormal range (or near FLT_MAX)
-/// would lose its precision (or overflow) in the product, and small texels such as the polar rows would get weight 0.
+/// float, multiplied by weight_scale(). A distribution normalises its weights, so the scale changes nothing it
+/// samples; without it, importance near float's subnormal range (or near FLT_MAX) would lose its precision (or
+/// overflow) in the product, and small texels such as the polar rows would get weight 0.
 template <class Value>
 FloatBuffer texel_weights(const Value& value, const std::vector<double>& row_omega, int W, int H) {
-  std::vector<double> row_max(std::size_t(H), 0.0);
+  std::vector<double> row_sum(std::size_t(H), 0.0), row_min(std::size_t(H), HUGE_VAL);
   tbb::parallel_for(0, H, [&](int y) {
-    double m = 0.0;
-    for (int x = 0; x < W; ++x) m = std::max(m, double(value(std::size_t(y) * W + x)));
-    row_max[std::size_t(y)] = m * row_omega[std::size_t(y)];
+    double sum = 0.0, smallest = HUGE_VAL;
+    for (int x = 0; x < W; ++x) {
+      const double v = double(value(std::size_t(y) * W + x));
+      sum += v;
+      if (v > 0.0) smallest = std::min(smallest, v);
+    }
+    row_sum[std::size_t(y)] = sum * row_omega[std::size_t(y)];
+    row_min[std::size_t(y)] = smallest * row_omega[std::size_t(y)];
   });
-  const double largest = *std::max_element(row_max.begin(), row_max.end());
-  const double scale = largest > 0.0 && std::isfinite(largest) ? std::ldexp(1.0, -std::ilogb(largest)) : 1.0;
+  double sum = 0.0;  // in row order: deterministic
+  for (const double s : row_sum) sum += s;
+  const double scale = weight_scale(sum, *std::min_element(row_min.begin(), row_min.end()));
   FloatBuffer w(std::size_t(W) * std::size_t(H));
   tbb::parallel_for(0, H, [&](int y) {
     const double omega = row_omega[std::size_t(y)] * scale;

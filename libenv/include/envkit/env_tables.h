@@ -14,9 +14,11 @@
 ///     importance is area-filtered down to W x H (solid-angle weighted). Optional conservative mode: each texel
 ///     takes the max of its 3x3 neighbourhood (its bilinear lookup footprint; longitude wraps, edges fold).
 ///  3. Weights = importance x exact texel solid angle (lat-long: (2 pi / W)(cos theta0 - cos theta1)), computed in
-///     double and scaled by one power of two (the largest in [1, 2)) before they are stored as float: importance near
-///     float's subnormal range or near FLT_MAX keeps its precision (no weight of a lit texel rounds to 0, none
-///     overflows), and the pdf of a constant map is 1 / (4 pi) at every scale. The stored weights are relative.
+///     double and stored as float. When they would leave float's comfortable range (their sum above 2^120, or a
+///     positive weight below 2^-120: importance near float's subnormal range or near FLT_MAX), all of them are
+///     first scaled by one power of two that brings them back as far as the sum allows, so that no weight of a lit
+///     texel rounds to 0 and no sum overflows; the pdf of a constant map is 1 / (4 pi) at every scale. Maps within
+///     that range (every real map) keep their weights in absolute units, bit for bit.
 ///  4. Compensated (Karlik et al. 2019): importance' = max(importance - mean, 0), mean = the solid-angle mean over
 ///     the sphere. When that is zero everywhere (a constant map) the compensated table falls back to the plain
 ///     importance, and says so in warnings().
