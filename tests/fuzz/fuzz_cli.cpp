@@ -280,6 +280,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   ::unsetenv("OCIO");
   ::unsetenv("ENVKIT_OCIO_CONFIG");
   write_seed_files();
+  envkit::fuzz::leave_signals_to_libfuzzer();
   return 0;
 }
 

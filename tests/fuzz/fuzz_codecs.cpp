@@ -32,6 +32,7 @@ void check_error(const envkit::Error& e, const char* name) {
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   envkit::fuzz::run_on_one_thread();
+  envkit::fuzz::leave_signals_to_libfuzzer();
   return 0;
 }
 

@@ -70,6 +70,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   ::unsetenv("OCIO");
   ::unsetenv("ENVKIT_OCIO_CONFIG");
   envkit::fuzz::scratch_dir("detect");
+  envkit::fuzz::leave_signals_to_libfuzzer();
   return 0;
 }
 

@@ -44,6 +44,7 @@ bool too_costly(const std::string& text) {
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   envkit::fuzz::run_on_one_thread();
+  envkit::fuzz::leave_signals_to_libfuzzer();
   return 0;
 }
 

@@ -6,6 +6,8 @@
 #include <tbb/global_control.h>
 #include <unistd.h>
 
+#include <csignal>
+
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -22,6 +24,15 @@ namespace envkit::fuzz {
 /// (oneTBB takes the smallest active limit); its parsing and validation are unchanged.
 inline void run_on_one_thread() {
   static const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+}
+
+/// Gives back the default action of the signals libFuzzer handles (every target calls it last in
+/// LLVMFuzzerInitialize). Seed files written there go through AtomicOutput, whose first use installs envkit's temp
+/// cleanup over each signal still at its default action; libFuzzer sets its own handlers only after Initialize and
+/// leaves an installed one alone. Its SIGALRM (the -timeout watchdog, due every timeout/2 + 1 s) would then reach
+/// envkit's handler, which re-raises it with the default action and ends the whole run as a finding.
+inline void leave_signals_to_libfuzzer() {
+  for (const int sig : {SIGALRM, SIGINT, SIGTERM, SIGUSR1, SIGUSR2, SIGXFSZ}) std::signal(sig, SIG_DFL);
 }
 
 /// The scratch directory's path, removed with the directory when the process exits. (The removal is this object's

@@ -129,6 +129,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   g_seeds[1] = bake_seed(envkit::fuzz::write_sun_seed_tables);
   for (const auto& seed : g_seeds)
     if (envkit::table_file_sections(seed).empty()) finding("a baked seed has no sections");
+  envkit::fuzz::leave_signals_to_libfuzzer();
   return 0;
 }
 

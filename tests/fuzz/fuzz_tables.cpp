@@ -27,6 +27,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
     std::exit(0);
   }
   envkit::fuzz::scratch_dir("tables");
+  envkit::fuzz::leave_signals_to_libfuzzer();
   return 0;
 }
 
