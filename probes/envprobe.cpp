@@ -1,10 +1,10 @@
 // envprobe: writes analytic environments (closed-form power) and the built-in default probe.
-#include <envkit/atomic_file.h>
-#include <envkit/convention.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/image_io.h>
-#include <envkit/param_factory.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/convention.h>
+#include <envkit/maps/param_factory.h>
 #include <envkit/probes.h>
 
 #include <CLI/CLI.hpp>

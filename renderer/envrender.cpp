@@ -1,12 +1,12 @@
 // envrender: renders a scene lit by an environment map through envkit's baked sampling tables.
-#include <envkit/atomic_file.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/io/request_limits.h>
 #include <envkit/render/integrator.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
-#include <envkit/request_limits.h>
-#include <envkit/sun_split.h>
+#include <envkit/tables/sun_split.h>
 
 #include <algorithm>
 #include <chrono>

@@ -12,7 +12,7 @@
 /// 2. envkit::testmaps: helpers for distributions on the uv square: the reference texel probabilities of a weight
 ///    grid, exact expected counts over a grid of cells, the standard catalogue of test maps, and property checks
 ///    shared by the distribution tests (each returns an empty string on success, else what went wrong).
-#include <envkit/distribution.h>
+#include <envkit/sampling/distribution.h>
 
 #include <algorithm>
 #include <cmath>

@@ -1,10 +1,10 @@
 #pragma once
 // Shared by the prefilter tests: analytic test environments rasterised into
 // maps, and error measures.
-#include <envkit/cubemap.h>
-#include <envkit/envmap.h>
-#include <envkit/latlong.h>
-#include <envkit/texel_directions.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/maps/cubemap.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/maps/texel_directions.h>
 
 #include <cmath>
 #include <functional>

@@ -1,9 +1,9 @@
 #pragma once
 /// @file tables_support.h
 /// Test support: sampling tables baked from an analytic probe (header-only).
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
+#include <envkit/envmap/envmap.h>
 #include <envkit/probes.h>
+#include <envkit/tables/env_tables.h>
 
 #include <memory>
 

@@ -1,8 +1,8 @@
 // envbake: bakes importance-sampling tables (cdf, alias, sum pyramid, MIS-compensated) of an environment map
 // into a versioned table file that envsample, envinfo and envrender load.
-#include <envkit/atomic_file.h>
-#include <envkit/env_tables.h>
-#include <envkit/error.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/tables/env_tables.h>
 
 #include <chrono>
 #include <iostream>

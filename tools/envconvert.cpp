@@ -1,16 +1,16 @@
 // envconvert: converts an environment map between parameterizations, conventions and orientations.
 // A thin shell over libenv: load_envmap -> resample -> save_envmap, with checks up front and one-line errors.
-#include <envkit/atomic_file.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/filter.h>
-#include <envkit/image_io.h>
-#include <envkit/map_size.h>
-#include <envkit/param_factory.h>
-#include <envkit/resample.h>
-#include <envkit/solid_angle_table.h>
-#include <envkit/view.h>
-#include <envkit/view_spec.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/param_factory.h>
+#include <envkit/maps/solid_angle_table.h>
+#include <envkit/maps/view.h>
+#include <envkit/maps/view_spec.h>
+#include <envkit/resample/filter.h>
+#include <envkit/resample/map_size.h>
+#include <envkit/resample/resample.h>
 
 #include <algorithm>
 #include <cctype>

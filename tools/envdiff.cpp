@@ -1,8 +1,8 @@
 // envdiff: compares two environment maps of any parameterizations and conventions (envkit::compare_maps,
 // map_compare.h: B resampled onto A's texels, errors weighted by solid angle) and prints the result.
-#include <envkit/error.h>
-#include <envkit/filter.h>
-#include <envkit/map_compare.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/map_compare.h>
+#include <envkit/resample/filter.h>
 
 #include <cmath>
 #include <iostream>

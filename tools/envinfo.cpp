@@ -1,18 +1,18 @@
 // envinfo: describes an environment map: file, pixels, parameterization, power and value statistics.
 // Non-finite values are reported, never fatal: the map is read with NaN/Inf replaced by 0 and counted.
-#include <envkit/atomic_file.h>
-#include <envkit/distribution_pyramid.h>
-#include <envkit/env_tables.h>
-#include <envkit/error.h>
-#include <envkit/exr_cube_mips.h>
-#include <envkit/filter.h>
-#include <envkit/image_io.h>
-#include <envkit/ktx2.h>
-#include <envkit/map_stats.h>
-#include <envkit/resample.h>
-#include <envkit/solid_angle_table.h>
-#include <envkit/sun.h>
-#include <envkit/sun_split.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/map_stats.h>
+#include <envkit/envmap/sun.h>
+#include <envkit/ibl/exr_cube_mips.h>
+#include <envkit/ibl/ktx2.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/solid_angle_table.h>
+#include <envkit/resample/filter.h>
+#include <envkit/resample/resample.h>
+#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/tables/env_tables.h>
+#include <envkit/tables/sun_split.h>
 
 #include <algorithm>
 #include <cstring>

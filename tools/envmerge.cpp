@@ -3,15 +3,15 @@
 // and sampling density, with per-capture masks and exposures, and reports the
 // solid angle no capture sees. A thin shell over libenv's merge_captures
 // (merge.h).
-#include <envkit/atomic_file.h>
-#include <envkit/convention.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/image_io.h>
-#include <envkit/latlong.h>
-#include <envkit/merge.h>
-#include <envkit/view.h>
-#include <envkit/view_spec.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/envmap/merge.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/convention.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/maps/view.h>
+#include <envkit/maps/view_spec.h>
 
 #include <algorithm>
 #include <cmath>

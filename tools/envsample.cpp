@@ -1,11 +1,11 @@
 // envsample: draws directions from baked tables and writes them as CSV, or as a picture of where they land
 // on the lat-long image (the seed's "Resulting Sample Distribution" figure).
-#include <envkit/atomic_file.h>
-#include <envkit/env_tables.h>
-#include <envkit/error.h>
-#include <envkit/image_io.h>
-#include <envkit/latlong.h>
-#include <envkit/sampler.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/sampling/sampler.h>
+#include <envkit/tables/env_tables.h>
 
 #include <algorithm>
 #include <cmath>

@@ -4,7 +4,7 @@
 // own environment maps there is no x flip.
 
 // Shared display transform: exposure, Reinhard per channel (keeps a sun's reflection from clipping), sRGB encoding.
-// tests/test_viewer.cpp applies the same transform to envkit's own shading.
+// tests/tools/test_viewer.cpp applies the same transform to envkit's own shading.
 const display = /* glsl */ `
 uniform float exposure;
 vec3 display(vec3 radiance) {

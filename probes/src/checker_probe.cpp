@@ -1,6 +1,6 @@
 // Checkerboard of (theta, u) cells on the sphere.
-#include <envkit/error.h>
-#include <envkit/latlong.h>
+#include <envkit/core/error.h>
+#include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // L = constant.
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/probes.h>
 
 #include <cmath>

@@ -1,5 +1,5 @@
 // Sky gradients L = base + gain y^2 and L = base + gain max(y, 0).
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/probes.h>
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 // The built-in default probe: a procedural outdoor sky with sun, clouds, ground, silhouettes and markers.
-#include <envkit/latlong.h>
+#include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
-#include <envkit/sampler.h>
+#include <envkit/sampling/sampler.h>
 
 #include <algorithm>
 #include <cmath>

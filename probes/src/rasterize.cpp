@@ -7,10 +7,10 @@
 // recorded sparsely.
 // Pass 2 (serial, in row order): each feature's sampled solid angle is rescaled to its exact value, so the
 // map's flux of every feature is exact even for a sun far smaller than a texel.
-#include <envkit/error.h>
-#include <envkit/latlong.h>
+#include <envkit/core/error.h>
+#include <envkit/core/vec.h>
+#include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
-#include <envkit/vec.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 

@@ -1,5 +1,5 @@
 // A sun disk over a uniform sky.
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/probes.h>
 
 #include <cmath>

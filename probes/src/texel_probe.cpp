@@ -1,5 +1,5 @@
 // One texel of a map set to a value over a constant floor.
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/probes.h>
 
 #include <algorithm>

@@ -1,6 +1,6 @@
 #include "args.h"
 
-#include <envkit/request_limits.h>
+#include <envkit/io/request_limits.h>
 
 #include <cmath>
 #include <cstdio>

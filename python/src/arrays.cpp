@@ -1,7 +1,7 @@
 #include "arrays.h"
 
-#include <envkit/error.h>
-#include <envkit/image_io.h>
+#include <envkit/core/error.h>
+#include <envkit/io/image_io.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 

@@ -4,9 +4,9 @@
 /// without a copy (the numpy array keeps the C++ storage alive), direction
 /// arrays of any shape (..., 3) read as contiguous doubles, and the "<array>"
 /// name under which in-memory inputs appear in error messages.
-#include <envkit/clamp_report.h>
-#include <envkit/image.h>
-#include <envkit/vec.h>
+#include <envkit/core/clamp_report.h>
+#include <envkit/core/image.h>
+#include <envkit/core/vec.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 

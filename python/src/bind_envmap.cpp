@@ -2,19 +2,19 @@
 // geometry, statistics and comparison. Every method is the library call the
 // command-line tool makes (envconvert, envinfo, envdiff), so results are the
 // tools' results bit for bit.
-#include <envkit/convention.h>
-#include <envkit/error.h>
-#include <envkit/filter.h>
-#include <envkit/image_io.h>
-#include <envkit/map_compare.h>
-#include <envkit/map_size.h>
-#include <envkit/map_stats.h>
-#include <envkit/param_factory.h>
-#include <envkit/resample.h>
-#include <envkit/solid_angle_table.h>
-#include <envkit/sun.h>
-#include <envkit/texel_directions.h>
-#include <envkit/view_spec.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/map_compare.h>
+#include <envkit/envmap/map_stats.h>
+#include <envkit/envmap/sun.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/convention.h>
+#include <envkit/maps/param_factory.h>
+#include <envkit/maps/solid_angle_table.h>
+#include <envkit/maps/texel_directions.h>
+#include <envkit/maps/view_spec.h>
+#include <envkit/resample/filter.h>
+#include <envkit/resample/map_size.h>
+#include <envkit/resample/resample.h>
 #include <pybind11/stl.h>
 
 #include <atomic>

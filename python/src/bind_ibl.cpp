@@ -1,13 +1,13 @@
 // Real-time IBL from Python: the GGX radiance mip chain, the irradiance map, spherical harmonics and the DFG
 // lookup table, each the libenv call envprefilter makes (prefilter.h, sh.h, dfg.h), written through the same
 // writers (ibl_files.h), so arrays and files are envprefilter's bit for bit.
-#include <envkit/atomic_file.h>
-#include <envkit/dfg.h>
-#include <envkit/error.h>
-#include <envkit/ibl_files.h>
-#include <envkit/prefilter.h>
-#include <envkit/request_limits.h>
-#include <envkit/sh.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/ibl/dfg.h>
+#include <envkit/ibl/ibl_files.h>
+#include <envkit/ibl/prefilter.h>
+#include <envkit/ibl/sh.h>
+#include <envkit/io/request_limits.h>
 #include <pybind11/stl.h>
 
 #include <memory>

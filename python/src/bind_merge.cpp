@@ -1,10 +1,10 @@
 // envkit.merge: envmerge from Python. Partial captures (fisheye photographs, mirror balls, perspective views,
 // maps) merged into one lat-long by libenv's merge_captures, the call envmerge makes, so the result is
 // envmerge's bit for bit.
-#include <envkit/error.h>
-#include <envkit/image_io.h>
-#include <envkit/latlong.h>
-#include <envkit/merge.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/merge.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/latlong.h>
 #include <pybind11/stl.h>
 
 #include <memory>

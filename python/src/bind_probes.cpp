@@ -1,8 +1,8 @@
 // envkit.probes: the analytic environments of probes.h (closed-form power) and
 // their exact rasterization into any parameterization, as envprobe does.
-#include <envkit/convention.h>
-#include <envkit/error.h>
-#include <envkit/param_factory.h>
+#include <envkit/core/error.h>
+#include <envkit/maps/convention.h>
+#include <envkit/maps/param_factory.h>
 #include <envkit/probes.h>
 #include <pybind11/stl.h>
 

@@ -1,12 +1,12 @@
 // envkit.render: a scene (the default, a JSON file, or JSON text from a dict)
 // rendered with envrender's integrator; the mean image comes back as an H x W x
 // 3 float32 array (no copy).
-#include <envkit/env_sampling.h>
-#include <envkit/error.h>
+#include <envkit/core/error.h>
+#include <envkit/io/request_limits.h>
 #include <envkit/render/integrator.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
-#include <envkit/request_limits.h>
+#include <envkit/sampling/env_sampling.h>
 #include <pybind11/stl.h>
 
 #include "args.h"

@@ -2,9 +2,9 @@
 // sample / pdf / invert over arrays of any length. Each element is exactly
 // SphericalDistribution::sample / pdf / invert (what envsample and envrender
 // call), so results are bit-identical to the C++.
-#include <envkit/env_tables.h>
-#include <envkit/error.h>
-#include <envkit/request_limits.h>
+#include <envkit/core/error.h>
+#include <envkit/io/request_limits.h>
+#include <envkit/tables/env_tables.h>
 #include <pybind11/stl.h>
 
 #include <algorithm>

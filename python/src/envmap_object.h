@@ -3,8 +3,8 @@
 /// What a Python EnvMap holds: the libenv EnvMap plus what a later write() or
 /// resize() needs to know about how it was made (the cube layout it was read or
 /// converted with, the filter and source envconvert would record).
-#include <envkit/cubemap.h>
-#include <envkit/envmap.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/maps/cubemap.h>
 
 #include <optional>
 #include <string>

@@ -1,8 +1,8 @@
 // The _envkit extension: libenv, the probes and the renderer for Python (see
 // docs/PYTHON.md). The package envkit (python/envkit/__init__.py) re-exports
 // it.
-#include <envkit/error.h>
-#include <envkit/request_limits.h>
+#include <envkit/core/error.h>
+#include <envkit/io/request_limits.h>
 
 #include "bindings.h"
 

@@ -1,7 +1,7 @@
 #include "rotation_arg.h"
 
-#include <envkit/convention.h>
-#include <envkit/error.h>
+#include <envkit/core/error.h>
+#include <envkit/maps/convention.h>
 
 #include <cstdio>
 #include <string>

@@ -1,7 +1,7 @@
 #pragma once
 /// @file rotation_arg.h
 /// The rotate= argument of the bindings, read as the tools' --rotate reads its text.
-#include <envkit/vec.h>
+#include <envkit/core/vec.h>
 #include <pybind11/pybind11.h>
 
 namespace envkit::python {

@@ -1,7 +1,7 @@
 #include "view_args.h"
 
-#include <envkit/error.h>
-#include <envkit/view_spec.h>
+#include <envkit/core/error.h>
+#include <envkit/maps/view_spec.h>
 
 #include <cmath>
 #include <sstream>

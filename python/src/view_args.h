@@ -3,8 +3,8 @@
 /// Camera-view arguments of the bindings (perspective and fisheye maps): the options envconvert takes
 /// (--view-dir, --roll, --fov, --fov-axis, --lens) as keywords, or all of them at once as `view=` (the dict
 /// EnvMap.view returns, or the envkit:view metadata text), turned into libenv's ViewParams.
-#include <envkit/parameterization.h>
-#include <envkit/view.h>
+#include <envkit/maps/parameterization.h>
+#include <envkit/maps/view.h>
 #include <pybind11/pybind11.h>
 
 #include <optional>

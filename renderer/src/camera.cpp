@@ -1,4 +1,4 @@
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/render/camera.h>
 
 #include <cmath>

@@ -1,7 +1,7 @@
-#include <envkit/error.h>
-#include <envkit/param_factory.h>
+#include <envkit/core/error.h>
+#include <envkit/maps/param_factory.h>
 #include <envkit/render/env_light.h>
-#include <envkit/resample.h>
+#include <envkit/resample/resample.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 

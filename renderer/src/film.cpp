@@ -6,10 +6,10 @@
 #include <OpenEXR/ImfOutputPart.h>
 #include <OpenEXR/ImfPartType.h>
 #include <OpenEXR/ImfStringAttribute.h>
-#include <envkit/atomic_file.h>
-#include <envkit/color.h>
-#include <envkit/error.h>
-#include <envkit/image_io.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/io/color.h>
+#include <envkit/io/image_io.h>
 #include <envkit/render/film.h>
 
 #include <algorithm>

@@ -1,7 +1,7 @@
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/render/frame.h>
 #include <envkit/render/integrator.h>
-#include <envkit/sun_split.h>
+#include <envkit/tables/sun_split.h>
 
 #include <algorithm>
 #include <cmath>

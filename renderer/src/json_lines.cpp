@@ -1,7 +1,7 @@
 #include "json_lines.h"
 
-#include <envkit/error.h>
-#include <envkit/excerpt.h>
+#include <envkit/core/error.h>
+#include <envkit/core/excerpt.h>
 
 #include <algorithm>
 #include <iterator>

@@ -3,7 +3,7 @@
 /// Private helpers of the materials: isotropic GGX (Trowbridge-Reitz) distribution, Smith height-correlated
 /// masking-shadowing, visible-normal sampling (Heitz 2018), Fresnel equations, cosine hemisphere sampling.
 /// All directions in the local shading frame (z = normal). Every function is finite for every finite input.
-#include <envkit/vec.h>
+#include <envkit/core/vec.h>
 
 #include <algorithm>
 #include <cmath>

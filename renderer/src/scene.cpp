@@ -1,5 +1,5 @@
 #include <embree3/rtcore.h>
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/render/scene.h>
 
 #include <algorithm>

@@ -1,13 +1,13 @@
-#include <envkit/color.h>
-#include <envkit/convention.h>
-#include <envkit/error.h>
-#include <envkit/excerpt.h>
-#include <envkit/input_checks.h>
-#include <envkit/latlong.h>
+#include <envkit/core/error.h>
+#include <envkit/core/excerpt.h>
+#include <envkit/core/input_checks.h>
+#include <envkit/io/color.h>
+#include <envkit/io/request_limits.h>
+#include <envkit/maps/convention.h>
+#include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
 #include <envkit/render/material.h>
 #include <envkit/render/scene_loader.h>
-#include <envkit/request_limits.h>
 #include <tiny_obj_loader.h>
 
 #include <cmath>

@@ -8,7 +8,7 @@ JOB.json (written by scripts/bench/bench_cycles.py):
      "renders": [{"spp": 16, "seed": 1, "output": "/path/out.exr"}, ...], "timings": "/path/timings.json"}
 
 Geometry is given in envkit's world frame (+Y up) and moved to Blender's with Blender (x, y, z) = envkit
-(x, -z, y), the axis change of envkit's `blender` convention (libenv/include/envkit/convention.h), so that the
+(x, -z, y), the axis change of envkit's `blender` convention (libenv/maps/include/envkit/maps/convention.h), so that the
 HDRI loaded with Blender's default world mapping and the same file read by envrender with "convention":
 "blender" show the same sky in the same directions.
 

@@ -2,9 +2,9 @@
 // 8192x4096: build time, ns per sample / pdf / invert with independent random u, bytes per texel.
 //   bench_distribution --benchmark_filter=sample   (etc.)
 #include <benchmark/benchmark.h>
-#include <envkit/distribution_alias.h>
-#include <envkit/distribution_cdf.h>
-#include <envkit/distribution_pyramid.h>
+#include <envkit/sampling/distribution_alias.h>
+#include <envkit/sampling/distribution_cdf.h>
+#include <envkit/sampling/distribution_pyramid.h>
 
 #include <cmath>
 #include <cstdint>

@@ -4,9 +4,9 @@
 //   bench_env_sampling --benchmark_filter=Sample      (Sample: one sample() per call; SampleBatch: batched)
 //   bench_env_sampling --benchmark_filter='Bake|Load'
 #include <benchmark/benchmark.h>
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
-#include <envkit/latlong.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/tables/env_tables.h>
 #include <unistd.h>
 
 #include <cmath>

@@ -23,8 +23,8 @@
 // (tests/chi2.h: cells of expected count < 5 pooled; any sample in a zero-expectation cell fails).
 // Output: '#' comment lines, then a tab-separated table with a header row (machine-readable), on stdout;
 // progress on stderr.
-#include <envkit/distribution_cdf.h>
-#include <envkit/distribution_pyramid.h>
+#include <envkit/sampling/distribution_cdf.h>
+#include <envkit/sampling/distribution_pyramid.h>
 
 #include <algorithm>
 #include <chrono>

@@ -5,10 +5,10 @@
 //   bench_resample --benchmark_min_time=0.2   (Debian's Google Benchmark 1.7 wants a plain double)
 //   bench_resample --benchmark_filter=area
 #include <benchmark/benchmark.h>
-#include <envkit/cubemap.h>
-#include <envkit/latlong.h>
-#include <envkit/octahedral.h>
-#include <envkit/resample.h>
+#include <envkit/maps/cubemap.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/maps/octahedral.h>
+#include <envkit/resample/resample.h>
 
 #include <algorithm>
 #include <cmath>

@@ -17,9 +17,9 @@
 // counts (almost) nothing but the loop and runs the bake at un-instrumented speed. Running with N and 2N and
 // subtracting the totals gives the instructions per sample with the loop's fixed overheads removed.
 // Without valgrind it prints a checksum of the samples (so the loop cannot be optimised away) and the wall time.
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
-#include <envkit/latlong.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/tables/env_tables.h>
 
 #include <algorithm>
 #include <chrono>

@@ -8,7 +8,7 @@
 // kernel's THP mode is "always"), then with envkit::HugePageAllocator. On virtual machines a page that the guest
 // has handed back to the host (free page reporting) costs a host fault on its next first touch: the first repeat
 // after an idle pause is slower than the next ones.
-#include <envkit/huge_page_allocator.h>
+#include <envkit/core/huge_page_allocator.h>
 
 #include <chrono>
 #include <cstdio>

@@ -10,8 +10,8 @@
 //
 // Prints "<seconds> <megabytes of float pixels>"; the script turns the pair into MB/s.
 #include <OpenImageIO/imageio.h>
-#include <envkit/image.h>
-#include <envkit/image_io.h>
+#include <envkit/core/image.h>
+#include <envkit/io/image_io.h>
 
 #include <chrono>
 #include <cstdio>

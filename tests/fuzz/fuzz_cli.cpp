@@ -17,16 +17,16 @@
 // are absent (the built-in default scene bakes a 1024x512 probe: inputs giving an empty --scene, which means the
 // default scene too, are skipped), and inputs asking for more than a few samples are skipped (envrender_too_costly).
 // See tests/fuzz/README.md.
-#include <envkit/envmap.h>
-#include <envkit/image.h>
+#include <envkit/core/image.h>
+#include <envkit/envmap/envmap.h>
 
 #include "fuzz_support.h"
-#if __has_include(<envkit/env_tables.h>)
-#include <envkit/env_tables.h>
+#if __has_include(<envkit/tables/env_tables.h>)
+#include <envkit/tables/env_tables.h>
 #define ENVKIT_FUZZ_HAVE_TABLES 1
 #endif
-#include <envkit/image_io.h>
-#include <envkit/latlong.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/latlong.h>
 #include <sys/stat.h>
 #include <unistd.h>
 

@@ -4,8 +4,8 @@
 // decoded; PFM headers ("PF"/"Pf") are parsed and the bytes after them decoded when they are enough. Every failure must
 // be an envkit::Error naming the file ("fuzz.hdr: ..."); a decoded image must have the header's size and only finite,
 // non-negative (Radiance) values. Anything else is a finding.
-#include <envkit/error.h>
-#include <envkit/image_codecs.h>
+#include <envkit/core/error.h>
+#include <envkit/io/image_codecs.h>
 
 #include <cmath>
 #include <cstdint>

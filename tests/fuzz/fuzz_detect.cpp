@@ -16,11 +16,11 @@
 // direction for a few texels), so the parameterization the detection produced is exercised, not just built.
 // Every failure must be an envkit::Error whose message names the path (image_io.h: "<path>: <problem>");
 // anything else is a finding (__builtin_trap after printing it).
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/image_io.h>
-#include <envkit/latlong.h>
-#include <envkit/resample.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/io/image_io.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/resample/resample.h>
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-// libFuzzer target: envkit's PNG reader (libpng, libenv/src/image_io_png.cpp) on raw bytes, then the writer.
+// libFuzzer target: envkit's PNG reader (libpng, libenv/io/src/image_io_png.cpp) on raw bytes, then the writer.
 //
 // The input is the file, with PNG's signature put over its first 8 bytes (so that every input reaches libpng, not
 // the OpenImageIO module that read_image uses for other files). It is read with read_image (small size limits: 1024 per
@@ -6,8 +6,8 @@
 // Every failure must be an envkit::Error whose message names the path, on one line; anything else is a finding
 // (__builtin_trap after printing it). libpng's errors arrive through longjmp, so this is also where a broken setjmp
 // discipline shows.
-#include <envkit/error.h>
-#include <envkit/image_io.h>
+#include <envkit/core/error.h>
+#include <envkit/io/image_io.h>
 
 #include <algorithm>
 #include <cstdint>

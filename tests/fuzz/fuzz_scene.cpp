@@ -5,7 +5,7 @@
 // Anything else (another exception type, a crash, a sanitizer report) is a finding.
 // Cost limit: inputs with a number above 512 (or an exponent, or 0x) are skipped, so probe sizes and camera
 // resolutions stay small; meshes named by the input cannot escape the scratch directory (no '/' or '..').
-#include <envkit/error.h>
+#include <envkit/core/error.h>
 #include <envkit/render/scene_loader.h>
 
 #include <cctype>

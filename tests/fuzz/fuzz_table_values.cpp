@@ -10,11 +10,11 @@
 // Byte 0 chooses the file (even: 16 x 8, every method and the compensated twins; odd: a stored sun split), then
 // records of 7 bytes, up to 16: section index (mod the section count), value kind, byte offset
 // (uint32 little endian, mod the section size, rounded down to the value's alignment), one spare byte of raw bits.
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/latlong.h>
-#include <envkit/sun_split.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/tables/env_tables.h>
+#include <envkit/tables/sun_split.h>
 
 #include <cfloat>
 #include <cmath>

@@ -1,4 +1,4 @@
-// libFuzzer target: the table-file loader (EnvTables::load, libenv/src/env_tables_file.cpp).
+// libFuzzer target: the table-file loader (EnvTables::load, libenv/tables/src/env_tables_file.cpp).
 //
 // Input: the bytes of a table file. They are written to a scratch file and loaded; a load must either throw
 // envkit::Error naming the file, or give tables whose distributions can be sampled (a few samples and pdf lookups
@@ -6,10 +6,10 @@
 // Seed: with ENVKIT_FUZZ_WRITE_SEED=<path> the target bakes a small valid table file (16x8 lat-long, every
 // method, compensated twins) to <path> and exits; scripts/fuzz.sh does this before fuzzing, so the seed always
 // has the current format version.
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/latlong.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/tables/env_tables.h>
 
 #include <cmath>
 #include <cstdint>

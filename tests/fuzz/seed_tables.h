@@ -4,10 +4,10 @@
 /// lat-long with one bright texel, every method and the compensated twins; one with a stored sun split), writing an
 /// input to the scratch directory, and the contract of a load (an envkit::Error naming the file, or tables that pass
 /// the caller's checks; anything else is a finding).
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/latlong.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/tables/env_tables.h>
 
 #include <cstdio>
 #include <exception>

@@ -1,6 +1,6 @@
 // Reads a DDS file with the independent parse-dds package and prints what it found as JSON (format, cube flag,
 // size, and each face's and level's byte offset, length and size, faces outermost), for
-// tests/test_prefilter_containers.cpp to check. parse-dds reads float RGBA (DXGI R32G32B32A32_FLOAT) cubes.
+// tests/ibl/test_prefilter_containers.cpp to check. parse-dds reads float RGBA (DXGI R32G32B32A32_FLOAT) cubes.
 import { readFileSync } from 'node:fs';
 import parse from 'parse-dds';
 

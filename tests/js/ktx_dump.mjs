@@ -1,6 +1,6 @@
 // Reads a KTX2 file with the independent ktx-parse package and prints what it found as JSON (header, data format
 // descriptor, key/value data, level byte offsets and the level data as little-endian words), for
-// tests/test_prefilter_containers.cpp to check.
+// tests/ibl/test_prefilter_containers.cpp to check.
 import { readFileSync } from 'node:fs';
 import { read } from 'ktx-parse';
 

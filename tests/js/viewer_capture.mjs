@@ -1,4 +1,4 @@
-// Opens the viewer (web/) in Debian's headless Chromium and saves what its canvas shows, for tests/test_viewer.cpp.
+// Opens the viewer (web/) in Debian's headless Chromium and saves what its canvas shows, for tests/tools/test_viewer.cpp.
 // No browser download and no driver package: Chromium is driven over its DevTools protocol on a pipe
 // (--remote-debugging-pipe: commands on fd 3, replies on fd 4, NUL-separated JSON), and the files are served on
 // 127.0.0.1 by web/serve.mjs.

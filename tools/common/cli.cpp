@@ -1,17 +1,17 @@
 #include "common/cli.h"
 
-#include <envkit/atomic_file.h>
-#include <envkit/color.h>
-#include <envkit/convention.h>
-#include <envkit/cubemap.h>
-#include <envkit/env_sampling.h>
-#include <envkit/error.h>
-#include <envkit/excerpt.h>
-#include <envkit/filter.h>
-#include <envkit/image_io.h>
-#include <envkit/parameterization.h>
-#include <envkit/request_limits.h>
-#include <envkit/view.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/core/excerpt.h>
+#include <envkit/io/color.h>
+#include <envkit/io/image_io.h>
+#include <envkit/io/request_limits.h>
+#include <envkit/maps/convention.h>
+#include <envkit/maps/cubemap.h>
+#include <envkit/maps/parameterization.h>
+#include <envkit/maps/view.h>
+#include <envkit/resample/filter.h>
+#include <envkit/sampling/env_sampling.h>
 #include <unistd.h>
 
 #include <algorithm>

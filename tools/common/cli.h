@@ -2,7 +2,7 @@
 /// @file cli.h
 /// What every envkit command-line tool shares: exit codes, one-line messages prefixed by the program name,
 /// CLI11 validators backed by libenv's own parsers (so the error text is libenv's), and the thread limit.
-#include <envkit/vec.h>
+#include <envkit/core/vec.h>
 #include <tbb/global_control.h>
 
 #include <CLI/CLI.hpp>

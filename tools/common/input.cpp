@@ -1,6 +1,6 @@
 #include "common/input.h"
 
-#include <envkit/cubemap.h>
+#include <envkit/maps/cubemap.h>
 
 #include "common/cli.h"
 

@@ -2,7 +2,7 @@
 /// @file input.h
 /// Reading an environment map the way every tool does: the same detection and the same user-facing lines
 /// about what was assumed and what was found in the pixels.
-#include <envkit/envmap.h>
+#include <envkit/envmap/envmap.h>
 
 #include <nlohmann/json.hpp>
 #include <optional>

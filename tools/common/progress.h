@@ -1,7 +1,7 @@
 #pragma once
 /// @file progress.h
 /// A one-line progress bar with percentage and ETA on stderr, fed by libenv's ProgressFn.
-#include <envkit/resample.h>
+#include <envkit/resample/resample.h>
 
 #include <chrono>
 #include <cstddef>

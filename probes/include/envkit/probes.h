@@ -18,9 +18,9 @@
 /// with background_may_vary) plus a few small *features* (a sun disk, one texel of a map): regions of known
 /// exact solid angle that add a constant excess radiance. The rasterizer conserves each feature's flux exactly,
 /// however small the feature is relative to the texels.
-#include <envkit/image.h>
-#include <envkit/parameterization.h>
-#include <envkit/vec.h>
+#include <envkit/core/image.h>
+#include <envkit/core/vec.h>
+#include <envkit/maps/parameterization.h>
 
 #include <cstdint>
 #include <memory>

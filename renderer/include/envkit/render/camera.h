@@ -3,7 +3,7 @@
 /// Pinhole look-at camera. World frame: envkit's (+Y up, right-handed). fov is the VERTICAL field of view in
 /// degrees; the image has `width` x `height` pixels, pixel (x, y) covers [x, x+1) x [y, y+1) with row 0 at the
 /// top. Image x grows to the camera's right = forward x up.
-#include <envkit/vec.h>
+#include <envkit/core/vec.h>
 
 namespace envkit::render {
 

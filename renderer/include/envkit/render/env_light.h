@@ -13,11 +13,11 @@
 /// that the importance does not cover). When the distribution is that grid, light samples use their drawn
 /// texel directly; when it is coarser (baked with --resolution), each distribution texel covers several
 /// radiance texels (L / pdf is then constant per radiance texel) and radiance is looked up by direction.
-#include <envkit/env_sampling.h>
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
-#include <envkit/huge_page_allocator.h>
-#include <envkit/vec.h>
+#include <envkit/core/huge_page_allocator.h>
+#include <envkit/core/vec.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/sampling/env_sampling.h>
+#include <envkit/tables/env_tables.h>
 
 #include <memory>
 #include <string>

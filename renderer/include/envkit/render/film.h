@@ -2,8 +2,8 @@
 /// @file film.h
 /// Per-pixel accumulation of radiance samples (double), and the outputs: the mean (linear Rec.709 radiance),
 /// the variance OF THE MEAN per channel (sample variance / n, unbiased, 0 when n < 2) and the sample count.
-#include <envkit/image.h>
-#include <envkit/vec.h>
+#include <envkit/core/image.h>
+#include <envkit/core/vec.h>
 
 #include <cstdint>
 #include <map>

@@ -5,7 +5,7 @@
 ///
 /// Local coordinates: x = s (tangent), y = t (bitangent), z = n (the shading normal), right-handed (s x t = n).
 /// BSDFs work in this frame: cos theta of a local direction is its z component.
-#include <envkit/vec.h>
+#include <envkit/core/vec.h>
 
 #include <cmath>
 

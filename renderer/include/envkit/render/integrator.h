@@ -40,14 +40,14 @@
 /// Delta lobes (perfect mirror): no light sample can hit them, so every strategy follows them by BSDF sampling
 /// with weight 1 (pure-delta materials take exactly one BSDF sample, whatever N and M say).
 /// No NaN or Inf leaves radiance(): a non-finite estimate (never expected) is replaced by 0 and counted.
-#include <envkit/env_sampling.h>
-#include <envkit/lobe_product.h>
 #include <envkit/render/camera.h>
 #include <envkit/render/env_light.h>
 #include <envkit/render/frame.h>
 #include <envkit/render/sampler.h>
 #include <envkit/render/scene.h>
-#include <envkit/sun_split.h>
+#include <envkit/sampling/env_sampling.h>
+#include <envkit/sampling/lobe_product.h>
+#include <envkit/tables/sun_split.h>
 
 #include <array>
 #include <atomic>

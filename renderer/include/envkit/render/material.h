@@ -36,7 +36,7 @@
 ///   Sampling: one lobe chosen with u_lobe, specular with probability F(cos_o) / (F(cos_o) + (1 - F(cos_o))
 ///   mean(diffuse)) (the estimated albedos), pdf = the mixture pdf.
 /// - mirror: a delta lobe wi = (-wo.x, -wo.y, wo.z) with constant reflectance (no Fresnel).
-#include <envkit/vec.h>
+#include <envkit/core/vec.h>
 
 #include <memory>
 

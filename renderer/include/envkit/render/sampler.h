@@ -1,7 +1,7 @@
 #pragma once
 /// @file sampler.h
-/// The renderer's sampler is libenv's Owen-scrambled Sobol sampler (envkit/sampler.h), shared with envsample.
-#include <envkit/sampler.h>
+/// The renderer's sampler is libenv's Owen-scrambled Sobol sampler (envkit/sampling/sampler.h), shared with envsample.
+#include <envkit/sampling/sampler.h>
 
 namespace envkit::render {
 using Sampler = envkit::OwenSobolSampler;

@@ -7,9 +7,9 @@
 /// Surfaces are two-sided: Hit::geometric_normal is the outward normal of the shape (sphere: away from the
 /// centre; triangle: (v1 - v0) x (v2 - v0), counter-clockwise winding seen from the front); the integrator flips it
 /// to the side of the viewer.
+#include <envkit/core/vec.h>
 #include <envkit/render/camera.h>
 #include <envkit/render/material.h>
-#include <envkit/vec.h>
 
 #include <array>
 #include <memory>

@@ -6,11 +6,11 @@
 /// "scene.json:14: shapes[2].material: unknown material 'gold' (defined: ground, red)". Malformed JSON reports
 /// the parser's line. Unknown keys, unknown material types and names, missing or unreadable meshes, degenerate
 /// triangles, a camera inside geometry and missing or stale table files (unless bake) are errors.
-#include <envkit/env_tables.h>
-#include <envkit/envmap.h>
+#include <envkit/envmap/envmap.h>
 #include <envkit/render/camera.h>
 #include <envkit/render/env_light.h>
 #include <envkit/render/scene.h>
+#include <envkit/tables/env_tables.h>
 
 #include <memory>
 #include <string>

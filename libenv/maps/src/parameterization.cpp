@@ -1,0 +1,80 @@
+#include <envkit/core/error.h>
+#include <envkit/maps/parameterization.h>
+
+#include <algorithm>
+#include <cctype>
+
+namespace envkit {
+
+std::string kind_name(Kind kind) {
+  switch (kind) {
+    case Kind::LatLong:
+      return "latlong";
+    case Kind::MirrorBall:
+      return "mirrorball";
+    case Kind::AngularMap:
+      return "angular";
+    case Kind::CubeMap:
+      return "cube";
+    case Kind::Octahedral:
+      return "octahedral";
+    case Kind::DualParaboloid:
+      return "paraboloid";
+    case Kind::HEALPix:
+      return "healpix";
+    case Kind::Perspective:
+      return "perspective";
+    case Kind::Fisheye:
+      return "fisheye";
+  }
+  return "unknown";
+}
+
+Kind parse_kind(const std::string& name) {
+  std::string n = name;
+  std::transform(n.begin(), n.end(), n.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (n == "latlong" || n == "latlon" || n == "equirect" || n == "equirectangular" || n == "spherical")
+    return Kind::LatLong;
+  if (n == "mirrorball" || n == "ball" || n == "chrome" || n == "mirror") return Kind::MirrorBall;
+  if (n == "angular" || n == "angmap" || n == "lightprobe" || n == "probe") return Kind::AngularMap;
+  if (n == "cube" || n == "cubemap") return Kind::CubeMap;
+  if (n == "octahedral" || n == "octa" || n == "octahedron") return Kind::Octahedral;
+  if (n == "paraboloid" || n == "dualparaboloid" || n == "dual-paraboloid") return Kind::DualParaboloid;
+  if (n == "healpix" || n == "hpx") return Kind::HEALPix;
+  if (n == "perspective" || n == "pinhole" || n == "rectilinear") return Kind::Perspective;
+  if (n == "fisheye") return Kind::Fisheye;
+  throw Error("unknown parameterization '" + name +
+              "' (expected latlong, mirrorball, angular, cube, octahedral, paraboloid, healpix, perspective or "
+              "fisheye)");
+}
+
+bool Parameterization::same_grid(const Parameterization&) const { return false; }
+
+bool Parameterization::clamp_tap(int& i, int& j) const {
+  if (width_ <= 0 || height_ <= 0) return false;
+  i = std::clamp(i, 0, width_ - 1);
+  j = std::clamp(j, 0, height_ - 1);
+  return true;
+}
+
+double Parameterization::solid_angle_density(Vec2 pos) const {
+  const double h = 1e-3;
+  return solid_angle(pos.x - h, pos.y - h, pos.x + h, pos.y + h) / (4.0 * h * h);
+}
+
+bool Parameterization::covered_point(int i, int j, Vec2& pos) const {
+  Vec3 dir;
+  pos = Vec2(i + 0.5, j + 0.5);
+  if (to_direction(pos, dir)) return true;
+  for (int n : {4, 16, 64})
+    for (int b = 0; b < n; ++b)
+      for (int a = 0; a < n; ++a) {
+        pos = Vec2(i + (a + 0.5) / n, j + (b + 0.5) / n);
+        if (to_direction(pos, dir)) return true;
+      }
+  return false;
+}
+
+bool Parameterization::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const { return clamp_tap(i, j); }
+
+}  // namespace envkit

@@ -1,0 +1,72 @@
+#pragma once
+// Pieces shared by the resampling algorithms (resample.cpp: point filters and the area gather;
+// resample_scatter.cpp: the area scatter). Private to libenv.
+#include <envkit/maps/solid_angle_table.h>
+#include <envkit/resample/filter.h>
+#include <envkit/resample/resample.h>
+
+#include <atomic>
+#include <cstddef>
+#include <mutex>
+#include <utility>
+#include <vector>
+
+namespace envkit::detail {
+
+/// Reports progress in steps of about 1% from whichever worker crosses a step.
+class ProgressCounter {
+ public:
+  ProgressCounter(const ProgressFn& fn, std::size_t total) : fn_(fn), total_(total > 0 ? total : 1) {}
+  void add(std::size_t n);
+
+ private:
+  const ProgressFn& fn_;
+  std::size_t total_;
+  std::atomic<std::size_t> done_{0};
+  std::mutex mutex_;
+};
+
+struct OutputLayout {
+  int channels = 0;  // output channels
+  int alpha = -1;    // output alpha index
+  bool add_coverage = false;
+};
+
+OutputLayout output_layout(const Image& src, const TexelSource& source);
+Image make_output(const Image& src, const Parameterization& dst, const OutputLayout& o);
+
+/// The source texel that covers exactly the region of the sphere output texel (i, j) covers, as an index into the
+/// source image, or -1. That is the case where the two grids coincide up to a permutation of whole texels (a
+/// shift, quarter turns and flips: rotations by whole texels, convention changes, cube layout changes), and then
+/// the exact area average over the output texel is the source texel's value. `centre_pos` is the source position
+/// of the output texel's centre: any output texel whose centre is not a source texel centre is rejected at once.
+std::ptrdiff_t coincident_source_texel(const Parameterization& src, const Parameterization& dst, const Mat3& dst_to_src,
+                                       bool rotate, int i, int j, Vec2 centre_pos);
+
+/// Output texels that take a source texel's value as it is: (output texel, source texel) indices.
+using TexelCopies = std::vector<std::pair<std::size_t, std::size_t>>;
+/// Writes each copied texel's source value (every channel; coverage 1 where the output adds coverage).
+void apply_texel_copies(const Image& src, const TexelCopies& copies, const OutputLayout& o, Image& out);
+
+/// The whole source, texel for texel, for a destination with the same grid under the identity.
+Image copy_same_grid(const Image& src, const Parameterization& param, const OutputLayout& o);
+
+/// Texels that are both far brighter than the mean and carry a real share of a channel's power (sorted indices).
+std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,
+                                         double contrast, const std::vector<double>& power);
+
+/// Corner-sampled outputs (OpenEXR's lat-long and cube) hold texels twice: a lat-long's first and last columns,
+/// and a cube's edge texels, which lie on the cube's edges and corners and belong to two or three faces. Each
+/// copy covers only its own side of the texel's cell, so an area filter that integrates per copy gives twins
+/// different values (a seam). This gives every twin the solid-angle weighted mean of its copies: the average
+/// over the whole cell, total power unchanged. No-op for centre-sampled and other parameterizations.
+void merge_twin_texels(const Parameterization& dst, const SolidAngleTable& omega, Image& out);
+
+/// Adds the flux of each hot texel to `out`: the texel is cut into sub-cells with exact solid angles and each
+/// sub-cell's flux L x omega goes to the output texel that sees it (divided by that texel's solid angle), so their
+/// power is conserved to round-off whatever their size. Deterministic (serial accumulation in a fixed order).
+void splat_hot_texels(const MapRef& src, const std::vector<std::size_t>& hot, const SolidAngleTable& src_omega,
+                      const Parameterization& dst, const SolidAngleTable& dst_omega, const Mat3& dst_to_src,
+                      Image& out);
+
+}  // namespace envkit::detail

@@ -1,0 +1,307 @@
+// The `area` filter's scatter (see resample.h): for shrinking, each source texel is read once and its flux is
+// spread over the output texels that a square of its solid angle, centred on its projection, overlaps.
+#include <envkit/core/huge_page_allocator.h>
+#include <envkit/maps/latlong.h>
+#include <envkit/maps/texel_directions.h>
+#include <tbb/blocked_range.h>
+#include <tbb/concurrent_queue.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "resample_common.h"
+
+namespace envkit::detail {
+
+namespace {
+
+/// A source texel's square is at most this many output texels wide (a rim texel of a mirror-ball output can
+/// see a whole source texel's worth of directions); its flux is still conserved, spread over the capped square.
+constexpr double kMaxSideInTexels = 8.0;
+constexpr int kMaxSplatCellsPerAxis = static_cast<int>(kMaxSideInTexels) + 2;
+/// The source is cut into chunks of at most this many rows. Chunks are projected in parallel into runs of
+/// contributions (oneTBB parallel_pipeline), and the runs are added to the one accumulator serially, in row order: the
+/// sums do not depend on the number of threads, and the memory is one output-sized accumulator plus the chunks in
+/// flight. Chunk size depends on the source width only (never on the thread count, which would change the runs and
+/// so the float sums), and the chunks in flight are capped by a scratch budget, so scratch memory is bounded
+/// independently of the core count.
+constexpr int kMaxRowsPerChunk = 8;
+constexpr std::size_t kChunkBytes = std::size_t(8) << 20;
+constexpr std::size_t kScratchBytes = std::size_t(64) << 20;
+/// Float accumulators hold a handful of runs per output texel to float precision; past this many source texels per
+/// output texel (on average) the sums are kept in double.
+constexpr double kFloatAccumulationMaxRatio = 64.0;
+
+/// Output pixels per radian along x and y for each row of a lat-long output, whose texels are far from square near
+/// the poles (a parallel's texels are narrow there): a source texel's square is stretched accordingly. Empty for
+/// other outputs, whose texels are close enough to square.
+struct RowScales {
+  std::vector<double> x, y;
+};
+
+RowScales latlong_row_scales(const Parameterization& dst) {
+  RowScales r;
+  const auto* ll = dynamic_cast<const LatLongMap*>(&dst);
+  if (!ll) return r;
+  const int H = dst.height();
+  r.x.resize(H);
+  r.y.resize(H);
+  for (int j = 0; j < H; ++j) {
+    const Vec2 a = ll->domain_from_image(Vec2(0.0, j)), b = ll->domain_from_image(Vec2(1.0, j + 1.0));
+    const double v = std::clamp(0.5 * (a.y + b.y), 0.0, 1.0);
+    r.x[j] = 1.0 / std::max(LatLongMap::kRadiansPerU * (b.x - a.x) * std::sin(LatLongMap::polar_angle(v)), 1e-300);
+    r.y[j] = 1.0 / (LatLongMap::kRadiansPerV * (b.y - a.y));
+  }
+  return r;
+}
+
+/// Fraction of [lo, hi) inside cell [c, c + 1), for each cell the interval touches; returns the first cell.
+inline int overlaps(double lo, double hi, double* fraction, int& count) {
+  const int first = static_cast<int>(std::floor(lo));
+  if (hi <= first + 1.0) {  // inside one cell
+    fraction[0] = 1.0;
+    count = 1;
+    return first;
+  }
+  const double inverse = 1.0 / (hi - lo);
+  if (hi <= first + 2.0) {  // across one cell edge: the usual case when shrinking
+    fraction[0] = (first + 1.0 - lo) * inverse;
+    fraction[1] = 1.0 - fraction[0];
+    count = 2;
+    return first;
+  }
+  count = 0;
+  for (int c = first; c < hi; ++c) fraction[count++] = (std::min(hi, c + 1.0) - std::max(lo, double(c))) * inverse;
+  return first;
+}
+
+/// Slots of a chunk's accumulator (a power of two). A source row revisits the output texels the row above it
+/// reached, some thousands of them across four cube faces at 8k -> 1024: the slots hold about two rows' worth, so
+/// most contributions are summed in the slot (in cache) and each output texel leaves a chunk a few times at most.
+constexpr int kSlotBits = 14;
+
+/// Contributions of a chunk of source rows, summed in double (a whole polar row can land in one output texel) per
+/// output texel: first in a direct-mapped accumulator of slots, keyed by output texel, then as runs (a texel whose
+/// slot is taken by another leaves its sum as a run, as does every slot at the chunk's end). The runs depend only on
+/// the chunk's texels, never on the thread that projected it.
+struct Chunk {
+  int first_row = 0, end_row = 0;
+  std::vector<std::size_t> cells;      // output texel of each run
+  std::vector<double> sums;            // per run: C flux-weighted channel sums, then the weight
+  std::vector<std::size_t> slot_cell;  // output texel held by each slot, kEmpty when none
+  std::vector<double> slot_sums;       // per slot: as sums
+  static constexpr std::size_t kEmpty = std::size_t(-1);
+
+  void start(int first, int end, int stride) {
+    first_row = first;
+    end_row = end;
+    cells.clear();
+    sums.clear();
+    slot_cell.assign(std::size_t(1) << kSlotBits, kEmpty);
+    slot_sums.resize(slot_cell.size() * stride);
+  }
+  /// The sums of output texel `cell` (C channel sums, then the weight), zero the first time.
+  double* sums_of(std::size_t cell, int stride) {
+    const std::size_t slot = (cell * 0x9E3779B97F4A7C15ull) >> (64 - kSlotBits);
+    double* held = slot_sums.data() + slot * stride;
+    if (slot_cell[slot] != cell) {
+      if (slot_cell[slot] != kEmpty) emit(slot_cell[slot], held, stride);
+      slot_cell[slot] = cell;
+      std::fill_n(held, stride, 0.0);
+    }
+    return held;
+  }
+  /// Moves what the slots hold into the runs, in slot order.
+  void flush(int stride) {
+    for (std::size_t slot = 0; slot < slot_cell.size(); ++slot)
+      if (slot_cell[slot] != kEmpty) emit(slot_cell[slot], slot_sums.data() + slot * stride, stride);
+  }
+
+ private:
+  void emit(std::size_t cell, const double* value, int stride) {
+    cells.push_back(cell);
+    sums.insert(sums.end(), value, value + stride);
+  }
+};
+
+template <class Real>
+void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const SolidAngleTable& src_omega,
+                           const SolidAngleTable& dst_omega, const std::vector<std::size_t>& hot,
+                           const Mat3& dst_to_src, ProgressCounter& progress, Image& out) {
+  const Image& img = s.image;
+  const Parameterization& sp = s.param;
+  const int C = img.channels, W = img.width, H = img.height;
+  const int DW = dst.width(), DH = dst.height();
+  const Mat3 src_to_dst = transposed(dst_to_src);
+  const bool rotate = !is_identity(src_to_dst);
+  const TexelDirections directions(sp);
+  const RowScales row_scales = latlong_row_scales(dst);
+  // 1 / sqrt(omega) of each output texel: a source texel's square is sqrt(omega_s) times that on a side.
+  FloatBuffer inverse_side;
+  if (row_scales.x.empty()) {
+    inverse_side.resize(std::size_t(DW) * std::size_t(DH));
+    tbb::parallel_for(0, DH, [&](int j) {
+      for (int i = 0; i < DW; ++i) {
+        const double omega = dst_omega(i, j);
+        inverse_side[std::size_t(j) * DW + i] = omega > 0.0 ? static_cast<float>(1.0 / std::sqrt(omega)) : 0.0f;
+      }
+    });
+  }
+  // Lat-long texels of a row share one solid angle but the first and last of a corner-sampled grid.
+  const bool omega_per_row = sp.kind() == Kind::LatLong && W > 2;
+  const int stride = C + 1;
+
+  // Stage 2 of the pipeline: project a chunk's texels and spread each one's flux over the output texels its
+  // square overlaps, summed per output texel in the chunk's slots and handed on as runs.
+  const auto project = [&](Chunk& chunk) {
+    double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
+    Parameterization::TapBlock block;  // the anchor's, kept while the anchor stays in it
+    for (int j = chunk.first_row; j < chunk.end_row; ++j) {
+      // Hot texels (splatted exactly afterwards) still give their weight here, with zero colour.
+      auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
+      const double row_omega = omega_per_row ? src_omega(1, j) : 0.0;
+      for (int i = 0; i < W; ++i) {
+        const std::size_t index = std::size_t(j) * W + i;
+        const bool is_hot = next_hot != hot.end() && *next_hot == index;
+        if (is_hot) ++next_hot;
+        const double omega_s = omega_per_row && i > 0 && i < W - 1 ? row_omega : src_omega(i, j);
+        Vec3 d;
+        if (omega_s <= 0.0 || !directions.centre(i, j, d)) continue;
+        const double root_omega_s = std::sqrt(omega_s);
+        const Vec2 p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
+        if (p.x < 0.0 || p.y < 0.0 || p.x > DW || p.y > DH) continue;  // outside a camera view
+        const int ti = std::clamp(static_cast<int>(p.x), 0, DW - 1);
+        const int tj = std::clamp(static_cast<int>(p.y), 0, DH - 1);
+        // The source texel's square, sqrt(omega_s) on a side, in output pixels (stretched on lat-long rows).
+        double width, height;
+        if (!row_scales.x.empty()) {
+          width = std::min(root_omega_s * row_scales.x[tj], kMaxSideInTexels);
+          height = std::min(root_omega_s * row_scales.y[tj], kMaxSideInTexels);
+        } else {
+          const double inverse = inverse_side[std::size_t(tj) * DW + ti];
+          width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
+        }
+        const float* px = img.pixels.data() + index * C;
+        if (!block.holds(ti, tj)) block = dst.tap_block(ti, tj);
+        const auto add = [&](int ci, int cj, double w) {
+          if (!block.holds(ci, cj) && !dst.resolve(ti, tj, ci, cj)) return;
+          double* run = chunk.sums_of(std::size_t(cj) * DW + ci, stride);
+          for (int c = 0; c < C; ++c)
+            if (!is_hot || c == img.alpha_channel) run[c] += w * px[c];
+          run[C] += w;
+        };
+        const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
+        if (x0 >= ti && y0 >= tj && x0 + width <= ti + 1 && y0 + height <= tj + 1) {
+          add(ti, tj, omega_s);  // the common case: the square lies inside one output texel
+          continue;
+        }
+        int nx, ny;
+        const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
+        for (int b = 0; b < ny; ++b)
+          for (int a = 0; a < nx; ++a)
+            if (fx[a] * fy[b] > 0.0) add(cx + a, cy + b, omega_s * fx[a] * fy[b]);
+      }
+    }
+    chunk.flush(stride);
+  };
+
+  // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
+  std::vector<Real, UninitialisedAllocator<Real>> sum(std::size_t(DW) * std::size_t(DH) * stride);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sum.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::fill(sum.begin() + r.begin(), sum.begin() + r.end(), Real(0));
+  });
+  int next_row = 0;
+  // Chunks are recycled: fresh buffers per chunk would page-fault all over again. A chunk's runs are at most one
+  // per contribution, and in practice about one per output texel the chunk reaches.
+  std::vector<std::unique_ptr<Chunk>> chunks;
+  tbb::concurrent_queue<Chunk*> free_chunks;
+  const std::size_t row_bytes = std::size_t(W) * (sizeof(std::size_t) + sizeof(double) * stride);
+  const int rows_per_chunk =
+      static_cast<int>(std::clamp<std::size_t>(kChunkBytes / std::max<std::size_t>(row_bytes, 1), 1, kMaxRowsPerChunk));
+  const std::size_t chunk_bytes =
+      row_bytes * rows_per_chunk + (std::size_t(1) << kSlotBits) * (sizeof(std::size_t) + sizeof(double) * stride);
+  const std::size_t tokens = std::clamp<std::size_t>(
+      kScratchBytes / chunk_bytes, 2,
+      std::max<std::size_t>(2, 4 * static_cast<std::size_t>(tbb::this_task_arena::max_concurrency())));
+  tbb::parallel_pipeline(
+      tokens, tbb::make_filter<void, Chunk*>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) -> Chunk* {
+                if (next_row >= H) {
+                  fc.stop();
+                  return nullptr;
+                }
+                Chunk* chunk = nullptr;
+                if (!free_chunks.try_pop(chunk)) {
+                  chunks.push_back(std::make_unique<Chunk>());
+                  chunk = chunks.back().get();
+                }
+                const int first = next_row;
+                next_row = std::min(H, next_row + rows_per_chunk);
+                chunk->start(first, next_row, stride);
+                return chunk;
+              }) & tbb::make_filter<Chunk*, Chunk*>(tbb::filter_mode::parallel, [&](Chunk* chunk) {
+                project(*chunk);
+                return chunk;
+              }) & tbb::make_filter<Chunk*, void>(tbb::filter_mode::serial_in_order, [&](Chunk* chunk) {
+                for (std::size_t r = 0; r < chunk->cells.size(); ++r) {
+                  Real* cell = sum.data() + chunk->cells[r] * stride;
+                  const double* run = chunk->sums.data() + r * stride;
+                  for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(run[c]);
+                }
+                progress.add(static_cast<std::size_t>(chunk->end_row - chunk->first_row));
+                free_chunks.push(chunk);
+              }));
+
+  // Normalise by the weight each output texel received (a constant map stays exactly constant). An output texel no
+  // square reached (possible only where output texels are smaller than source texels) takes the nearest source
+  // texel that is not hot.
+  const int Co = out.channels;
+  tbb::parallel_for(0, DH, [&](int tj) {
+    for (int ti = 0; ti < DW; ++ti) {
+      if (dst_omega(ti, tj) <= 0.0) continue;
+      const std::size_t t = std::size_t(tj) * DW + ti;
+      const Real* value = sum.data() + t * stride;
+      float* px = out.pixels.data() + t * Co;
+      if (value[C] > Real(0)) {
+        for (int c = 0; c < C; ++c) px[c] = static_cast<float>(double(value[c]) / double(value[C]));
+        continue;
+      }
+      Vec3 d;
+      Vec2 q;
+      if (!dst.covered_point(ti, tj, q) || !dst.to_direction(q, d)) continue;
+      const Vec2 p = sp.to_image(apply(dst_to_src, d));
+      const std::size_t index = std::size_t(std::clamp(static_cast<int>(p.y), 0, H - 1)) * W +
+                                std::size_t(std::clamp(static_cast<int>(p.x), 0, W - 1));
+      if (std::binary_search(hot.begin(), hot.end(), index)) continue;
+      for (int c = 0; c < C; ++c) px[c] = img.pixels[index * C + c];
+    }
+  });
+}
+
+}  // namespace
+
+Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Parameterization& dst,
+                            const Mat3& dst_to_src, const ResampleOptions& opt) {
+  const Image& img = s.image;
+  const Parameterization& sp = s.param;
+  Image out = make_output(img, dst, output_layout(img, source));
+  const SolidAngleTable src_omega(sp), dst_omega(dst);
+  const std::vector<std::size_t> hot =
+      find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast, total_power(img, sp));
+  ProgressCounter progress(opt.progress, static_cast<std::size_t>(img.height) + 1);
+  const double ratio = double(img.texel_count()) / std::max(1.0, double(dst.width()) * double(dst.height()));
+  if (ratio <= kFloatAccumulationMaxRatio)
+    scatter_and_normalise<float>(s, dst, src_omega, dst_omega, hot, dst_to_src, progress, out);
+  else
+    scatter_and_normalise<double>(s, dst, src_omega, dst_omega, hot, dst_to_src, progress, out);
+  progress.add(1);
+  splat_hot_texels(s, hot, src_omega, dst, dst_omega, dst_to_src, out);
+  // Each copy of a twin texel received only its own side of the seam or cube edge.
+  merge_twin_texels(dst, dst_omega, out);
+  return out;
+}
+
+}  // namespace envkit::detail
