@@ -2,16 +2,16 @@
 // (KTX2, DDS, one mip-mapped OpenEXR cube or one OpenEXR per level), spherical harmonics (JSON), an irradiance map and
 // the DFG lookup table. A thin shell over libenv (prefilter.h, sh.h, dfg.h, ibl_files.h); every output is written to
 // a temporary file first and all are renamed into place together at the end, so a failure leaves no output at all.
-#include <envkit/atomic_file.h>
-#include <envkit/dfg.h>
-#include <envkit/envmap.h>
-#include <envkit/error.h>
-#include <envkit/ibl_files.h>
-#include <envkit/image_io.h>
-#include <envkit/ktx2.h>
-#include <envkit/prefilter.h>
-#include <envkit/request_limits.h>
-#include <envkit/sh.h>
+#include <envkit/core/atomic_file.h>
+#include <envkit/core/error.h>
+#include <envkit/envmap/envmap.h>
+#include <envkit/ibl/dfg.h>
+#include <envkit/ibl/ibl_files.h>
+#include <envkit/ibl/ktx2.h>
+#include <envkit/ibl/prefilter.h>
+#include <envkit/ibl/sh.h>
+#include <envkit/io/image_io.h>
+#include <envkit/io/request_limits.h>
 
 #include <algorithm>
 #include <cctype>
@@ -223,22 +223,17 @@ int run(Options& o, bool format_given) {
   std::vector<std::string> summary;
   std::vector<std::string> clamped;  // warnings of the texel formats, printed once the files exist
 
-  // The DFG LUT depends on no input: it is computed and written while the input is read and filtered, whose serial
-  // stretches (decoding, first touch of big buffers) leave a core idle; a PNG's image library loads meanwhile.
-  std::future<std::string> lut_written;
+  // The DFG LUT depends on no input: it is computed while the input is read and filtered, whose serial stretches
+  // (decoding, first touch of big buffers) leave a core idle. Its file is written by this thread, like every other
+  // output: the signal cleanup removes staged files between this thread's system calls, and a file another thread
+  // renamed into place meanwhile would outlive it.
+  std::future<envkit::Image> lut_computed;
   if (!o.lut.empty())
-    lut_written = std::async(std::launch::async, [&o, temp = stage(o.lut)] {
+    lut_computed = std::async(std::launch::async, [&o] {
       envkit::DfgOptions d;
       d.width = d.height = o.lut_size;
       d.layout = envkit::parse_dfg_layout(o.lut_layout);
-      const envkit::Image lut = envkit::dfg_lut(d);
-      envkit::WriteOptions w;
-      if (extension(o.lut) == ".png") {
-        w.pixel_type = envkit::PixelType::UInt16;
-        w.encode_colorspace = "raw";  // LUT values are data, not colour
-      }
-      envkit::write_image(temp, lut, w);
-      return o.lut + ": DFG LUT " + std::to_string(o.lut_size) + "^2, layout " + o.lut_layout;
+      return envkit::dfg_lut(d);
     });
 
   tools::LoadedInput in = tools::load_input(o.in);
@@ -296,7 +291,15 @@ int run(Options& o, bool format_given) {
     summary.push_back(o.irradiance + ": irradiance E/pi, " + envkit::kind_name(kind) + " " +
                       std::to_string(o.irradiance_size));
   }
-  if (lut_written.valid()) summary.push_back(lut_written.get());
+  if (lut_computed.valid()) {
+    envkit::WriteOptions w;
+    if (extension(o.lut) == ".png") {
+      w.pixel_type = envkit::PixelType::UInt16;
+      w.encode_colorspace = "raw";  // LUT values are data, not colour
+    }
+    envkit::write_image(stage(o.lut), lut_computed.get(), w);
+    summary.push_back(o.lut + ": DFG LUT " + std::to_string(o.lut_size) + "^2, layout " + o.lut_layout);
+  }
   for (auto& p : pending) p->commit();
   for (const std::string& w : clamped)
     if (!w.empty()) tools::warn(w);
