@@ -1,4 +1,4 @@
-// envbake: bakes importance-sampling tables (cdf, alias, sum pyramid, MIS-compensated) of an environment map
+// envbake: bakes importance-sampling tables (cdf, alias, hierarchical, MIS-compensated) of an environment map
 // into a versioned table file that envsample, envinfo and envrender load.
 #include <envkit/core/atomic_file.h>
 #include <envkit/core/error.h>
@@ -36,7 +36,7 @@ tables live in world directions.
   healpix: 4M x 3M.
 --conservative: each texel's importance is the max over its 3x3 neighbourhood, so radiance looked up
   with a bilinear filter is never non-zero where the pdf is zero.
---tables: any of cdf, alias, hierarchical (or pyramid), compensated, sun. compensated adds the MIS-compensated
+--tables: any of cdf, alias, hierarchical, compensated, sun. compensated adds the MIS-compensated
   twin max(f - mean, 0) (Karlik et al. 2019) of every other requested table. sun looks for the map's sun
   and stores the sun split of every table (the sun's texels and the rest of the map's table), which
   envrender then loads instead of building at every start (about 1.7 s at 8192x4096, for 171 MiB more
@@ -92,7 +92,7 @@ int run(Options& o) {
   if (o.size > 0) {
     b.height = b.grid == Kind::HEALPix ? 3 * o.size : o.size;
     b.width = b.grid == Kind::LatLong ? 2 * o.size : b.grid == Kind::HEALPix ? 4 * o.size : o.size;
-    // Importance, CDF, alias and pyramid tables: about 40 bytes per texel while baking.
+    // Importance, cdf, alias and hierarchical tables: about 40 bytes per texel while baking.
     tools::check_image_size("--size", std::to_string(o.size), "a bake grid", b.width, b.height, 40.0);
   }
   if (b.grid == Kind::Octahedral && b.importance_width != b.importance_height)

@@ -10,7 +10,7 @@
 #include <envkit/maps/solid_angle_table.h>
 #include <envkit/resample/filter.h>
 #include <envkit/resample/resample.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <envkit/tables/env_tables.h>
 #include <envkit/tables/sun_split.h>
 
@@ -42,7 +42,7 @@ A table file (from envbake) is described instead: grid, importance mode, bake se
 hash, bytes per table, warnings. --export-exr PREFIX writes what the tables hold as EXR images to look at:
 PREFIX_importance.exr (importance per steradian), PREFIX_probability.exr (texel probabilities),
 PREFIX_marginal.exr (1 x H row probabilities), PREFIX_conditional.exr (probabilities within each row) and
-PREFIX_level<k>.exr for every level of the sum pyramid (node probabilities, level 0 = texels).
+PREFIX_level<k>.exr for every level of the hierarchical table (node probabilities, level 0 = texels).
 
 Examples:
   envinfo sky.exr
@@ -232,7 +232,7 @@ void export_tables(const envkit::EnvTables& t, const std::string& table_path, co
   };
   write("importance", scalar_image(W, H, {t.importance().begin(), t.importance().end()}));
 
-  // Texel probabilities as the stored tables draw them (cdf or pyramid), else the ideal ones.
+  // Texel probabilities as the stored tables draw them (cdf or hierarchical), else the ideal ones.
   const envkit::SphericalDistribution* d = t.distribution(envkit::SamplingMethod::Cdf);
   if (!d) d = t.distribution(envkit::SamplingMethod::Hierarchical);
   std::vector<double> p(n);
@@ -258,13 +258,13 @@ void export_tables(const envkit::EnvTables& t, const std::string& table_path, co
   write("conditional", scalar_image(W, H, conditional));
 
   if (const envkit::SphericalDistribution* h = t.distribution(envkit::SamplingMethod::Hierarchical)) {
-    const auto& pyramid = dynamic_cast<const envkit::PyramidDistribution2D&>(h->distribution());
-    const double root = pyramid.node(pyramid.levels(), 0, 0);
-    for (int k = 0; k <= pyramid.levels(); ++k) {
-      const int lw = pyramid.level_width(k), lh = pyramid.level_height(k);
+    const auto& tree = dynamic_cast<const envkit::HierarchicalDistribution2D&>(h->distribution());
+    const double root = tree.node(tree.levels(), 0, 0);
+    for (int k = 0; k <= tree.levels(); ++k) {
+      const int lw = tree.level_width(k), lh = tree.level_height(k);
       std::vector<float> level(std::size_t(lw) * lh);
       for (int j = 0; j < lh; ++j)
-        for (int i = 0; i < lw; ++i) level[std::size_t(j) * lw + i] = static_cast<float>(pyramid.node(k, i, j) / root);
+        for (int i = 0; i < lw; ++i) level[std::size_t(j) * lw + i] = static_cast<float>(tree.node(k, i, j) / root);
       write("level" + std::to_string(k), scalar_image(lw, lh, level));
     }
   }
@@ -375,7 +375,7 @@ int main(int argc, char** argv) {
       ->check(tools::convention_validator());
   app.add_flag("--json", o.json, "print one JSON object instead of the table");
   app.add_option("--export-exr", o.export_exr,
-                 "table files: write importance, marginal, conditionals and pyramid "
+                 "table files: write importance, marginal, conditionals and hierarchical "
                  "levels as PREFIX_*.exr")
       ->type_name("PREFIX");
   app.footer(kFooter);

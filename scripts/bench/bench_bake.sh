@@ -279,7 +279,7 @@ def cg_per(W, m, level):
     a, b = cg.get((str(W), m, level, cgn)), cg.get((str(W), m, level, 2 * cgn))
     return None if a is None or b is None else (b - a) / cgn
 sizes_c = [1024, 8192] if mode == "full" else [1024]
-mnames = [("cdf", "cdf", 0), ("alias", "alias", 1), ("hierarchical", "pyramid", 2)]
+mnames = [("cdf", "cdf", 0), ("alias", "alias", 1), ("hierarchical", "hierarchical", 2)]
 L.append("| map | method | 2D ns/sample | 2D instr/sample | sphere ns/sample | sphere instr/sample |")
 L.append("|---|---|---:|---:|---:|---:|")
 c = {}
@@ -340,7 +340,7 @@ rows = list(csv.DictReader([l for l in prec if not l.startswith("#")], delimiter
 L.append("`bench_precision` (tests/bench/bench_precision.cpp): " + "; ".join(comments) + ". float-naive = the "
          "textbook marginal/conditional CDF with running float sums normalised by the float total (PBRT-v3 "
          "Distribution1D); cdf = envkit's CdfDistribution2D (double accumulation, two-sided float storage); "
-         "pyramid = envkit's PyramidDistribution2D. Errors are of the probabilities the tables actually draw "
+         "hierarchical = envkit's HierarchicalDistribution2D. Errors are of the probabilities the tables actually draw "
          "(texel_probability), relative to the exact w / sum over all texels (all lit: the sky is 1e-3 "
          "everywhere). unreachable = lit texels with probability 0; lost mass = their exact probability; TV = "
          "0.5 sum |p - p_exact|; total = relative error of the normaliser; chi-square p-value of 1e6 samples on "

@@ -47,7 +47,7 @@ else:
         text.append("`bench_precision --sizes {} --samples {} --cells 64x32` (tests/bench/bench_precision.cpp): "
                     .format(SIZES, SAMPLES) + "; ".join(comments) + ". float-naive = textbook marginal/conditional "
                     "CDF with running float sums; cdf = envkit's CdfDistribution2D (double accumulation, float "
-                    "storage); pyramid = envkit's PyramidDistribution2D. Errors are of the probabilities the tables "
+                    "storage); hierarchical = envkit's HierarchicalDistribution2D. Errors are of the probabilities the tables "
                     "draw, relative to the exact w / sum. Machine: " + machine + ".\n")
         text.append("![precision](precision.png)\n")
         text.append(md_table(["map", "method", "max rel err", "mean rel err", "unreachable / lit", "lost mass",

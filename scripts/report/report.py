@@ -181,7 +181,7 @@ if pr and pr.get("rows"):
              for m, r in at.items()]
     headline.append(f"Precision at {wmax}x{wmax // 2}: " + "; ".join(parts) + ".")
     if fn:
-        rec.append(f"**Table precision.** Accumulate in double (envkit's cdf and pyramid): float running sums leave "
+        rec.append(f"**Table precision.** Accumulate in double (envkit's cdf and hierarchical tables): float running sums leave "
                    f"{fn['unreachable']} of {fn['lit_texels']} lit texels unreachable at {wmax}x{wmax // 2} "
                    f"(max relative probability error {g(float(fn['max_rel_err']))}).")
 

@@ -4,7 +4,7 @@
 #include <benchmark/benchmark.h>
 #include <envkit/sampling/distribution_alias.h>
 #include <envkit/sampling/distribution_cdf.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 
 #include <cmath>
 #include <cstdint>
@@ -49,7 +49,7 @@ const std::vector<float>& sky_map(int W, int H) {
 }
 
 enum class Method { Cdf, Alias, Pyramid };
-const char* name(Method m) { return m == Method::Cdf ? "cdf" : m == Method::Alias ? "alias" : "pyramid"; }
+const char* name(Method m) { return m == Method::Cdf ? "cdf" : m == Method::Alias ? "alias" : "hierarchical"; }
 
 std::unique_ptr<Distribution2D> make(Method m, const std::vector<float>& w, int W, int H) {
   switch (m) {
@@ -58,7 +58,7 @@ std::unique_ptr<Distribution2D> make(Method m, const std::vector<float>& w, int 
     case Method::Alias:
       return std::make_unique<AliasDistribution2D>(w.data(), W, H);
     case Method::Pyramid:
-      return std::make_unique<PyramidDistribution2D>(w.data(), W, H);
+      return std::make_unique<HierarchicalDistribution2D>(w.data(), W, H);
   }
   return nullptr;
 }

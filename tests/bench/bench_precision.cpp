@@ -15,7 +15,7 @@
 //                stored floats).
 //   cdf          envkit's CdfDistribution2D (double accumulation, two-sided float storage);
 //                texel_probability() = what it samples.
-//   pyramid      envkit's PyramidDistribution2D (double node sums, float storage); texel_probability().
+//   hierarchical envkit's HierarchicalDistribution2D (double node sums, float storage); texel_probability().
 // Per method: max and mean relative error |p - p_exact| / p_exact over the lit texels (all texels here), the
 // number of lit texels with p = 0 (unreachable), the exact probability mass of those texels (lost mass), the
 // total variation distance 0.5 sum |p - p_exact|, the relative error of the method's total, and a chi-square
@@ -24,7 +24,7 @@
 // Output: '#' comment lines, then a tab-separated table with a header row (machine-readable), on stdout;
 // progress on stderr.
 #include <envkit/sampling/distribution_cdf.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 
 #include <algorithm>
 #include <chrono>
@@ -280,7 +280,7 @@ int main(int argc, char** argv) {
     }
     {
       t0 = std::chrono::steady_clock::now();
-      const PyramidDistribution2D d(m.w.data(), m.W, m.H);
+      const HierarchicalDistribution2D d(m.w.data(), m.W, m.H);
       const double build_s = elapsed(t0);
       const Stats s = errors(m, [&](int x, int y) { return d.texel_probability(x, y); });
       const double total_rel = double(std::abs((long double)d.integral() * m.W * m.H - m.sum) / m.sum);
@@ -289,7 +289,7 @@ int main(int argc, char** argv) {
         x = ds.x;
         y = ds.y;
       });
-      row("pyramid", s, total_rel, c, build_s);
+      row("hierarchical", s, total_rel, c, build_s);
     }
     std::fprintf(stderr, "bench_precision: %dx%d done\n", W, m.H);
   }

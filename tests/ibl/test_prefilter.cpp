@@ -14,7 +14,7 @@
 #include <cstdlib>
 #include <ctime>
 
-#include "ibl/src/ggx_pyramid.h"
+#include "ibl/src/moment_tree.h"
 #include "prefilter_support.h"
 
 using namespace envkit;
@@ -193,7 +193,7 @@ TEST(Prefilter, CoarseSourceCubeRefinesIntoTexels) {
 }
 
 // The unreal mapping's level 1 (alpha about 1e-3) is sharper than the source's texels, so the lobe alone would ask
-// for a cube as fine as the source; the default cube stops where its pyramid reaches 4 times the source's bytes
+// for a cube as fine as the source; the default cube stops where its tree reaches 4 times the source's bytes
 // (a 256 x 128 RGB map: 32^2), and the texel lists keep the sharp levels exact over it.
 TEST(Prefilter, SourceCubeMemoryCappedBySourceBytes) {
   const EnvMap sunny = textured_sky(256, 1e4f);
@@ -203,8 +203,8 @@ TEST(Prefilter, SourceCubeMemoryCappedBySourceBytes) {
   const PrefilteredChain chain = prefilter_ggx(sunny.ref(), o);
   EXPECT_EQ(chain.source_size, 32);
   const double source_bytes = double(sunny.image.texel_count()) * sunny.image.channels * sizeof(float);
-  EXPECT_LE(detail::GgxPyramid::peak_bytes(chain.source_size), 4.0 * source_bytes);
-  EXPECT_GT(detail::GgxPyramid::peak_bytes(2 * chain.source_size), 4.0 * source_bytes);
+  EXPECT_LE(detail::MomentTree::peak_bytes(chain.source_size), 4.0 * source_bytes);
+  EXPECT_GT(detail::MomentTree::peak_bytes(2 * chain.source_size), 4.0 * source_bytes);
   const LevelErrors e = compare_with_reference(sunny, chain, 200);
   print("sun, unreal mapping, capped source cube", e, chain);
   for (std::size_t i = 0; i < e.rms.size(); ++i)

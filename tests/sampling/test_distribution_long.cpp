@@ -6,7 +6,7 @@
 // "long", not the default suite.
 #include <envkit/sampling/distribution_alias.h>
 #include <envkit/sampling/distribution_cdf.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -170,9 +170,9 @@ TEST(DistributionLong, Alias16kTinyTexelsKeepTheirProbability) {
   check_some_samples(*d);
 }
 
-TEST(DistributionLong, Pyramid16kTinyTexelsKeepTheirProbability) {
+TEST(DistributionLong, Hierarchical16kTinyTexelsKeepTheirProbability) {
   const StressMap& m = stress_map();
-  const auto d = timed_build<PyramidDistribution2D>(m);
+  const auto d = timed_build<HierarchicalDistribution2D>(m);
   EXPECT_EQ(d->levels(), 14);
   EXPECT_NEAR(d->integral() * double(kW) * kH, m.total, 1e-9 * m.total);
   double worst_relative = 0.0;

@@ -7,7 +7,7 @@
 #include <envkit/maps/octahedral.h>
 #include <envkit/sampling/distribution_alias.h>
 #include <envkit/sampling/distribution_cdf.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <envkit/tables/env_tables.h>
 #include <gtest/gtest.h>
 
@@ -102,7 +102,7 @@ void expect_texels_match_scalar(const std::vector<float>& weights, int w, int h,
                                 const std::string& what) {
   const CdfDistribution2D cdf(weights.data(), w, h);
   const AliasDistribution2D alias(weights.data(), w, h);
-  const PyramidDistribution2D pyramid(weights.data(), w, h);
+  const HierarchicalDistribution2D pyramid(weights.data(), w, h);
   for (const Distribution2D* d : {static_cast<const Distribution2D*>(&cdf), static_cast<const Distribution2D*>(&alias),
                                   static_cast<const Distribution2D*>(&pyramid)}) {
     std::vector<TexelSample> batch(u.size());
@@ -184,7 +184,7 @@ class Wrapped final : public Distribution2D {
   void save(BlobWriter& out) const override { inner_.save(out); }
 
  private:
-  PyramidDistribution2D inner_;
+  HierarchicalDistribution2D inner_;
 };
 
 }  // namespace

@@ -25,12 +25,12 @@ using testmaps::uniform53;
 
 namespace {
 
-std::shared_ptr<const PyramidDistribution2D> pyramid_of(const TestMap& m) {
-  return std::make_shared<PyramidDistribution2D>(m.weights.data(), m.width, m.height);
+std::shared_ptr<const HierarchicalDistribution2D> pyramid_of(const TestMap& m) {
+  return std::make_shared<HierarchicalDistribution2D>(m.weights.data(), m.width, m.height);
 }
 
 /// The pyramid's own node sums at a level, as cell weights.
-std::vector<float> node_cells(const PyramidDistribution2D& fine, int level) {
+std::vector<float> node_cells(const HierarchicalDistribution2D& fine, int level) {
   const int cw = fine.level_width(level), ch = fine.level_height(level);
   std::vector<float> c(std::size_t(cw) * ch);
   for (int j = 0; j < ch; ++j)
@@ -48,7 +48,7 @@ std::vector<float> uneven_cells(int w, int h) {
 
 /// The map whose ideal probabilities are those a refined distribution over `m` with these cell weights must
 /// draw: w(x, y) x cell(c) / node(c), with cells whose node is 0 giving nothing.
-TestMap refined_reference(const TestMap& m, const PyramidDistribution2D& fine, int level,
+TestMap refined_reference(const TestMap& m, const HierarchicalDistribution2D& fine, int level,
                           std::span<const float> cells) {
   TestMap r = m;
   const int cw = fine.level_width(level);
@@ -68,14 +68,14 @@ const double kAlpha = chi2::sidak_alpha(0.01, kChi2Tests);
 std::uint64_t seed_of(const std::string& name) { return testmaps::seed_of(name, 0x7ef1dull); }
 
 /// The level a test refines at: the middle of the pyramid (so that there are cells and a descent below them).
-int middle_level(const PyramidDistribution2D& fine) { return fine.levels() / 2; }
+int middle_level(const HierarchicalDistribution2D& fine) { return fine.levels() / 2; }
 
 }  // namespace
 
 class RefinedMaps : public ::testing::TestWithParam<TestMap> {};
 
 // With the pyramid's own node sums as cell weights the refined warp is the pyramid's distribution.
-TEST_P(RefinedMaps, NodeSumsAsCellWeightsGiveThePyramidsDistribution) {
+TEST_P(RefinedMaps, NodeSumsAsCellWeightsGiveTheHierarchicalDistribution) {
   const TestMap& m = GetParam();
   const auto fine = pyramid_of(m);
   for (int level : {0, middle_level(*fine), fine->levels()}) {

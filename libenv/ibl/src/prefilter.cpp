@@ -15,7 +15,7 @@
 #include <mutex>
 #include <optional>
 
-#include "ggx_pyramid.h"
+#include "moment_tree.h"
 
 namespace envkit {
 
@@ -79,17 +79,17 @@ inline double lobe_weight(double c, double a2) {
 
 // One output level: the split-sum average at every texel centre of `param` (map
 // frame -> world by to_world).
-Image convolve_level(const detail::GgxPyramid& pyramid, const Parameterization& param, const Mat3& to_world,
+Image convolve_level(const detail::MomentTree& tree, const Parameterization& param, const Mat3& to_world,
                      const Image& like, double alpha, double accuracy, const std::function<void(int)>& rows_done) {
   const TexelDirections dirs(param);
   Image out(param.width(), param.height(), like.channels);
   out.channel_names = like.channel_names;
   out.alpha_channel = like.alpha_channel;
-  // Blocks of 4 x 4 texels walk the pyramid together (GgxPyramid::filter): neighbours on the map, and on the sphere
+  // Blocks of 4 x 4 texels walk the tree together (MomentTree::filter): neighbours on the map, and on the sphere
   // but where a block crosses a cube face's edge, which costs only time.
   constexpr int kBlock = 4;
-  static_assert(kBlock * kBlock <= detail::GgxPyramid::kMaxGroup);
-  const detail::GgxPyramid::Walk walk = pyramid.walk(alpha, accuracy);
+  static_assert(kBlock * kBlock <= detail::MomentTree::kMaxGroup);
+  const detail::MomentTree::Walk walk = tree.walk(alpha, accuracy);
   const int rows = (out.height + kBlock - 1) / kBlock;
   tbb::parallel_for(0, rows, [&](int by) {
     const int y0 = by * kBlock, y1 = std::min(out.height, y0 + kBlock);
@@ -110,7 +110,7 @@ Image convolve_level(const detail::GgxPyramid& pyramid, const Parameterization& 
           px[n++] = p;
         }
       if (n == 0) continue;
-      pyramid.filter(walk, std::span(r.data(), n), std::span(values.data(), std::size_t(n) * out.channels));
+      tree.filter(walk, std::span(r.data(), n), std::span(values.data(), std::size_t(n) * out.channels));
       for (int t = 0; t < n; ++t) std::copy_n(values.data() + std::size_t(t) * out.channels, out.channels, px[t]);
     }
     if (rows_done) rows_done(out.width * (y1 - y0));
@@ -147,17 +147,17 @@ double finest_refined_radius(const PrefilterOptions& options, int levels) {
   return radius;
 }
 
-// The summed cube's pyramid stays within this many times the source image's own bytes. A cube coarser than the
+// The moment tree stays within this many times the source image's own bytes. A cube coarser than the
 // lobes need costs walk time only, never accuracy: the walk refines its finest nodes into their source texels.
 constexpr double kSourceCubeBytesPerSourceByte = 4.0;
 
-// The largest face size whose pyramid keeps to that budget. It also holds fewer finest nodes than the source has
+// The largest face size whose tree keeps to that budget. It also holds fewer finest nodes than the source has
 // texels (a node costs more bytes than a texel's budget), so the cube is never finer than the source.
 int source_cube_size_cap(const MapRef& src) {
   const double source_bytes = double(src.image.texel_count()) * src.image.channels * sizeof(float);
   int n = 1;
-  while (2 * n <= detail::GgxPyramid::kMaxFaceSize &&
-         detail::GgxPyramid::peak_bytes(2 * n) <= kSourceCubeBytesPerSourceByte * source_bytes)
+  while (2 * n <= detail::MomentTree::kMaxFaceSize &&
+         detail::MomentTree::peak_bytes(2 * n) <= kSourceCubeBytesPerSourceByte * source_bytes)
     n *= 2;
   return n;
 }
@@ -168,7 +168,7 @@ int source_cube_size_cap(const MapRef& src) {
 int default_source_size(const MapRef& src, double finest_radius) {
   const int cap = source_cube_size_cap(src);
   int size = 1;
-  while (size < cap && detail::GgxPyramid::texel_radius(size) > finest_radius) size *= 2;
+  while (size < cap && detail::MomentTree::texel_radius(size) > finest_radius) size *= 2;
   return size;
 }
 
@@ -211,8 +211,8 @@ PrefilteredChain prefilter_ggx(const MapRef& src, const PrefilterOptions& option
   area.progress = [&](double f) { report(0.25 * f); };
   Image level0 = resample(src, *level0_param, options.to_world, area);
 
-  std::optional<detail::GgxPyramid> pyramid;
-  if (levels > 1) pyramid.emplace(src, source_size, detail::GgxPyramid::texel_radius(source_size) > finest_radius);
+  std::optional<detail::MomentTree> tree;
+  if (levels > 1) tree.emplace(src, source_size, detail::MomentTree::texel_radius(source_size) > finest_radius);
   report(0.3);
 
   auto make_level = [&](Image image, std::unique_ptr<Parameterization> param, int m) {
@@ -240,7 +240,7 @@ PrefilteredChain prefilter_ggx(const MapRef& src, const PrefilterOptions& option
     auto param = prefilter_level_param(options.kind, n, options.cube_basis, options.cube_grid);
     const double alpha = level_alpha(options.mapping, m, levels);
     const double per_texel = 1.0 / std::max(1.0, total_texels * (options.kind == Kind::CubeMap ? 6.0 : 1.0));
-    Image out = convolve_level(*pyramid, *param, options.to_world, chain.levels[0].image, alpha, options.accuracy,
+    Image out = convolve_level(*tree, *param, options.to_world, chain.levels[0].image, alpha, options.accuracy,
                                [&](int texels) {
                                  const long long now = done.fetch_add(texels) + texels;
                                  report(0.3 + 0.7 * double(now) * per_texel);
@@ -260,7 +260,7 @@ EnvMap irradiance_map(const MapRef& src, const IrradianceOptions& options) {
       options.source_size == 0 ? power_of_two_at_least(std::max(options.size, 32)) : options.source_size;
   if ((source_size & (source_size - 1)) != 0)
     throw Error("irradiance: source size must be a power of two, not " + std::to_string(source_size));
-  const detail::GgxPyramid pyramid(src, source_size);
+  const detail::MomentTree tree(src, source_size);
   EnvMap map;
   map.param = prefilter_level_param(options.kind, options.size);
   map.convention = "gl";
@@ -270,7 +270,7 @@ EnvMap irradiance_map(const MapRef& src, const IrradianceOptions& options) {
   like.alpha_channel = src.image.alpha_channel;
   // With alpha = 1 the GGX weight D (n.l) is the clamped cosine / pi: the level
   // is E / pi.
-  map.image = convolve_level(pyramid, *map.param, options.to_world, like, 1.0, options.accuracy, {});
+  map.image = convolve_level(tree, *map.param, options.to_world, like, 1.0, options.accuracy, {});
   if (!options.divide_by_pi)
     for (int y = 0; y < map.image.height; ++y)
       for (int x = 0; x < map.image.width; ++x)

@@ -9,7 +9,7 @@ namespace envkit {
 
 namespace {
 
-const PyramidDistribution2D& checked(const std::shared_ptr<const PyramidDistribution2D>& fine) {
+const HierarchicalDistribution2D& checked(const std::shared_ptr<const HierarchicalDistribution2D>& fine) {
   if (!fine) throw Error("refined distribution: null pyramid");
   return *fine;
 }
@@ -19,7 +19,8 @@ const PyramidDistribution2D& checked(const std::shared_ptr<const PyramidDistribu
 constexpr float kNoWeights = 0.0f;
 
 /// The cell weights with every cell whose fine node is 0 set to 0 (nothing below it could be drawn).
-std::vector<float> supported_weights(const PyramidDistribution2D& fine, int level, std::span<const float> weights) {
+std::vector<float> supported_weights(const HierarchicalDistribution2D& fine, int level,
+                                     std::span<const float> weights) {
   if (level < 0 || level > fine.levels())
     throw Error("refined distribution: level " + std::to_string(level) + " outside 0.." +
                 std::to_string(fine.levels()));
@@ -41,14 +42,14 @@ std::vector<float> supported_weights(const PyramidDistribution2D& fine, int leve
 
 }  // namespace
 
-RefinedDistribution2D::RefinedDistribution2D(std::shared_ptr<const PyramidDistribution2D> fine, int level,
+RefinedDistribution2D::RefinedDistribution2D(std::shared_ptr<const HierarchicalDistribution2D> fine, int level,
                                              std::span<const float> cell_weights)
     : Distribution2D(&kNoWeights, checked(fine).width(), checked(fine).height()),
       fine_(std::move(fine)),
       level_(level),
       cells_([&] {
         const std::vector<float> w = supported_weights(*fine_, level, cell_weights);
-        return PyramidDistribution2D(w.data(), fine_->level_width(level), fine_->level_height(level));
+        return HierarchicalDistribution2D(w.data(), fine_->level_width(level), fine_->level_height(level));
       }()) {
   cell_area_ = 1.0 / (double(cells_.width()) * double(cells_.height()));
   integral_ = 1.0;  // pdf() is normalised by construction

@@ -3,7 +3,7 @@
 #include <envkit/maps/octahedral.h>
 #include <envkit/sampling/distribution_alias.h>
 #include <envkit/sampling/distribution_cdf.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <envkit/sampling/distribution_refined.h>
 #include <envkit/sampling/env_sampling.h>
 
@@ -176,7 +176,8 @@ void SphericalDistribution::choose_sampler() {
     const auto choose = [&]<bool kOneStep>() {
       if (dynamic_cast<const CdfDistribution2D*>(d)) sample_ = &sample_latlong<CdfDistribution2D, kOneStep>;
       if (dynamic_cast<const AliasDistribution2D*>(d)) sample_ = &sample_latlong<AliasDistribution2D, kOneStep>;
-      if (dynamic_cast<const PyramidDistribution2D*>(d)) sample_ = &sample_latlong<PyramidDistribution2D, kOneStep>;
+      if (dynamic_cast<const HierarchicalDistribution2D*>(d))
+        sample_ = &sample_latlong<HierarchicalDistribution2D, kOneStep>;
       if (dynamic_cast<const RefinedDistribution2D*>(d)) sample_ = &sample_latlong<RefinedDistribution2D, kOneStep>;
     };
     if (g_->longitude_substeps == 1)

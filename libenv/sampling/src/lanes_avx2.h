@@ -1,7 +1,7 @@
 #pragma once
-// The lane operations of the vector sampling kernels (distribution_pyramid_descent.inl, distribution_cdf_search.inl)
-// on AVX2: four lanes of doubles and 64-bit integers; masks are whole lanes of ones (the comparisons' results), held
-// as doubles. Call only when use_avx2() (simd_level.h).
+// The lane operations of the vector sampling kernels (distribution_hierarchical_descent.inl,
+// distribution_cdf_search.inl) on AVX2: four lanes of doubles and 64-bit integers; masks are whole lanes of ones (the
+// comparisons' results), held as doubles. Call only when use_avx2() (simd_level.h).
 #include <cstddef>
 #include <cstdint>
 

@@ -1,7 +1,8 @@
 #pragma once
-// The lane operations of the vector sampling kernels (distribution_pyramid_descent.inl, distribution_cdf_search.inl)
-// on AVX-512 (F + DQ): eight lanes of doubles and 64-bit integers; masks are mask registers. Call only when
-// use_avx512() (simd_level.h). Include it last: avx512_target.h's pragma holds for the rest of the file.
+// The lane operations of the vector sampling kernels (distribution_hierarchical_descent.inl,
+// distribution_cdf_search.inl) on AVX-512 (F + DQ): eight lanes of doubles and 64-bit integers; masks are mask
+// registers. Call only when use_avx512() (simd_level.h). Include it last: avx512_target.h's pragma holds for the rest
+// of the file.
 #include <cstddef>
 #include <cstdint>
 

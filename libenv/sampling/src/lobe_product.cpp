@@ -73,7 +73,7 @@ double Lobe::value(double c) const {
 
 LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes)
     : lobes_(std::move(lobes)) {
-  const auto fine = std::dynamic_pointer_cast<const PyramidDistribution2D>(env.distribution_ptr());
+  const auto fine = std::dynamic_pointer_cast<const HierarchicalDistribution2D>(env.distribution_ptr());
   if (!fine)
     throw Error(std::string("product tables need the hierarchical environment table, got '") +
                 env.distribution().method() + "'");

@@ -9,7 +9,7 @@
 #include <envkit/resample/resample.h>
 #include <envkit/sampling/distribution_alias.h>
 #include <envkit/sampling/distribution_cdf.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <envkit/tables/env_tables.h>
 #include <envkit/tables/sun_split.h>
 #include <tbb/parallel_for.h>
@@ -115,7 +115,7 @@ std::shared_ptr<const Distribution2D> make_distribution_2d(SamplingMethod method
     case SamplingMethod::Alias:
       return std::make_shared<AliasDistribution2D>(weights, W, H);
     case SamplingMethod::Hierarchical:
-      return std::make_shared<PyramidDistribution2D>(weights, W, H);
+      return std::make_shared<HierarchicalDistribution2D>(weights, W, H);
   }
   throw Error("unknown sampling method");
 }
@@ -386,7 +386,9 @@ void EnvTables::build_distributions(const BakeOptions& options) {
     for (int m = 0; m < 3; ++m) {
       if (!wanted[m]) continue;
       if (options.progress)
-        options.progress(0.3 + 0.35 * set + 0.1 * m, m == 0 ? "cdf tables" : m == 1 ? "alias tables" : "sum pyramid");
+        options.progress(0.3 + 0.35 * set + 0.1 * m, m == 0   ? "cdf tables"
+                                                     : m == 1 ? "alias tables"
+                                                              : "hierarchical tables");
       std::shared_ptr<const Distribution2D> d = make_distribution_2d(SamplingMethod(m), weights.data(), W, H);
       distributions_[set][m] = first ? std::make_unique<SphericalDistribution>(*first, std::move(d))
                                      : std::make_unique<SphericalDistribution>(grid_, std::move(d));

@@ -10,7 +10,7 @@
 #include <envkit/core/input_checks.h>
 #include <envkit/sampling/distribution_alias.h>
 #include <envkit/sampling/distribution_cdf.h>
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <envkit/tables/env_tables.h>
 #include <envkit/tables/sun_split.h>
 #include <tbb/parallel_for.h>
@@ -181,7 +181,7 @@ std::shared_ptr<const Distribution2D> restore_distribution(int method, BlobReade
     case SamplingMethod::Alias:
       return std::make_shared<AliasDistribution2D>(in);
     case SamplingMethod::Hierarchical:
-      return std::make_shared<PyramidDistribution2D>(in);
+      return std::make_shared<HierarchicalDistribution2D>(in);
   }
   throw Error(in.context() + ": unknown method");
 }

@@ -20,9 +20,9 @@
 /// the source texels are gathered into a cube of `source_size` (a power of two)
 /// by the cube texel that holds their centre, with their exact flux (L x exact
 /// texel solid angle), solid angle and centroids, and summed into a cube
-/// pyramid (each coarser texel holds the flux and solid angle of its four
+/// tree (each coarser texel holds the flux and solid angle of its four
 /// children): a hierarchy over the source texels themselves. Each output texel
-/// walks that pyramid from the six 1x1 faces down, refining a texel into its
+/// walks that tree from the six 1x1 faces down, refining a texel into its
 /// children while its angular radius exceeds `accuracy` t (t / 2 alpha)^(1/6),
 /// t = its distance to r + 2 alpha (the slow growth lets far nodes, which hold
 /// little of the lobe's weight, be relatively larger): near the lobe's peak it
@@ -103,7 +103,7 @@ struct PrefilterOptions {
   /// Face size of the summed source cube (a power of two, at most 16384); 0 =
   /// the first whose texel radius is within accuracy x 2 alpha of the sharpest
   /// level and within 0.25 accuracy / alpha of the roughest (the walk never
-  /// refines finer nodes), but no finer than the largest cube whose pyramid
+  /// refines finer nodes), but no finer than the largest cube whose tree
   /// (about 230 bytes per finest node while gathering) takes at most 4 times
   /// the source image's own bytes (float x channels per texel), which also
   /// keeps it coarser than the source. The output size plays no part. Finest

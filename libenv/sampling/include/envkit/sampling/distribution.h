@@ -29,7 +29,8 @@
 ///   u to texels is discontinuous everywhere (neighbouring u go to unrelated texels): it destroys stratification,
 ///   so low-discrepancy sequences gain nothing. Not invertible. Largest tables (16 bytes/texel: one aligned
 ///   entry per column pick, which also holds the alias's weight).
-/// - PyramidDistribution2D (distribution_pyramid.h): sum pyramid with hierarchical sample warping (Clarberg et
+/// - HierarchicalDistribution2D (distribution_hierarchical.h): sum pyramid with hierarchical sample warping (Clarberg
+/// et
 ///   al. 2005). The warp is continuous inside every quadtree cell, so it preserves the stratification of Sobol
 ///   or other low-discrepancy points best (lowest variance per sample with QMC), and it is the structure that
 ///   product sampling with a BSDF quadtree descends (Clarberg 2008). O(log max(W,H)) per sample, O(1) pdf,
@@ -108,7 +109,7 @@ class Distribution2D {
   Distribution2D(Distribution2D&&) = default;
   Distribution2D& operator=(Distribution2D&&) = default;
 
-  /// "cdf", "alias", "pyramid", "sparse" or "refined".
+  /// "cdf", "alias", "hierarchical", "sparse" or "refined".
   virtual const char* method() const = 0;
 
   /// Warp u in [0,1)^2 to a sample. Deterministic: identical tables and u give bit-identical results.

@@ -1,11 +1,11 @@
 #pragma once
 /// @file distribution_refined.h
-/// A coarse distribution over the nodes of one level of a PyramidDistribution2D (its "cells"), refined below each
+/// A coarse distribution over the nodes of one level of a HierarchicalDistribution2D (its "cells"), refined below each
 /// cell by that pyramid's own sums: the warp product tables use (lobe_product.h), Conty Estevez and Lecocq 2018's
 /// "multiply a coarse level, descend the environment's own finer levels".
 ///
 /// Warp: a pyramid over the cell weights chooses a cell with u (hierarchically, so stratification survives), the
-/// position left inside the cell descends the fine pyramid from that cell's node (PyramidDistribution2D::
+/// position left inside the cell descends the fine pyramid from that cell's node (HierarchicalDistribution2D::
 /// pick_below). Probability of texel (x, y) in cell c: P(c) x leaf(x, y) / node(c), P(c) = w(c) / sum(w).
 /// pdf() is that ideal ratio, computed exactly as sample() computes a sample's pdf (so the two are equal bit for
 /// bit); like the pyramid's own pdf, the product of the descent's float choices matches it to float precision.
@@ -14,7 +14,7 @@
 /// and weight 0 are never drawn (pdf 0 on their texels): give every cell with light a positive weight where the
 /// estimator needs pdf > 0.
 /// Not stored in table files: it refers to the fine pyramid and is built from it at load (save() throws).
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 
 #include <memory>
 #include <span>
@@ -26,7 +26,7 @@ class RefinedDistribution2D final : public Distribution2D {
   /// fine: the pyramid to refine with; level: 0 <= level <= fine->levels(); cell_weights: level_width(level) x
   /// level_height(level) weights, row-major (sanitised like every weight). Throws Error for a size mismatch, a
   /// level out of range, or when no cell with light has a positive weight.
-  RefinedDistribution2D(std::shared_ptr<const PyramidDistribution2D> fine, int level,
+  RefinedDistribution2D(std::shared_ptr<const HierarchicalDistribution2D> fine, int level,
                         std::span<const float> cell_weights);
 
   const char* method() const override { return "refined"; }
@@ -48,9 +48,9 @@ class RefinedDistribution2D final : public Distribution2D {
   double texel_pdf(int x, int y) const;
 
  private:
-  std::shared_ptr<const PyramidDistribution2D> fine_;
+  std::shared_ptr<const HierarchicalDistribution2D> fine_;
   int level_ = 0;
-  PyramidDistribution2D cells_;
+  HierarchicalDistribution2D cells_;
   double cell_area_ = 1.0;  // 1 / (cells' width x height): cell probability = cells_ pdf x cell_area_
   /// The density of a texel from its density given its cell (pick_below's pdf) and its cell's density under
   /// cells_: the one formula of pick() and texel_pdf().

@@ -34,7 +34,7 @@
 
 namespace envkit {
 
-class PyramidDistribution2D;
+class HierarchicalDistribution2D;
 
 /// A lobe shape (see the file comment).
 struct Lobe {

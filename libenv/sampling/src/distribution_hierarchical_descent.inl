@@ -1,13 +1,13 @@
 // The pyramid's group descent over vectors of lanes, written once for every instruction set: included by
-// distribution_pyramid_avx2.cpp and distribution_pyramid_avx512.cpp (no include guard), each inside its own namespace
-// after defining
+// distribution_hierarchical_avx2.cpp and distribution_hierarchical_avx512.cpp (no include guard), each inside its own
+// namespace after defining
 //   ENVKIT_LANES_TARGET   the target attribute of the functions below;
 //   struct Lanes          kWidth, the types D (kWidth doubles), I (kWidth int64) and M (a mask of lanes), and
 //                         loadd/stored/loadi/storei, setd/seti, add/sub/mul/div/min (D), select(m, a, b) (m ? b : a),
 //                         not_less(a, b) (!(a < b), NaN counting as not less), twice_plus(i, m) (2i, plus 1 where m),
 //                         plus(a, b) (I), times(i, k) (i * k, both below 2^32), children(nodes, block, c0..c3).
-// The step is detail::pyramid_step() on every lane: the same products, sums, quotients and clamps, chosen by masks,
-// so the same bits. (min(q, 1 - 2^-53) is std::min(kOneMinusEpsilon, q): both return q only below the bound.)
+// The step is detail::hierarchical_step() on every lane: the same products, sums, quotients and clamps, chosen by
+// masks, so the same bits. (min(q, 1 - 2^-53) is std::min(kOneMinusEpsilon, q): both return q only below the bound.)
 
 /// The step for the lanes' nodes whose children are c0..c3; returns the chosen child's value.
 ENVKIT_LANES_TARGET inline Lanes::D step(Lanes::D c0, Lanes::D c1, Lanes::D c2, Lanes::D c3, Lanes::D& ux, Lanes::D& uy,
@@ -31,18 +31,18 @@ ENVKIT_LANES_TARGET inline Lanes::D step(Lanes::D c0, Lanes::D c1, Lanes::D c2, 
 }
 
 /// Index (in 16-byte blocks) of the blocks holding the children of nodes (i, j) read at level k.
-ENVKIT_LANES_TARGET inline Lanes::I block_index(const PyramidWalk& w, int k, Lanes::I i, Lanes::I j) {
+ENVKIT_LANES_TARGET inline Lanes::I block_index(const HierarchicalWalk& w, int k, Lanes::I i, Lanes::I j) {
   using L = Lanes;
   return L::plus(L::seti(std::int64_t(w.offset[k] / 4)), L::plus(L::times(j, std::int64_t(w.blocks_per_row[k])), i));
 }
 
 /// pick(u[s]) into out[s] for s < n <= sampling::kSampleGroup, kWidth samples per vector.
-ENVKIT_LANES_TARGET inline void descend(const PyramidWalk& w, const Vec2* u, TexelSample* out, std::size_t n) {
+ENVKIT_LANES_TARGET inline void descend(const HierarchicalWalk& w, const Vec2* u, TexelSample* out, std::size_t n) {
   using L = Lanes;
   constexpr std::size_t V = L::kWidth;
   static_assert(sampling::kSampleGroup % V == 0);
   const std::size_t vectors = (n + V - 1) / V;
-  PyramidLanes lanes;
+  HierarchicalLanes lanes;
   lanes.start(u, n, vectors * V);
   alignas(64) std::int64_t next[V];
   for (int k = w.top - 1; k >= 0; --k) {

@@ -1,6 +1,6 @@
 #pragma once
 // The pyramid's group descent on AVX-512 (eight samples per vector) and AVX2 (four): the same operations on the same
-// values as PyramidDistribution2D::pick() (so the same bits), without its two unpredictable jumps per level.
+// values as HierarchicalDistribution2D::pick() (so the same bits), without its two unpredictable jumps per level.
 #include <envkit/sampling/distribution.h>
 
 #include <algorithm>
@@ -9,8 +9,8 @@
 
 namespace envkit::detail {
 
-/// A sum pyramid as the vector descent reads it (see PyramidDistribution2D's Level).
-struct PyramidWalk {
+/// A sum pyramid as the vector descent reads it (see HierarchicalDistribution2D's Level).
+struct HierarchicalWalk {
   static constexpr int kMaxLevels = 32;  // 2^24 per side gives at most 25 levels
   const float* nodes = nullptr;
   std::size_t offset[kMaxLevels] = {};          // level k's children array, in floats (a multiple of 4)
@@ -21,7 +21,7 @@ struct PyramidWalk {
 };
 
 /// The descent's state per sample of a group, as the vector loops load and store it.
-struct PyramidLanes {
+struct HierarchicalLanes {
   alignas(64) double ux[sampling::kSampleGroup], uy[sampling::kSampleGroup], leaf[sampling::kSampleGroup];
   alignas(64) std::int64_t i[sampling::kSampleGroup], j[sampling::kSampleGroup];
 
@@ -35,7 +35,7 @@ struct PyramidLanes {
     }
   }
   /// The texel samples of lanes [0, n), as pick() returns them.
-  void finish(const PyramidWalk& walk, TexelSample* out, std::size_t n) const {
+  void finish(const HierarchicalWalk& walk, TexelSample* out, std::size_t n) const {
     for (std::size_t s = 0; s < n; ++s) {
       out[s].fx = std::min(kTexelOffsetMax, ux[s]);
       out[s].fy = std::min(kTexelOffsetMax, uy[s]);
@@ -47,8 +47,8 @@ struct PyramidLanes {
 };
 
 /// pick(u[s]) into out[s] for s < n <= sampling::kSampleGroup. Call only when use_avx512() (simd_level.h).
-void pyramid_pick_group_avx512(const PyramidWalk& walk, const Vec2* u, TexelSample* out, std::size_t n);
+void hierarchical_pick_group_avx512(const HierarchicalWalk& walk, const Vec2* u, TexelSample* out, std::size_t n);
 /// The same with four samples per vector. Call only when use_avx2().
-void pyramid_pick_group_avx2(const PyramidWalk& walk, const Vec2* u, TexelSample* out, std::size_t n);
+void hierarchical_pick_group_avx2(const HierarchicalWalk& walk, const Vec2* u, TexelSample* out, std::size_t n);
 
 }  // namespace envkit::detail

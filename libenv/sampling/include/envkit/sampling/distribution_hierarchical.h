@@ -1,5 +1,5 @@
 #pragma once
-/// @file distribution_pyramid.h
+/// @file distribution_hierarchical.h
 /// Sum pyramid (a mip-map of sums) with hierarchical sample warping, Clarberg, Jarosz, Akenine-Moeller and
 /// Jensen, "Wavelet Importance Sampling", SIGGRAPH 2005.
 ///
@@ -58,8 +58,8 @@ namespace detail {
 /// (a positive child is never rounded to a zero float sum, and a zero-sum side is never chosen).
 /// (Branch-free and reciprocal variants measured no faster: the branches let the CPU start the next level's
 /// loads before the division resolves.)
-[[gnu::always_inline]] inline double pyramid_step(const float* c, double& ux, double& uy, std::size_t& i,
-                                                  std::size_t& j) {
+[[gnu::always_inline]] inline double hierarchical_step(const float* c, double& ux, double& uy, std::size_t& i,
+                                                       std::size_t& j) {
   // The four children in double: (c0, c1) and (c2, c3), column sums (left, right) = (c0 + c2, c1 + c3).
 #if defined(__SSE2__)
   const __m128d a = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c))));
@@ -111,16 +111,16 @@ namespace detail {
 }  // namespace detail
 
 /// Hierarchical sample warping through a sum pyramid. ~5.33 bytes per texel (4 for the leaves + 4/3 for sums).
-class PyramidDistribution2D final : public Distribution2D {
+class HierarchicalDistribution2D final : public Distribution2D {
  public:
   /// weights: W x H floats, row-major, row 0 first. Large levels are built in parallel with TBB; results do not
   /// depend on the thread count. Throws Error for a bad size or null weights.
-  PyramidDistribution2D(const float* weights, int width, int height);
+  HierarchicalDistribution2D(const float* weights, int width, int height);
   /// Restores a distribution written by save(); throws Error (naming in.context()) for inconsistent sizes.
-  explicit PyramidDistribution2D(BlobReader& in);
+  explicit HierarchicalDistribution2D(BlobReader& in);
   void save(BlobWriter& out) const override;
 
-  const char* method() const override { return "pyramid"; }
+  const char* method() const override { return "hierarchical"; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
   /// Batched sample_texel(), bit for bit: see pick_group().
@@ -180,7 +180,7 @@ class PyramidDistribution2D final : public Distribution2D {
     return nodes_.data() + levels_[k].offset + (std::size_t(j) * levels_[k].blocks_per_row + std::size_t(i)) * 4;
   }
   float leaf(int x, int y) const { return children(0, x >> 1, y >> 1)[(y & 1) * 2 + (x & 1)]; }
-  /// The descent of pick() and pick_below(): from node (i, j) of level k >= 1 down to a leaf, one pyramid_step per
+  /// The descent of pick() and pick_below(): from node (i, j) of level k >= 1 down to a leaf, one hierarchical_step per
   /// level (i, j become the leaf's texel, ux, uy the position left inside it); returns the leaf's stored value.
   /// Prefetches each next level's candidate blocks while reading levels 1..prefetch_top_.
   double descend(int k, std::size_t& i, std::size_t& j, double& ux, double& uy) const;
@@ -193,15 +193,15 @@ class PyramidDistribution2D final : public Distribution2D {
   int prefetch_top_ = 0;       // sample() prefetches the next level's blocks while reading levels 1..prefetch_top_
 };
 
-[[gnu::always_inline]] inline double PyramidDistribution2D::descend(int k, std::size_t& i, std::size_t& j, double& ux,
-                                                                    double& uy) const {
+[[gnu::always_inline]] inline double HierarchicalDistribution2D::descend(int k, std::size_t& i, std::size_t& j,
+                                                                         double& ux, double& uy) const {
   const float* nodes = nodes_.data();
   const Level* level = levels_.data();
   double leaf = 0.0;
   int m = k - 1;
   // Small top levels: cached, no prefetch.
   for (; m > prefetch_top_; --m)
-    leaf = detail::pyramid_step(nodes + level[m].offset + (j * level[m].blocks_per_row + i) * 4, ux, uy, i, j);
+    leaf = detail::hierarchical_step(nodes + level[m].offset + (j * level[m].blocks_per_row + i) * 4, ux, uy, i, j);
   // Large levels: the next block is one of the four children's blocks, two 32-byte pairs in rows 2j and 2j + 1 of
   // level m - 1; fetching both now hides the miss behind this level's arithmetic.
   // (The second address is formed as an integer: on the last row it lies past the level, which a prefetch may
@@ -214,12 +214,12 @@ class PyramidDistribution2D final : public Distribution2D {
       __builtin_prefetch(reinterpret_cast<const void*>(pair));
       __builtin_prefetch(reinterpret_cast<const void*>(pair + next.blocks_per_row * 4 * sizeof(float)));
     }
-    leaf = detail::pyramid_step(nodes + level[m].offset + (j * level[m].blocks_per_row + i) * 4, ux, uy, i, j);
+    leaf = detail::hierarchical_step(nodes + level[m].offset + (j * level[m].blocks_per_row + i) * 4, ux, uy, i, j);
   }
   return leaf;
 }
 
-[[gnu::always_inline]] inline TexelSample PyramidDistribution2D::pick(Vec2 u) const {
+[[gnu::always_inline]] inline TexelSample HierarchicalDistribution2D::pick(Vec2 u) const {
   double ux = sampling::clamp_decision(u.x), uy = sampling::clamp_decision(u.y);
   std::size_t i = 0, j = 0;
   const double leaf = descend(top_level_, i, j, ux, uy);
@@ -232,7 +232,7 @@ class PyramidDistribution2D final : public Distribution2D {
   return t;
 }
 
-[[gnu::always_inline]] inline TexelSample PyramidDistribution2D::pick_below(int k, int i, int j, Vec2 u) const {
+[[gnu::always_inline]] inline TexelSample HierarchicalDistribution2D::pick_below(int k, int i, int j, Vec2 u) const {
   double ux = sampling::clamp_decision(u.x), uy = sampling::clamp_decision(u.y);
   std::size_t ii = std::size_t(i), jj = std::size_t(j);
   const double top = node(k, i, j);

@@ -1,7 +1,7 @@
 // Built with -ffp-contract=off (libenv/CMakeLists.txt): a fused multiply-add would round differently from pick().
 #include <cstdint>
 
-#include "distribution_pyramid_simd.h"
+#include "distribution_hierarchical_simd.h"
 #include "lanes_avx2.h"
 
 namespace envkit::detail {
@@ -13,18 +13,19 @@ namespace {
 using Lanes = Avx2Lanes;
 
 #define ENVKIT_LANES_TARGET ENVKIT_AVX2
-#include "distribution_pyramid_descent.inl"
+#include "distribution_hierarchical_descent.inl"
 #undef ENVKIT_LANES_TARGET
 
 }  // namespace
 
-ENVKIT_AVX2 void pyramid_pick_group_avx2(const PyramidWalk& w, const Vec2* u, TexelSample* out, std::size_t n) {
+ENVKIT_AVX2 void hierarchical_pick_group_avx2(const HierarchicalWalk& w, const Vec2* u, TexelSample* out,
+                                              std::size_t n) {
   descend(w, u, out, n);
 }
 
 #else
 
-void pyramid_pick_group_avx2(const PyramidWalk&, const Vec2*, TexelSample*, std::size_t) {}
+void hierarchical_pick_group_avx2(const HierarchicalWalk&, const Vec2*, TexelSample*, std::size_t) {}
 
 #endif
 

@@ -1,7 +1,7 @@
 #pragma once
-// The summed cube pyramid behind GGX prefiltering and irradiance (prefilter.h states the method): a hierarchy over
-// the source texels with exact flux, solid angle, and the means and central second moments of their directions,
-// walked once per output direction.
+// The moment tree over the summed cube behind GGX prefiltering and irradiance (prefilter.h states the method): a
+// hierarchy over the source texels with exact flux, solid angle, and the means and central second moments of their
+// directions, walked once per output direction.
 #include <envkit/core/huge_page_allocator.h>
 #include <envkit/core/vec.h>
 #include <envkit/resample/resample.h>
@@ -32,18 +32,18 @@ struct alignas(16) NodeFamily {
   Float4 omega;    // exact solid angle
 };
 
-class GgxPyramid {
+class MomentTree {
  public:
   // Gathers `src` (world frame by src.to_world) into a cube of face_size (a power of two, at most 16384) by the
   // cube texel that holds each source texel's centre, then sums upward. With keep_texels the source texels also
   // stay listed under their finest node, so that a walk can refine a finest node into its texels (for lobes
   // narrower than the cube's texels); without, such nodes act as points at their centroids.
-  GgxPyramid(const MapRef& src, int face_size, bool keep_texels = false);
+  MomentTree(const MapRef& src, int face_size, bool keep_texels = false);
 
   static constexpr int kMaxGroup = 16;
   static constexpr int kMaxFaceSize = 16384;
 
-  // What the walk needs for one lobe (alpha > 0) and accuracy, per pyramid level: thresholds on e = 1 - r . mean.
+  // What the walk needs for one lobe (alpha > 0) and accuracy, per tree level: thresholds on e = 1 - r . mean.
   // Made once per output level (walk()), not per direction.
   struct Walk {
     double alpha = 0.0;
@@ -56,7 +56,7 @@ class GgxPyramid {
   Walk walk(double alpha, double accuracy) const;
 
   // The split-sum average around each unit direction of r (world frame) for the walk's lobe (prefilter.h); writes
-  // channels() values per direction to out. Up to kMaxGroup directions walk the pyramid together, a node being
+  // channels() values per direction to out. Up to kMaxGroup directions walk the tree together, a node being
   // refined for all when one needs it: neighbouring directions share nearly all their walk, which then loads each
   // node once for the group. The values depend on the grouping only within the walk's accuracy.
   void filter(const Walk& walk, std::span<const Vec3> r, std::span<float> out) const;
@@ -66,7 +66,7 @@ class GgxPyramid {
   // Bound on the angular radius of a texel of a cube of face size `size` about its centre (radians).
   static double texel_radius(int size);
 
-  // Bytes the pyramid of face size `face_size` holds at its peak (while gathering), without the texel lists.
+  // Bytes the tree of face size `face_size` holds at its peak (while gathering), without the texel lists.
   static double peak_bytes(int face_size);
 
  private:

@@ -1,4 +1,4 @@
-#include "ggx_pyramid.h"
+#include "moment_tree.h"
 
 #include <envkit/core/error.h>
 #include <envkit/core/huge_page_allocator.h>
@@ -171,15 +171,15 @@ struct Acc {
 
 }  // namespace
 
-double GgxPyramid::texel_radius(int size) { return std::atan(std::sqrt(2.0) / double(size)); }
+double MomentTree::texel_radius(int size) { return std::atan(std::sqrt(2.0) / double(size)); }
 
-double GgxPyramid::peak_bytes(int face_size) {
+double MomentTree::peak_bytes(int face_size) {
   // Every level's families (a geometric series: 4/3 of the finest level's) and the gather's sums per finest node.
   const double finest_nodes = 6.0 * double(face_size) * double(face_size);
   return finest_nodes * (sizeof(NodeFamily) / 4.0 * 4.0 / 3.0 + sizeof(Acc));
 }
 
-GgxPyramid::GgxPyramid(const MapRef& src, int face_size, bool keep_texels)
+MomentTree::MomentTree(const MapRef& src, int face_size, bool keep_texels)
     : channels_(src.image.channels), alpha_channel_(src.image.alpha_channel) {
   if (face_size < 1 || face_size > kMaxFaceSize || (face_size & (face_size - 1)) != 0)
     throw Error("prefilter: source size must be a power of two up to 16384, not " + std::to_string(face_size));
@@ -194,7 +194,7 @@ GgxPyramid::GgxPyramid(const MapRef& src, int face_size, bool keep_texels)
   sum_upward();
 }
 
-void GgxPyramid::gather(const MapRef& src, int face_size, bool keep_texels) {
+void MomentTree::gather(const MapRef& src, int face_size, bool keep_texels) {
   const CubeMap cube(face_size, CubeLayout::VerticalStrip, CubeBasis::GL, TexelGrid::Centre);
   const int w = src.image.width, h = src.image.height, channels = src.image.channels;
   const int alpha_channel = src.image.alpha_channel;
@@ -353,7 +353,7 @@ void GgxPyramid::gather(const MapRef& src, int face_size, bool keep_texels) {
   });
 }
 
-void GgxPyramid::sum_upward() {
+void MomentTree::sum_upward() {
   for (int k = finest_ - 1; k >= 0; --k) {
     const auto& fine = levels_[k + 1];
     auto& coarse = levels_[k];
@@ -372,7 +372,7 @@ void GgxPyramid::sum_upward() {
   }
 }
 
-GgxPyramid::Walk GgxPyramid::walk(double alpha, double accuracy) const {
+MomentTree::Walk MomentTree::walk(double alpha, double accuracy) const {
   Walk w;
   w.alpha = alpha;
   const double spread = 2.0 * alpha;
@@ -403,7 +403,7 @@ GgxPyramid::Walk GgxPyramid::walk(double alpha, double accuracy) const {
   return w;
 }
 
-void GgxPyramid::filter(const Walk& walk, std::span<const Vec3> r, std::span<float> out) const {
+void MomentTree::filter(const Walk& walk, std::span<const Vec3> r, std::span<float> out) const {
   const int n = int(r.size());
   if (n < 1 || n > kMaxGroup || out.size() < r.size() * std::size_t(channels_))
     throw Error("prefilter: a group of 1 to " + std::to_string(kMaxGroup) + " directions");

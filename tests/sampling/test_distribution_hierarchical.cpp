@@ -1,5 +1,5 @@
-// Tests of hierarchical sample warping through a sum pyramid (distribution_pyramid.h).
-#include <envkit/sampling/distribution_pyramid.h>
+// Tests of hierarchical sample warping through a sum pyramid (distribution_hierarchical.h).
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
@@ -27,43 +27,43 @@ std::uint64_t seed_of(const std::string& name) {  // FNV-1a: a stable seed per t
 const int kChi2Tests = int(testmaps::standard_maps().size());
 const double kAlpha = chi2::sidak_alpha(0.01, kChi2Tests);
 
-std::unique_ptr<PyramidDistribution2D> build(const TestMap& m) {
-  return std::make_unique<PyramidDistribution2D>(m.weights.data(), m.width, m.height);
+std::unique_ptr<HierarchicalDistribution2D> build(const TestMap& m) {
+  return std::make_unique<HierarchicalDistribution2D>(m.weights.data(), m.width, m.height);
 }
 
 }  // namespace
 
-class PyramidMaps : public ::testing::TestWithParam<TestMap> {};
+class HierarchicalMaps : public ::testing::TestWithParam<TestMap> {};
 
-TEST_P(PyramidMaps, ChiSquare) {
+TEST_P(HierarchicalMaps, ChiSquare) {
   const TestMap& m = GetParam();
   const chi2::Result r = testmaps::chi_square(*build(m), m, kAlpha, seed_of(m.name));
   EXPECT_TRUE(r.passed) << m.name << ": " << r.message;
 }
 
-TEST_P(PyramidMaps, PdfIntegratesToOne) { EXPECT_EQ(testmaps::check_normalised(*build(GetParam())), ""); }
+TEST_P(HierarchicalMaps, PdfIntegratesToOne) { EXPECT_EQ(testmaps::check_normalised(*build(GetParam())), ""); }
 
-TEST_P(PyramidMaps, PdfMatchesWeights) {
+TEST_P(HierarchicalMaps, PdfMatchesWeights) {
   // pdf is w / integral; the drawn probability is a product of at most 2 x levels float ratios.
   EXPECT_EQ(testmaps::check_matches_weights(*build(GetParam()), GetParam(), 2e-6), "");
 }
 
-TEST_P(PyramidMaps, SamplesAreConsistent) {
+TEST_P(HierarchicalMaps, SamplesAreConsistent) {
   EXPECT_EQ(testmaps::check_samples(*build(GetParam()), GetParam(), 20000, seed_of(GetParam().name) + 1), "");
 }
 
-TEST_P(PyramidMaps, InvertRoundTrips) {
+TEST_P(HierarchicalMaps, InvertRoundTrips) {
   EXPECT_EQ(testmaps::check_invert(*build(GetParam()), 20000, seed_of(GetParam().name) + 2), "");
 }
 
 // sample_texel() and pick() are sample() before uv is formed (see testmaps::check_sample_texel).
-TEST_P(PyramidMaps, SampleTexelIsSampleBeforeUv) {
+TEST_P(HierarchicalMaps, SampleTexelIsSampleBeforeUv) {
   EXPECT_EQ(testmaps::check_sample_texel(*build(GetParam()), GetParam().width, GetParam().height), "");
 }
 
-TEST_P(PyramidMaps, PdfIsZeroOutside) { EXPECT_EQ(testmaps::check_pdf_outside(*build(GetParam())), ""); }
+TEST_P(HierarchicalMaps, PdfIsZeroOutside) { EXPECT_EQ(testmaps::check_pdf_outside(*build(GetParam())), ""); }
 
-TEST_P(PyramidMaps, ReportsFallbacks) {
+TEST_P(HierarchicalMaps, ReportsFallbacks) {
   const TestMap& m = GetParam();
   const auto d = build(m);
   bool all_zero = true;
@@ -74,11 +74,11 @@ TEST_P(PyramidMaps, ReportsFallbacks) {
   EXPECT_GT(d->bytes(), 0u);
 }
 
-INSTANTIATE_TEST_SUITE_P(Maps, PyramidMaps, ::testing::ValuesIn(testmaps::standard_maps()), testmaps::MapName());
+INSTANTIATE_TEST_SUITE_P(Maps, HierarchicalMaps, ::testing::ValuesIn(testmaps::standard_maps()), testmaps::MapName());
 
-TEST(PyramidDistribution2D, LevelsForAnySize) {
+TEST(HierarchicalDistribution2D, LevelsForAnySize) {
   const std::vector<float> w(64 * 64, 1.0f);
-  const auto levels = [&](int W, int H) { return PyramidDistribution2D(w.data(), W, H).levels(); };
+  const auto levels = [&](int W, int H) { return HierarchicalDistribution2D(w.data(), W, H).levels(); };
   EXPECT_EQ(levels(1, 1), 1);
   EXPECT_EQ(levels(2, 1), 1);
   EXPECT_EQ(levels(3, 2), 2);
@@ -87,10 +87,10 @@ TEST(PyramidDistribution2D, LevelsForAnySize) {
   EXPECT_EQ(levels(1, 9), 4);
 }
 
-TEST(PyramidDistribution2D, ConstantPowerOfTwoMapIsTheIdentityWarp) {
+TEST(HierarchicalDistribution2D, ConstantPowerOfTwoMapIsTheIdentityWarp) {
   // Every choice is 1/2, an exact re-scaling: the warp is the identity, which is why stratification survives.
   const std::vector<float> w(32 * 16, 0.3f);
-  const PyramidDistribution2D d(w.data(), 32, 16);
+  const HierarchicalDistribution2D d(w.data(), 32, 16);
   std::mt19937_64 rng(3);
   for (int i = 0; i < 1000; ++i) {
     const Vec2 u(testmaps::uniform53(rng), testmaps::uniform53(rng));
@@ -101,7 +101,7 @@ TEST(PyramidDistribution2D, ConstantPowerOfTwoMapIsTheIdentityWarp) {
   }
 }
 
-TEST(PyramidDistribution2D, PreservesStratification) {
+TEST(HierarchicalDistribution2D, PreservesStratification) {
   // The preimage of every pyramid node is an axis-aligned rectangle of u, so a jittered stratification keeps its
   // low discrepancy after warping: the per-node count errors come only from strata cut by rectangle edges. Over
   // the 4x4-texel nodes of a 32x32 smooth map, their sum of squares must be far below the ~N of independent
@@ -110,7 +110,7 @@ TEST(PyramidDistribution2D, PreservesStratification) {
   std::vector<float> w(W * H);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) w[std::size_t(y) * W + std::size_t(x)] = float(1.0 + x + 0.5 * y);
-  const PyramidDistribution2D d(w.data(), W, H);
+  const HierarchicalDistribution2D d(w.data(), W, H);
   double sum = 0.0;
   for (float v : w) sum += v;
   const double n = strata * strata;
@@ -139,14 +139,14 @@ TEST(PyramidDistribution2D, PreservesStratification) {
   EXPECT_GT(independent, 0.5 * n);  // the control: iid samples do not have this property
 }
 
-TEST(PyramidDistribution2D, KeepsTinyTexelsBesideASun) {
+TEST(HierarchicalDistribution2D, KeepsTinyTexelsBesideASun) {
   // A 1e6 sun among 1e-3 texels in 2D: each node compares only its own children, so every texel (1e-9 of the
   // map) is drawn with probability w / sum to ~1e-6, including those right of and below the sun, whose share of
   // their parent is below 2^-24 (reachable because decisions are clamped to 1 - 2^-53, not 1 - 2^-24).
   const int W = 64, H = 32;
   std::vector<float> w(std::size_t(W) * H, 1e-3f);
   w[std::size_t(20) * W + 40] = 1e6f;
-  const PyramidDistribution2D d(w.data(), W, H);
+  const HierarchicalDistribution2D d(w.data(), W, H);
   double sum = 0.0;
   for (float v : w) sum += v;
   for (int y = 0; y < H; ++y)
@@ -161,11 +161,11 @@ TEST(PyramidDistribution2D, KeepsTinyTexelsBesideASun) {
   EXPECT_EQ(s.y, 20);
 }
 
-TEST(PyramidDistribution2D, HugeTotalsAreScaledNotOverflowed) {
+TEST(HierarchicalDistribution2D, HugeTotalsAreScaledNotOverflowed) {
   std::vector<float> w(16 * 8, FLT_MAX);
   w[3] = std::numeric_limits<float>::infinity();
   w[4] = 1.0f;
-  const PyramidDistribution2D d(w.data(), 16, 8);
+  const HierarchicalDistribution2D d(w.data(), 16, 8);
   EXPECT_TRUE(std::isfinite(d.integral()));
   EXPECT_EQ(testmaps::check_normalised(d), "");
   std::mt19937_64 rng(9);
@@ -176,20 +176,20 @@ TEST(PyramidDistribution2D, HugeTotalsAreScaledNotOverflowed) {
   }
 }
 
-TEST(PyramidDistribution2D, RejectsBadSizes) {
+TEST(HierarchicalDistribution2D, RejectsBadSizes) {
   const float w = 1.0f;
-  EXPECT_THROW(PyramidDistribution2D(&w, 0, 1), Error);
-  EXPECT_THROW(PyramidDistribution2D(nullptr, 1, 1), Error);
+  EXPECT_THROW(HierarchicalDistribution2D(&w, 0, 1), Error);
+  EXPECT_THROW(HierarchicalDistribution2D(nullptr, 1, 1), Error);
 }
 
-TEST(PyramidDistribution2D, DeterministicAcrossThreadCounts) {
+TEST(HierarchicalDistribution2D, DeterministicAcrossThreadCounts) {
   const int W = 1000, H = 500;  // above the parallel threshold, not a power of two
   std::vector<float> w(std::size_t(W) * H);
   std::mt19937_64 rng(11);
   for (float& v : w) v = float(std::pow(10.0, 6.0 * testmaps::uniform53(rng) - 3.0));
-  std::unique_ptr<PyramidDistribution2D> one, many;
-  tbb::task_arena(1).execute([&] { one = std::make_unique<PyramidDistribution2D>(w.data(), W, H); });
-  tbb::task_arena(2).execute([&] { many = std::make_unique<PyramidDistribution2D>(w.data(), W, H); });
+  std::unique_ptr<HierarchicalDistribution2D> one, many;
+  tbb::task_arena(1).execute([&] { one = std::make_unique<HierarchicalDistribution2D>(w.data(), W, H); });
+  tbb::task_arena(2).execute([&] { many = std::make_unique<HierarchicalDistribution2D>(w.data(), W, H); });
   for (int i = 0; i < 20000; ++i) {
     const Vec2 u(testmaps::uniform53(rng), testmaps::uniform53(rng));
     const DistributionSample a = one->sample(u), b = many->sample(u);

@@ -1,4 +1,4 @@
-#include <envkit/sampling/distribution_pyramid.h>
+#include <envkit/sampling/distribution_hierarchical.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <string>
 
-#include "distribution_pyramid_simd.h"
+#include "distribution_hierarchical_simd.h"
 #include "simd_level.h"
 
 namespace envkit {
@@ -51,7 +51,7 @@ inline double top_share(const float* c, int dx) {
 
 }  // namespace
 
-std::size_t PyramidDistribution2D::layout_levels() {
+std::size_t HierarchicalDistribution2D::layout_levels() {
   // Level sizes: ceil-halving down to 1 x 1, with at least one level above the weights.
   levels_.assign(1, {width_, height_, 0});
   while (levels_.size() == 1 || levels_.back().width > 1 || levels_.back().height > 1)
@@ -70,7 +70,7 @@ std::size_t PyramidDistribution2D::layout_levels() {
   return size;
 }
 
-PyramidDistribution2D::PyramidDistribution2D(BlobReader& in) : Distribution2D(in) {
+HierarchicalDistribution2D::HierarchicalDistribution2D(BlobReader& in) : Distribution2D(in) {
   const std::size_t size = layout_levels();
   nodes_ = in.table<float>(size);
   root_ = in.scalar<double>();
@@ -84,7 +84,7 @@ PyramidDistribution2D::PyramidDistribution2D(BlobReader& in) : Distribution2D(in
 // NaN shares, zero-sum blocks or texels outside the grid. Every node finite and >= 0, nodes outside a level's grid
 // 0, each node the sum of its four children (up to the float rounding of the build), the root the sum of the top
 // block and pdf_scale = W H / root. One pass over the nodes (4/3 of the texels), like the checksum.
-void PyramidDistribution2D::validate(const std::string& context) const {
+void HierarchicalDistribution2D::validate(const std::string& context) const {
   const auto refuse = [&](const std::string& what) { throw Error(context + ": invalid pyramid (" + what + ")"); };
   const auto close = [](double stored, double sum) {
     if (stored == 0.0 || sum == 0.0) return stored == sum;  // a zero node has zero children and vice versa
@@ -118,14 +118,14 @@ void PyramidDistribution2D::validate(const std::string& context) const {
   if (!std::isfinite(integral_)) refuse("integral not finite");
 }
 
-void PyramidDistribution2D::save(BlobWriter& out) const {
+void HierarchicalDistribution2D::save(BlobWriter& out) const {
   save_base(out);
   out.array(nodes_);
   out.scalar<double>(root_);
   out.scalar<double>(pdf_scale_);
 }
 
-PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, int height)
+HierarchicalDistribution2D::HierarchicalDistribution2D(const float* weights, int width, int height)
     : Distribution2D(weights, width, height) {
   nodes_.assign(layout_levels(), 0.0f);
   const int top = levels();
@@ -198,7 +198,7 @@ PyramidDistribution2D::PyramidDistribution2D(const float* weights, int width, in
   pdf_scale_ = (double(width) * double(height)) / root;
 }
 
-DistributionSample PyramidDistribution2D::sample(Vec2 u) const {
+DistributionSample HierarchicalDistribution2D::sample(Vec2 u) const {
   const TexelSample t = pick(u);
   DistributionSample s;
   s.uv = Vec2((t.x + t.fx) / width_, (t.y + t.fy) / height_);
@@ -208,7 +208,7 @@ DistributionSample PyramidDistribution2D::sample(Vec2 u) const {
   return s;
 }
 
-TexelSample PyramidDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
+TexelSample HierarchicalDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
 
 namespace {
 
@@ -217,12 +217,12 @@ namespace {
 __m128d mask_select(__m128d m, __m128d a, __m128d b) { return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b)); }
 #endif
 
-/// detail::pyramid_step() with selects instead of conditional jumps, bit for bit the same operations on the same
+/// detail::hierarchical_step() with selects instead of conditional jumps, bit for bit the same operations on the same
 /// values: a group descent (pick_group) has prefetched the blocks, and what is left of a step's cost is mostly its
 /// two decisions, each taken at random, which the CPU cannot predict. The divisions are those of the chosen sides only
 /// (numerator and denominator are selected first), and std::min(kOneMinusEpsilon, q) is minsd(q, kOneMinusEpsilon).
-[[gnu::always_inline]] inline double pyramid_step_select(const float* c, double& ux, double& uy, std::size_t& i,
-                                                         std::size_t& j) {
+[[gnu::always_inline]] inline double hierarchical_step_select(const float* c, double& ux, double& uy, std::size_t& i,
+                                                              std::size_t& j) {
 #if defined(__SSE2__)
   const __m128d a = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c))));      // c0, c1
   const __m128d b = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c + 2))));  // c2, c3
@@ -241,20 +241,20 @@ __m128d mask_select(__m128d m, __m128d a, __m128d b) { return _mm_or_pd(_mm_and_
   j = 2 * j + std::size_t(_mm_movemask_pd(ry) & 1);
   return _mm_cvtsd_f64(mask_select(ry, bottom, top));
 #else
-  return detail::pyramid_step(c, ux, uy, i, j);
+  return detail::hierarchical_step(c, ux, uy, i, j);
 #endif
 }
 
 }  // namespace
 
-void PyramidDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
+void HierarchicalDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
   sampling::for_each_group(u.size(),
                            [&](std::size_t g, std::size_t n) { pick_group(u.data() + g, out.data() + g, n); });
 }
 
-void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t n) const {
-  if (detail::use_avx2() && top_level_ <= detail::PyramidWalk::kMaxLevels) {
-    detail::PyramidWalk walk;
+void HierarchicalDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::size_t n) const {
+  if (detail::use_avx2() && top_level_ <= detail::HierarchicalWalk::kMaxLevels) {
+    detail::HierarchicalWalk walk;
     walk.nodes = nodes_.data();
     for (int k = 0; k < top_level_; ++k) {
       walk.offset[k] = levels_[std::size_t(k)].offset;
@@ -264,9 +264,9 @@ void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::siz
     walk.prefetch_top = prefetch_top_;
     walk.pdf_scale = pdf_scale_;
     if (detail::use_avx512())
-      detail::pyramid_pick_group_avx512(walk, u, out, n);
+      detail::hierarchical_pick_group_avx512(walk, u, out, n);
     else
-      detail::pyramid_pick_group_avx2(walk, u, out, n);
+      detail::hierarchical_pick_group_avx2(walk, u, out, n);
     return;
   }
   constexpr std::size_t G = sampling::kSampleGroup;
@@ -285,17 +285,17 @@ void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::siz
   int k = top_level_ - 1;
   // Small top levels: cached, no prefetch.
   for (; k > prefetch_top_; --k)
-    for (std::size_t s = 0; s < n; ++s) pyramid_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
+    for (std::size_t s = 0; s < n; ++s) hierarchical_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
   // Large levels: after a sample's step the block it reads at the next level is known; prefetch it (one line). It
   // is read in the next pass over the group, after the other samples' steps, by when it has arrived. (pick()
   // prefetches both candidate rows before its step instead: there the step itself is all the time there is.)
   for (; k > 0; --k)
     for (std::size_t s = 0; s < n; ++s) {
-      pyramid_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
+      hierarchical_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
       __builtin_prefetch(block(k - 1, s));
     }
   for (std::size_t s = 0; s < n; ++s) {
-    const double leaf = pyramid_step_select(block(0, s), ux[s], uy[s], i[s], j[s]);
+    const double leaf = hierarchical_step_select(block(0, s), ux[s], uy[s], i[s], j[s]);
     out[s].fx = std::min(kTexelOffsetMax, ux[s]);
     out[s].fy = std::min(kTexelOffsetMax, uy[s]);
     out[s].pdf = leaf * pdf_scale_;
@@ -304,14 +304,16 @@ void PyramidDistribution2D::pick_group(const Vec2* u, TexelSample* out, std::siz
   }
 }
 
-double PyramidDistribution2D::pdf(Vec2 uv) const {
+double HierarchicalDistribution2D::pdf(Vec2 uv) const {
   if (!sampling::in_unit_square(uv)) return 0.0;
   return texel_pdf(sampling::texel_index(uv.x, width_), sampling::texel_index(uv.y, height_));
 }
 
-double PyramidDistribution2D::texel_probability(int x, int y) const { return texel_probability_below(levels(), x, y); }
+double HierarchicalDistribution2D::texel_probability(int x, int y) const {
+  return texel_probability_below(levels(), x, y);
+}
 
-double PyramidDistribution2D::texel_probability_below(int level, int x, int y) const {
+double HierarchicalDistribution2D::texel_probability_below(int level, int x, int y) const {
   if (x < 0 || x >= width_ || y < 0 || y >= height_) return 0.0;
   double p = 1.0;
   for (int k = 0; k < std::min(level, levels()); ++k) {
@@ -326,7 +328,7 @@ double PyramidDistribution2D::texel_probability_below(int level, int x, int y) c
   return p;
 }
 
-Vec2 PyramidDistribution2D::invert(Vec2 uv) const {
+Vec2 HierarchicalDistribution2D::invert(Vec2 uv) const {
   uv = sampling::clamp_uv(uv);
   int x = sampling::texel_index(uv.x, width_), y = sampling::texel_index(uv.y, height_);
   double ux = std::min(uv.x * width_ - x, 1.0), uy = std::min(uv.y * height_ - y, 1.0);
@@ -348,6 +350,6 @@ Vec2 PyramidDistribution2D::invert(Vec2 uv) const {
   return Vec2(clamp_decision(ux), clamp_decision(uy));
 }
 
-std::size_t PyramidDistribution2D::bytes() const { return nodes_.bytes() + levels_.capacity() * sizeof(Level); }
+std::size_t HierarchicalDistribution2D::bytes() const { return nodes_.bytes() + levels_.capacity() * sizeof(Level); }
 
 }  // namespace envkit
