@@ -164,8 +164,8 @@ int run(const Options& o) {
   const envkit::SamplingMethod method = envkit::parse_method(o.method);
   const envkit::SphericalDistribution* d = t.distribution(method, o.compensated);
   if (!d)
-    throw envkit::Error(o.tables + ": has no " + std::string(o.compensated ? "compensated " : "") +
-                        envkit::method_name(method) + " table (re-bake with envbake --tables ...)");
+    throw envkit::Error(o.tables + ": has no " + envkit::table_name(method, o.compensated) +
+                        " table (re-bake with envbake --tables ...)");
   Sequence seq(o.sequence == "sobol", o.seed);
   if (ext == ".csv")
     write_csv(o.out, *d, seq, o.n);

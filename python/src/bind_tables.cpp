@@ -70,7 +70,7 @@ const SphericalDistribution& distribution(const EnvTables& t, const std::string&
   const SamplingMethod m = parse_method(method);
   const SphericalDistribution* d = t.distribution(m, compensated);
   if (!d)
-    throw Error(name + ": has no " + std::string(compensated ? "compensated " : "") + method_name(m) +
+    throw Error(name + ": has no " + table_name(m, compensated) +
                 " table (re-bake with envbake --tables ...)");
   return *d;
 }
@@ -275,10 +275,11 @@ element instead of the batched one (the same results bit for bit, slower on larg
             for (bool comp : {false, true})
               for (SamplingMethod sm : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical})
                 if (t.tables->distribution(sm, comp))
-                  out.push_back(std::string(comp ? "compensated " : "") + method_name(sm));
+                  out.push_back(table_name(sm, comp));
             return out;
           },
-          "Baked methods, e.g. ['cdf', 'alias', 'hierarchical'].");
+          "Baked tables, e.g. ['cdf', 'hierarchical', 'hierarchical-compensated'] (the names of table files' "
+          "sections; sample(), pdf() and invert() take the method and compensated=True for a '-compensated' one).");
 
   m.def(
       "file_content_hash", [](const std::string& path) { return file_content_hash(face_paths(path)); }, py::arg("path"),

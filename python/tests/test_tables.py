@@ -144,4 +144,4 @@ def test_importance_view(baked):
     imp = t.importance
     assert imp.shape == (t.height, t.width) and imp.dtype == np.float32
     assert not imp.flags.writeable
-    assert "cdf" in t.methods() and "compensated hierarchical" in t.methods()
+    assert "cdf" in t.methods() and "hierarchical-compensated" in t.methods()

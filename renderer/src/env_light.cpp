@@ -93,8 +93,7 @@ const SphericalDistribution& EnvironmentLight::distribution(SamplingMethod metho
   const SphericalDistribution* d = tables_->distribution(method, compensated);
   if (!d) {
     std::string where = tables_->source_path().empty() ? "the tables" : "the tables of " + tables_->source_path();
-    throw Error(where + " hold no " + (compensated ? "compensated " : "") + method_name(method) +
-                " distribution (bake it, or pass --bake)");
+    throw Error(where + " hold no " + table_name(method, compensated) + " table (bake it, or pass --bake)");
   }
   return *d;
 }

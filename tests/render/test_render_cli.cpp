@@ -430,7 +430,7 @@ TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
   EXPECT_EQ(fresh.code, 0) << fresh.err;
   fs::remove(out);
   fs::remove(dir_ / "baked.png");
-  expect_error(stale, {"sky.exr", "no compensated hierarchical distribution", "--bake"},
+  expect_error(stale, {"sky.exr", "no hierarchical-compensated table", "--bake"},
                {"--strategy", "mis-compensated"});
 }
 

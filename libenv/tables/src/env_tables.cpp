@@ -69,6 +69,10 @@ std::string image_content_hash(const Image& image) {
   return finish_hash(state);
 }
 
+std::string table_name(SamplingMethod method, bool compensated) {
+  return std::string(method_name(method)) + (compensated ? "-compensated" : "");
+}
+
 std::string file_content_hash(const std::vector<std::string>& paths) {
   XXH3_state_t* state = XXH3_createState();
   XXH3_128bits_reset(state);
@@ -473,12 +477,12 @@ std::vector<std::pair<std::string, std::size_t>> EnvTables::table_bytes() const 
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m)
       if (distributions_[set][m])
-        out.emplace_back(std::string(method_name(SamplingMethod(m))) + (set ? "-compensated" : ""),
+        out.emplace_back(table_name(SamplingMethod(m), set != 0),
                          distributions_[set][m]->distribution().bytes());
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m)
       if (sun_splits_[set][m])
-        out.emplace_back(std::string("sun-") + method_name(SamplingMethod(m)) + (set ? "-compensated" : ""),
+        out.emplace_back("sun-" + table_name(SamplingMethod(m), set != 0),
                          sun_splits_[set][m]->residual().distribution().bytes() +
                              sun_splits_[set][m]->sun_distribution().distribution().bytes());
   return out;

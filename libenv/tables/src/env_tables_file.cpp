@@ -170,9 +170,7 @@ class FileBytes {
   bool mapped_ = false;
 };
 
-std::string section_name(int method, int set) {
-  return std::string(method_name(SamplingMethod(method))) + (set ? "-compensated" : "");
-}
+std::string section_name(int method, int set) { return table_name(SamplingMethod(method), set != 0); }
 
 std::shared_ptr<const Distribution2D> restore_distribution(int method, BlobReader& in) {
   switch (SamplingMethod(method)) {

@@ -94,6 +94,11 @@ std::string image_content_hash(const Image& image);
 /// Throws Error naming a file that cannot be read.
 std::string file_content_hash(const std::vector<std::string>& paths);
 
+/// The name of one baked table: the method's name, "-compensated" appended for its MIS-compensated twin
+/// ("cdf", "hierarchical-compensated"). The one spelling of table files' sections, table_bytes(), envinfo and
+/// Python's Tables.methods().
+std::string table_name(SamplingMethod method, bool compensated);
+
 class EnvTables {
  public:
   /// Bakes tables from an environment map. source_path and source_hash are recorded (hash computed when empty).
