@@ -22,55 +22,6 @@ using namespace envkit::testing;
 
 namespace {
 
-struct LevelErrors {
-  std::vector<std::array<double, 3>> rms;  // per level >= 1, per channel
-  std::vector<double> max_rel;             // per level: largest |P - R| / R over texels and channels
-};
-
-// Every level >= 1 against the brute-force sum, at every texel of a level or, past max_texels, at every stride-th
-// texel (a regular subset, so the relative RMS is that of the whole level up to sampling).
-LevelErrors compare_with_reference(const EnvMap& src, const PrefilteredChain& chain,
-                                   std::size_t max_texels = SIZE_MAX) {
-  const GgxReference reference(src.ref());
-  LevelErrors e;
-  for (std::size_t m = 1; m < chain.levels.size(); ++m) {
-    const EnvMap& level = chain.levels[m];
-    const TexelDirections dirs(*level.param);
-    const std::size_t count = level.image.texel_count();
-    const std::size_t stride = count > max_texels ? (count + max_texels - 1) / max_texels : 1;
-    RelRms rms(3);
-    double max_rel = 0.0;
-    for (std::size_t t = stride / 2; t < count; t += stride) {
-      const int x = int(t % level.image.width), y = int(t / level.image.width);
-      Vec3 d;
-      if (!dirs.centre(x, y, d)) continue;
-      double ref[3];
-      reference.eval(apply(level.to_world(), d).normalized(), chain.alpha[m], ref);
-      for (int c = 0; c < 3; ++c) {
-        rms.add(c, level.image.at(x, y, c), ref[c]);
-        max_rel = std::max(max_rel, std::abs(level.image.at(x, y, c) - ref[c]) / ref[c]);
-      }
-    }
-    e.rms.push_back({rms(0), rms(1), rms(2)});
-    e.max_rel.push_back(max_rel);
-  }
-  return e;
-}
-
-double worst_channel(const std::array<double, 3>& rms) { return std::max({rms[0], rms[1], rms[2]}); }
-
-// What a real HDRI holds that a smooth sky does not: texture at the source's own resolution (a checker of 2 x 2
-// texels, +-50%, over smooth_sky) and, if sun > 0, a sun of that radiance in one texel.
-EnvMap textured_sky(int width, float sun) {
-  EnvMap map = latlong_env(width, smooth_sky);
-  for (int y = 0; y < map.image.height; ++y)
-    for (int x = 0; x < map.image.width; ++x)
-      for (int c = 0; c < 3; ++c) map.image.at(x, y, c) *= ((x / 2 + y / 2) % 2 == 0) ? 1.5f : 0.5f;
-  if (sun > 0.0f)
-    for (int c = 0; c < 3; ++c) map.image.at(width * 3 / 10, map.image.height * 5 / 16, c) = sun;
-  return map;
-}
-
 void print(const char* what, const LevelErrors& e, const PrefilteredChain& chain) {
   for (std::size_t i = 0; i < e.rms.size(); ++i)
     std::printf("%s level %zu alpha %.4f: rel RMS %.5f %.5f %.5f, max rel %.5f\n", what, i + 1, chain.alpha[i + 1],
@@ -209,40 +160,6 @@ TEST(Prefilter, SourceCubeMemoryCappedBySourceBytes) {
   print("sun, unreal mapping, capped source cube", e, chain);
   for (std::size_t i = 0; i < e.rms.size(); ++i)
     EXPECT_LE(worst_channel(e.rms[i]), 0.005) << "level " << i + 1 << " alpha " << chain.alpha[i + 1];
-}
-
-// The table of docs/PREFILTER.md ("Method and the accuracy knob"): relative RMS per level (worst channel) and time
-// per accuracy and chain size. A measurement, not a check: run with --gtest_also_run_disabled_tests. With
-// ENVKIT_PREFILTER_HDRI naming a map file, that map area-resampled to 256 x 128 is measured too.
-TEST(Prefilter, DISABLED_AccuracyTable) {
-  const EnvMap smooth = latlong_env(256, smooth_sky), textured = textured_sky(256, 0.0f),
-               sunny = textured_sky(256, 1e4f);
-  struct Named {
-    const char* name;
-    const EnvMap* map;
-  };
-  std::vector<Named> maps = {{"smooth", &smooth}, {"textured", &textured}, {"sun", &sunny}};
-  EnvMap hdri;
-  if (const char* path = std::getenv("ENVKIT_PREFILTER_HDRI")) {
-    const EnvMap file = load_envmap(path);
-    hdri.param = std::make_unique<LatLongMap>(256, 128);
-    hdri.image = resample(file.ref(), *hdri.param, identity3());
-    maps.push_back({"hdri", &hdri});
-  }
-  for (int size : {8, 16, 32, 64, 128, 256})
-    for (double accuracy : {0.4, 0.2, 0.1, 0.05})
-      for (const Named& k : maps) {
-        PrefilterOptions o;
-        o.size = size;
-        o.accuracy = accuracy;
-        const std::clock_t t0 = std::clock();  // CPU time of all threads: the machine may be shared
-        const PrefilteredChain chain = prefilter_ggx(k.map->ref(), o);
-        const double ms = 1000.0 * double(std::clock() - t0) / CLOCKS_PER_SEC;
-        const LevelErrors e = compare_with_reference(*k.map, chain, 400);
-        std::printf("%4d^2 accuracy %.2f %-8s source %4d %8.1f ms CPU:", size, accuracy, k.name, chain.source_size, ms);
-        for (const auto& rms : e.rms) std::printf(" %.3f%%", 100.0 * worst_channel(rms));
-        std::printf("\n");
-      }
 }
 
 TEST(Prefilter, ConstantMapStaysConstantAtEveryLevel) {
