@@ -214,11 +214,24 @@ def write_scene(path, scene):
 
 
 # ---------------------------------------------------------------------- shared rendering setup
+HDRI_DIR = "/usr/share/blender/datafiles/studiolights/world"
+
+
 def make_probe_images(ctx, names=("sunny", "overcast"), size="1024x512"):
     """sky_sunny.exr (the built-in default probe) and sky_overcast.exr (the same outdoor model, cloud cover 1, no
-    sun: what the scene format's "probe": "overcast" builds). Scenes load these images and bake in memory (--bake),
-    which is faster per run than rasterizing the probe in every envrender invocation."""
+    sun: what the scene format's "probe": "overcast" builds); any other name is one of blender's HDRIs
+    (HDRI_DIR/<name>.exr: real captures, e.g. sunrise, courtyard), used as it is and skipped with a note when
+    blender's data is not installed. Scenes load these images and bake in memory (--bake), which is faster per run
+    than rasterizing the probe in every envrender invocation."""
     out = {}
+    for name in names:
+        if name in ("sunny", "overcast"):
+            continue
+        path = os.path.join(HDRI_DIR, name + ".exr")
+        if os.path.exists(path):
+            out[name] = path
+        else:
+            ctx.note(f"{path} is missing (blender's data): no {name} scenes in this run")
     for name, extra in (("sunny", []), ("overcast", ["--cloud-cover", "1", "--radiance", "0"])):
         if name not in names:
             continue

@@ -1,10 +1,12 @@
 """Section 1: conversion. envconvert lat-long -> cube for every filter and output size: wall time vs error against
-the analytic probe rasterized exactly at the output size by envprobe; power error for a sub-texel sun; envconvert
-vs exrenvmap through scripts/bench/bench_exrenvmap.sh."""
+the analytic probe rasterized exactly at the output size by envprobe, measured as a renderer sees it (power, GGX-
+prefiltered levels, irradiance: report/seen.py) beside the per-texel relMSE; power error for a sub-texel sun;
+envconvert vs exrenvmap through scripts/bench/bench_exrenvmap.sh."""
 import json
 import os
 
 from report.common import Context, commands_block, g, machine_line, md_table, plt
+from report.seen import seen_columns, seen_errors
 
 ctx = Context("conversion")
 N = ctx.pick(128, 1024, 2048)  # source lat-long 2N x N
@@ -22,10 +24,17 @@ for F in FACES:
     ctx.run([ctx.tool("envprobe"), "default", "--param", "cube", "--size", F, "-o", ctx.path(f"ref_{F}.exr")])
 
 
+SEEN = seen_columns()
+SEEN_SIZE = ctx.pick(32, 128, 128)  # level 0 of the prefiltered chains that measure what a surface sees
+
+
 def diff(ref, out):
     d = json.loads(ctx.run([ctx.tool("envdiff"), ref, out, "--json"])[0])
-    return {"rmse": d["rmse"], "relmse": d["relmse"], "max": d["max_abs_error"]["value"],
-            "power": d["power_max_relative_difference"]}
+    result = {"rmse": d["rmse"], "relmse": d["relmse"], "max": d["max_abs_error"]["value"],
+              "power": d["power_max_relative_difference"]}
+    result["seen"] = seen_errors(out, ref, SEEN_SIZE)
+    result["seen_worst"] = max(result["seen"][k] for k in SEEN if k.startswith("ggx") or k == "irradiance")
+    return result
 
 
 cmds = {(F, f): [ctx.tool("envconvert"), src, "-o", ctx.path(f"cube_{F}_{f}.exr"), "--to", "cube", "--size", F,
@@ -89,12 +98,12 @@ fig, axes = p.subplots(1, 2, figsize=(10, 3.8))
 ax = axes[0]
 for i, f in enumerate(FILTERS):
     xs = [conv[(F, f)]["time"] for F in FACES]
-    ys = [max(conv[(F, f)]["relmse"], 1e-12) for F in FACES]
+    ys = [max(conv[(F, f)]["seen_worst"], 1e-12) for F in FACES]
     ax.loglog(xs, ys, "o-", label=f, color=f"C{i}")
     for F, x, y in zip(FACES, xs, ys):
         ax.annotate(str(F), (x, y), fontsize=6, xytext=(2, 2), textcoords="offset points")
 ax.set_xlabel("envconvert wall time (s)")
-ax.set_ylabel("relMSE vs exact rasterization")
+ax.set_ylabel("worst GGX / irradiance rel. RMS error")
 ax.set_title(f"lat-long {2 * N}x{N} -> cube (face size labelled)")
 ax.legend(fontsize=7)
 ax = axes[1]
@@ -108,34 +117,40 @@ fig.savefig(f"{ctx.out}/conversion.png")
 
 # ---------------------------------------------------------------- text
 rows = []
+texel_rows = []
 for F in FACES:
     best = min(conv[(F, f)]["relmse"] for f in FILTERS)
     for f in FILTERS:
         c = conv[(F, f)]
-        rows.append([f"{F}", f, c["time"], c["rmse"], c["relmse"], f"{c['relmse'] / best:.2f}x", c["max"], c["power"],
-                     smooth.get((F, f), {}).get("relmse", "-"), smooth.get((F, f), {}).get("power", "-")])
-sun_rows = [[f, sun_res[f]["power"], sun_res[f]["relmse"], sun_res[f]["max"]] for f in FILTERS]
+        rows.append([f"{F}", f, c["time"]] + [c["seen"][k] for k in SEEN] +
+                    [smooth.get((F, f), {}).get("seen_worst", "-")])
+        texel_rows.append([f"{F}", f, c["rmse"], c["relmse"], f"{c['relmse'] / best:.2f}x", c["max"],
+                           smooth.get((F, f), {}).get("relmse", "-")])
+sun_rows = [[f] + [sun_res[f]["seen"][k] for k in SEEN] + [sun_res[f]["relmse"], sun_res[f]["max"]] for f in FILTERS]
 text = ["## 1. Conversion\n",
         f"Source: `envprobe default` lat-long {2 * N}x{N} (envkit convention, float EXR). Each output: "
         f"`envconvert --to cube --size F --filter X`, wall time including EXR I/O, median of {ctx.repeats} "
         f"interleaved run(s). Reference: the analytic probe rasterized directly at the output size "
         f"(`envprobe default --param cube --size F`: flux-exact texel averages, far more accurate than supersampling "
-        f"a converted image). Errors: `envdiff REF OUT --json` (solid-angle weighted; relMSE = "
-        f"mean((I-R)^2/(R^2+0.01)); power = max relative difference of total power over channels). "
-        f"Machine: {machine}.\n",
+        f"a converted image). Errors as a renderer sees them (scripts/report/seen.py): `power`, the relative "
+        f"difference of total power (worst channel); `ggx A`, the relative RMS of the GGX-prefiltered level of alpha A "
+        f"(envkit.prefilter of output and reference, glTF mapping: what a glossy surface of that roughness sees); "
+        f"`irradiance`, the relative RMS of the irradiance map (what a diffuse surface sees). `overcast worst` is the "
+        f"worst GGX/irradiance error on the sun-less sky (below). Machine: {machine}.\n",
         "![conversion](conversion.png)\n",
-        md_table(["face size", "filter", "time (s)", "RMSE", "relMSE", "relMSE / best", "max abs err", "power rel diff",
-                  "overcast relMSE", "overcast power rel diff"],
-                 rows, ["---:", "---", "---:", "---:", "---:", "---:", "---:", "---:", "---:", "---:"]),
-        "\nThe default probe's relMSE is dominated by the sun: energy spilled into a sky texel next to the sun costs "
-        "(I - R)^2 / R^2 with R ~ 1, while a sun lost altogether costs at most 1 per sun texel, so a filter that "
-        "misses the sun can score a lower relMSE than one that keeps its power. The `overcast` columns (the same "
-        "outdoor model, cloud cover 1, no sun; converted the same way, reference rasterized the same way) measure "
-        "reconstruction quality without that effect.\n",
+        md_table(["face size", "filter", "time (s)"] + SEEN + ["overcast worst"], rows,
+                 ["---:", "---", "---:"] + ["---:"] * (len(SEEN) + 1)),
+        "\n**Per-texel errors** (`envdiff REF OUT --json`, solid-angle weighted; relMSE = mean((I-R)^2/(R^2+0.01))), "
+        "kept for comparison with other tools' reports, with a caveat: they are dominated by the sun. Energy that "
+        "the source's own resolution spread into a sky texel next to the sun costs (I - R)^2 / R^2 with R ~ 1, up "
+        "to ~1e5 per texel, while a sun lost altogether costs at most 1 per sun texel: relMSE ranks a filter that "
+        "loses the sun above one that keeps it. Do not choose a filter by this table.\n",
+        md_table(["face size", "filter", "RMSE", "relMSE", "relMSE / best", "max abs err", "overcast relMSE"],
+                 texel_rows, ["---:", "---", "---:", "---:", "---:", "---:", "---:"]),
         f"\n### Sub-texel sun\n\n`envprobe sun --radiance 1e6 --sky 1e-3 --radius-deg {SUN_RADIUS}` at "
         f"{2 * SUN_N}x{SUN_N} (one texel spans {180 / SUN_N:.3f} deg, the sun's diameter {2 * SUN_RADIUS} deg) converted "
         f"to cube {SUN_FACE}; reference: the same probe rasterized into the cube.\n",
-        md_table(["filter", "power rel diff", "relMSE", "max abs err"], sun_rows),
+        md_table(["filter"] + SEEN + ["relMSE", "max abs err"], sun_rows),
         "\n### envconvert vs exrenvmap\n"]
 if bench:
     body = bench.split("\n", 1)[1] if bench.startswith("## ") else bench

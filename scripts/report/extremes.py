@@ -1,11 +1,13 @@
 """Section 6: extremes. The sun's dynamic range (sun radiance over a sky of 1) from 1e2 to 1e9: relMSE and max pixel
-error of each strategy at equal spp on a diffuse and a glossy sphere over a ground plane."""
+error of each strategy at equal spp on a diffuse and a glossy sphere over a ground plane. Then the sizes at the
+ends: 1x1, 2x1 and 3x1 lat-long maps and (full run) a 16384x8192 map through envconvert, envbake, envprefilter and
+envrender: each tool's exit status, wall time and the conversion's power error."""
 import math
 
 import numpy as np
 
 from report.common import (Context, Reference, commands_block, g, machine_line, max_rel_pixel_error, md_table, plt,
-                    scene_from_template)
+                           scene_from_template, scene_with_image)
 
 ctx = Context("extremes")
 RANGES = ctx.pick([1e6], [1e2, 1e5, 1e9], [1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9])
@@ -45,6 +47,58 @@ for L in RANGES:
                           "finite": bool(np.all(np.isfinite(img)))}
     ctx.info(f"dynamic range {L:g} done")
 
+# ---------------------------------------------------------------- sizes at the ends
+# (label, how the map is made: an envconvert target of the 2x1 probe, or a special case) per map; the largest lat-long
+# depends on the mode.
+BIG = ctx.pick(None, "4096x2048", "16384x8192")
+MAPS = [("2x1 lat-long", "probe"), ("1x1 octahedral", ["--to", "octahedral", "--size", "1"]),
+        ("1x1 mirror ball", ["--to", "mirrorball", "--size", "1"]),
+        ("6x1 cube (hstrip, faces of 1)", ["--to", "cube", "--size", "1", "--layout", "hstrip"]),
+        ("3x1 (no parameterization has it)", "plain")]
+if BIG:
+    MAPS.append((f"{BIG} lat-long", "big"))
+if ctx.mode == "smoke":
+    MAPS = [m for m in MAPS if m[0].startswith(("2x1", "1x1 oct", "3x1"))]
+
+
+def power(path):
+    import envkit  # built beside the tools (report.sh puts BUILD/python on PYTHONPATH)
+    return np.asarray(envkit.EnvMap(path).power()[:3], np.float64)
+
+
+tiny = ctx.path("tiny_2x1.exr")
+ctx.run([ctx.tool("envprobe"), "default", "-o", tiny, "--size", "2x1", "-q"])
+sizes = {}
+for i, (label, how) in enumerate(MAPS):
+    src = ctx.path(f"map{i}.exr")
+    if how == "probe":
+        src = tiny
+    elif how == "big":
+        ctx.run([ctx.tool("envprobe"), "default", "-o", src, "--size", BIG, "-q"])
+    elif how == "plain":
+        ctx.run(["oiiotool", "--pattern", "constant:color=1,1,1", "3x1", "3", "-d", "float", "-o", src])
+    else:
+        ctx.run([ctx.tool("envconvert"), tiny, "-o", src, "-q"] + how)
+    face = 2048 if how == "big" else 1
+    steps = {
+        "envconvert": [ctx.tool("envconvert"), src, "-o", ctx.path(f"map{i}_cube.exr"), "--to", "cube", "--size", face,
+                       "-q"],
+        "envbake": [ctx.tool("envbake"), src, "-o", ctx.path(f"map{i}.envtbl"), "-q"],
+        "envprefilter": [ctx.tool("envprefilter"), src, "-o", ctx.path(f"map{i}.ktx2"), "--size", min(256, face), "-q"],
+        "envrender": [ctx.tool("envrender"), "-o", ctx.path(f"map{i}_render.exr"), "--scene",
+                      scene_with_image(ctx, "default", f"map{i}", src, (16, 8)), "--bake", "--spp", 4, "-q"],
+    }
+    row = {}
+    for tool, cmd in steps.items():
+        out, err, wall, rc = ctx.run(cmd, check=False)
+        last = err.strip().splitlines()[-1].replace("|", "/") if rc and err.strip() else ""
+        row[tool] = {"exit": rc, "wall": wall, "error": last.replace(ctx.work + "/", "")}
+    if row["envconvert"]["exit"] == 0:
+        p_in, p_out = power(src), power(ctx.path(f"map{i}_cube.exr"))
+        row["power"] = float(np.max(np.abs(p_out - p_in) / np.maximum(p_in, 1e-300)))
+    sizes[label] = row
+    ctx.info(f"{label} done")
+
 # ---------------------------------------------------------------- plot
 p = plt()
 fig, axes = p.subplots(1, 2, figsize=(10, 3.8))
@@ -78,11 +132,23 @@ text = ["## 6. Extremes: sun dynamic range\n",
         "\n### max |I - R| / mean(R)\n", md_table(hdr, t2),
         "\n### max |I - R| / (|R| + 0.1)\n", md_table(hdr, t3),
         f"\nNon-finite estimates reported by envrender over all runs: {nonfinite}; non-finite pixels in the outputs: "
-        f"{sum(not v['finite'] for v in res.values())}.\n"]
+        f"{sum(not v['finite'] for v in res.values())}.\n",
+        "\n### Sizes at the ends\n\nThe smallest maps of each kind, made from `envprobe default --size 2x1` by "
+        "`envconvert` (so their metadata names their kind), a 3x1 image that fits no parameterization (made by "
+        "oiiotool, no metadata: the tools must refuse it with one line)"
+        + (f", and `envprobe default --size {BIG}`" if BIG else "") + ". Each goes through `envconvert --to cube "
+        "--size F` (F = 1, 2048 for the large map), `envbake`, `envprefilter --size F` (at most 256) and `envrender "
+        "--bake` of the default scene lit by the map at 4 spp. Exit status (0 = success; 1 = bad input, with its "
+        "message) and wall time of each; power error = the cube's power against the source's (worst channel).\n",
+        md_table(["map", "envconvert", "envbake", "envprefilter", "envrender", "power error"],
+                 [[size] + [f"exit {r[t]['exit']}, {r[t]['wall']:.2f} s" + (f" ({r[t]['error'][:120]})" if r[t]["error"]
+                                                                          else "")
+                            for t in ("envconvert", "envbake", "envprefilter", "envrender")] + [r.get("power", "-")]
+                  for size, r in sizes.items()])]
 for n in ctx.notes:
     text.append(f"- {n}")
 text.append("\n" + commands_block(ctx))
 ctx.write_md("extremes.md", "\n".join(text))
 ctx.save_summary({"ranges": RANGES, "configs": [c[0] for c in CONFIGS], "spp": SPP,
-                  "res": {f"{k[0]}|{k[1]:g}": v for k, v in res.items()}, "failures": failures})
+                  "res": {f"{k[0]}|{k[1]:g}": v for k, v in res.items()}, "failures": failures, "sizes": sizes})
 ctx.info("wrote extremes.md")

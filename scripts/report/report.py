@@ -6,6 +6,7 @@ import math
 import os
 import platform
 import re
+import subprocess
 import sys
 
 from report.common import g, geomean
@@ -13,7 +14,7 @@ from report.common import g, geomean
 out_dir, mode, seconds, failed = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4].split()
 base = os.path.basename(out_dir.rstrip("/"))
 report_path = os.path.join(os.path.dirname(out_dir.rstrip("/")), "REPORT.md")
-SECTIONS = ["conversion", "tables", "strategies", "stratification", "precision", "extremes"]
+SECTIONS = ["conversion", "tables", "strategies", "stratification", "precision", "extremes", "prefilter"]
 
 
 def load(name):
@@ -32,40 +33,47 @@ def section_md(name):
     return re.sub(r"\]\((?!https?:)([^)/]+\.(?:png|md))\)", rf"]({base}/\1)", text)
 
 
+def commit():
+    try:
+        return subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(__file__)), "rev-parse", "--short", "HEAD"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown (not a git checkout)"
+
+
 S = {s: load(s) for s in SECTIONS}
 rec = []       # recommendation bullets
 headline = []  # headline numbers
 
 # ---------------------------------------------------------------- 1. conversion
+# Filters are ranked by what a renderer sees (the worst of the GGX-prefiltered and irradiance errors, report/seen.py),
+# never by the per-texel relMSE, which rewards losing the sun.
 c = S["conversion"]
 if c:
     F = c["faces"][-1]
     conv = {k.split("|")[1]: v for k, v in c["conv"].items() if int(k.split("|")[0]) == F}
     fastest = min(conv, key=lambda f: conv[f]["time"])
-    best = min(conv, key=lambda f: conv[f]["relmse"])
+    best = min(conv, key=lambda f: conv[f]["seen_worst"])
     sun = c["sun"]
-    cons = min(sun, key=lambda f: sun[f]["power"])
-    smooth = {k.split("|")[1]: v for k, v in c.get("smooth", {}).items() if int(k.split("|")[0]) == F}
-    qual = smooth if smooth else conv  # reconstruction quality: the sun-less map when measured
-    sbest = min(qual, key=lambda f: qual[f]["relmse"])
-    ok_preview = [f for f in conv if qual[f]["relmse"] <= 2 * qual[sbest]["relmse"]]
+    cons = min(sun, key=lambda f: sun[f]["seen"]["power"])
+    seen_keys = [k for k in conv[best]["seen"] if k != "power"]
+    ok_preview = [f for f in conv if conv[f]["seen_worst"] <= 2 * conv[best]["seen_worst"]]
     prev = min(ok_preview, key=lambda f: conv[f]["time"])
-    headline.append(f"Conversion of a {c['source'][0]}x{c['source'][1]} lat-long to cube {F}: `{best}` has the lowest "
-                    f"relMSE ({g(conv[best]['relmse'])}), `{fastest}` is fastest ({g(conv[fastest]['time'])} s; "
-                    + ", ".join(f"{f} {g(v['time'])} s" for f, v in conv.items() if f != fastest) +
-                    "); sub-texel sun power error: " + ", ".join(f"{f} {g(v['power'])}" for f, v in sun.items()) + ".")
-    if smooth:
-        headline.append(f"Sun-less (overcast) map to cube {F}: relMSE " +
-                        ", ".join(f"{f} {g(v['relmse'])}" for f, v in smooth.items()) + ".")
-    rec.append(f"**Converting maps.** For previews, `--filter {prev}` (the fastest filter within 2x of the best "
-               f"{'sun-less map ' if smooth else ''}relMSE at cube {F}: {g(conv[prev]['time'])} s, relMSE "
-               f"{g(qual[prev]['relmse'])} vs best {g(qual[sbest]['relmse'])} ({sbest})). For maps that will "
-               f"light final frames or be baked into tables, `--filter {cons}`: "
-               + ("it is the only filter that keeps" if sum(v["power"] < 1e-3 for v in sun.values()) == 1 else
-                  "it best keeps") +
-               f" a sub-texel sun's power (error {g(sun[cons]['power'])} vs "
-               f"{g(max(v['power'] for k, v in sun.items() if k != cons))} for the worst other filter), at "
-               f"{conv[cons]['time'] / conv[fastest]['time']:.1f}x the time of `{fastest}`.")
+    headline.append(f"Conversion of a {c['source'][0]}x{c['source'][1]} lat-long to cube {F}, error as a surface sees "
+                    f"it (worst of {', '.join(seen_keys)}; relative RMS): " +
+                    ", ".join(f"`{f}` {g(v['seen_worst'])} in {g(v['time'])} s" for f, v in conv.items()) +
+                    f"; lowest `{best}`. Sub-texel sun power error: " +
+                    ", ".join(f"{f} {g(v['seen']['power'])}" for f, v in sun.items()) + ".")
+    rec.append(f"**Converting maps.** `--filter {best}` for maps that light final frames or are baked into tables: "
+               f"the lowest error a glossy or diffuse surface sees at cube {F} ({g(conv[best]['seen_worst'])}, vs "
+               + ", ".join(f"{f} {g(v['seen_worst'])}" for f, v in conv.items() if f != best) +
+               f") and a sub-texel sun's power kept to {g(sun[best]['seen']['power'])}"
+               + (f" (the best at that is `{cons}`, {g(sun[cons]['seen']['power'])})" if cons != best else "") +
+               + (f"; it is also the fastest. " if best == fastest else
+                  f"; it takes {conv[best]['time'] / conv[fastest]['time']:.1f}x the time of the fastest, `{fastest}`. ")
+               + (f"For previews, `--filter {prev}` is the fastest within 2x of that error ({g(conv[prev]['time'])} s, "
+                  f"{g(conv[prev]['seen_worst'])})." if prev != best else
+                  f"No other filter comes within 2x of its error, so it is the choice for previews too."))
 
 # ---------------------------------------------------------------- 2. tables
 t = S["tables"]
@@ -100,6 +108,25 @@ if t:
                    f"{full['bytes_total'] / max(small['bytes_total'], 1):.0f}x smaller and bake in "
                    f"{g(small['seconds_median'])} s vs {g(full['seconds_median'])} s. No recommendation on "
                    f"their render quality until that is measured.")
+
+    pm = t.get("per_method") or {}
+    if pm:
+        headline.append("Table methods on a real HDRI (sunrise): " + ", ".join(
+            f"{m} {g(r['seconds'])} s, {r['bytes'] / 2**20:.2f} MiB, worst pdf error {g(r['worst_pdf'])}, "
+            f"chi-square p {g(r['p'])}" for m, r in pm.items()) + ".")
+        exact = [m for m, r in pm.items() if r["worst_pdf"] < 1e-4 and r["p"] > 0.01]
+        if exact:
+            small = min(exact, key=lambda m: pm[m]["bytes"])
+            others = [m for m in pm if m not in exact]
+            mib = ", ".join(f"{m} {pm[m]['bytes'] / 2**20:.2f} MiB" for m in exact)
+            rec.append(f"**Table method.** `{small}`: the smallest of the methods whose density is the ideal "
+                       f"importance / total to {g(max(pm[m]['worst_pdf'] for m in exact))} on every texel and whose "
+                       f"draws pass chi-square ({mib})"
+                       + (f"; {', '.join(f'`{m}`' for m in others)} drew dim texels of the sun's rows at up to "
+                          f"{g(max(pm[m]['worst_pdf'] for m in others))} relative error (unbiased, but noisier there)"
+                          if others else "") +
+                       ". `alias` only for plain random numbers on very large maps (it breaks stratification: "
+                       "section 4).")
 
 # ---------------------------------------------------------------- 3. strategies
 s = S["strategies"]
@@ -210,11 +237,53 @@ if e and e.get("res"):
                        f"relMSE at {hi:g} is over 3x the best: " +
                        (", ".join(f"`{k}` ({g(v)})" for k, v in at_hi.items() if v > 3 * at_hi[bh]) or "none") + ".")
 
+if e and e.get("sizes"):
+    tools = ("envconvert", "envbake", "envprefilter", "envrender")
+    ok = [m for m, r in e["sizes"].items() if all(r[t]["exit"] == 0 for t in tools)]
+    refused = [m for m, r in e["sizes"].items() if all(r[t]["exit"] == 1 for t in tools)]
+    odd = [m for m in e["sizes"] if m not in ok and m not in refused]
+    worst_power = max((r.get("power", 0.0) for m, r in e["sizes"].items() if m in ok), default=0.0)
+    headline.append(f"Maps at the ends of the size range: {', '.join(ok) or 'none'} go through every tool (power "
+                    f"error of their conversion at most {g(worst_power)}); {', '.join(refused) or 'none'} refused by "
+                    f"every tool with one line" + (f"; mixed outcomes: {', '.join(odd)}" if odd else "") + ".")
+    rec.append("**Tiny and huge maps.** " + (f"Any tool takes {', '.join(ok)}" if ok else "No map measured passes") +
+               (f"; an image no parameterization fits ({', '.join(refused)}) is refused before any work, with "
+                f"exit 1 and a message naming the file" if refused else "") +
+               (f". Check by hand: {', '.join(odd)} (section 6)." if odd else "."))
+
+# ---------------------------------------------------------------- 7. prefilter
+pf = S["prefilter"]
+if pf and pf.get("acc"):
+    acc, target = pf["acc"], pf["target"]
+    sizes = pf["sizes"]
+    worst_by_acc = {a: max(acc[f"{s}|{a:g}"]["worst"] for s in sizes if f"{s}|{a:g}" in acc)
+                    for a in pf["accuracies"] if any(f"{s}|{a:g}" in acc for s in sizes)}
+    big = max(sizes)
+    ms = {a: acc[f"{big}|{a:g}"]["ms"] for a in worst_by_acc if f"{big}|{a:g}" in acc}
+    meeting = [a for a, w in worst_by_acc.items() if w <= target]
+    headline.append(f"Prefiltering, chains {min(sizes)}^2..{big}^2, worst level against the brute-force sum: " +
+                    ", ".join(f"accuracy {a:g} {100 * w:.2f}%" + (f" ({g(ms[a])} ms CPU at {big}^2)" if a in ms else "")
+                              for a, w in worst_by_acc.items()) + ".")
+    d = pf["default_accuracy"]
+    if meeting:
+        fastest = max(meeting)
+        rec.append(f"**Prefiltering.** `--accuracy {fastest:g}` is the fastest setting that keeps every level of every "
+                   f"chain from {min(sizes)}^2 to {big}^2 within {100 * target:g}% of the brute-force sum (worst "
+                   f"{100 * worst_by_acc[fastest]:.2f}%)" +
+                   (f"; the default {d:g} is {'that setting' if fastest == d else 'more exact than needed for that bound (worst ' + format(100 * worst_by_acc[d], '.2f') + '%)'}"
+                    if d in worst_by_acc else "") +
+                   ". Halve it only for reference renders: each halving costs about 2-4x the time for a few times "
+                   "less error.")
+    else:
+        rec.append(f"**Prefiltering.** No accuracy measured keeps every level within {100 * target:g}% of the "
+                   f"brute-force sum (best {100 * min(worst_by_acc.values()):.2f}%): use the smallest.")
+
 # ---------------------------------------------------------------- write
 now = datetime.datetime.now(datetime.timezone.utc)
 cmd = {"quick": "scripts/report/report.sh --quick", "full": "scripts/report/report.sh --full", "smoke": "scripts/report/report.sh --smoke"}[mode]
 L = ["# envkit speed-accuracy report\n",
-     f"Generated by `{cmd}` on {now:%Y-%m-%d %H:%M UTC} ({platform.node()}, {os.cpu_count()} cores, shared with "
+     f"Generated by `{cmd}` on {now:%Y-%m-%d %H:%M UTC} at commit {commit()} ({platform.node()}, {os.cpu_count()} "
+     f"cores, load average {os.getloadavg()[0]:.1f} at the end, each section's at its start in its text; shared with "
      f"other users: absolute times wobble, ratios measured side by side in one run are the result); the sections "
      f"ran for {sum(v.get('seconds_total', 0) for v in S.values() if v):.0f} s in total ("
      + ", ".join(f"{k} {v.get('seconds_total', 0):.0f} s" for k, v in S.items() if v) + "). "
@@ -248,3 +317,9 @@ L.append("")
 with open(report_path, "w") as f:
     f.write("\n".join(L))
 print(f"report.py: wrote {report_path}", file=sys.stderr)
+
+# Every section that ran must have produced its table (what the quick CTest checks).
+missing = [s for s in SECTIONS if S[s] and "|---" not in section_md(s)]
+if missing:
+    print(f"report.py: sections without a table: {', '.join(missing)}", file=sys.stderr)
+    sys.exit(1)

@@ -3,13 +3,16 @@
 #
 # Regenerates the speed-accuracy report: docs/REPORT.md, with its tables (docs/report/*.md), plots
 # (docs/report/*.png) and raw numbers (docs/report/*.json). One python file per section in scripts/report/:
-#   1 conversion     envconvert filters x output sizes: time vs error against envprobe's exact rasterization,
-#                    sub-texel sun power error, envconvert vs exrenvmap (scripts/bench/bench_exrenvmap.sh)
+#   1 conversion     envconvert filters x output sizes: time vs error against envprobe's exact rasterization as a
+#                    renderer sees it (power, GGX-prefiltered levels, irradiance: report/seen.py), sub-texel sun,
+#                    envconvert vs exrenvmap (scripts/bench/bench_exrenvmap.sh)
 #   2 tables         importance tables at full, 1/2, 1/4, 1/8 resolution: bake time, bytes, render relMSE
 #   3 strategies     envrender strategies: relMSE vs time, efficiency vs power-heuristic MIS (6 scenes)
 #   4 stratification cdf / alias / hierarchical x random / Sobol at 1..64 samples (envsample irradiance estimates)
 #   5 precision      float vs double accumulation, chi-square vs map size (build/bin/bench_precision)
 #   6 extremes       sun dynamic range 1e2..1e9 per strategy: relMSE and max pixel error
+#   7 prefilter      GGX chains 8^2..256^2 per accuracy against the brute-force sum (build/bin/prefilter_accuracy),
+#                    envprefilter wall time per size against the read floor
 # then report.py assembles docs/REPORT.md with recommendations computed from the numbers.
 #
 #   --quick     small sizes, few spp, 1 repeat, every section (a few minutes on 2 cores)
@@ -30,7 +33,7 @@ BUILD="$ROOT/build-report"
 OUT=""
 DO_BUILD=1
 REPEATS=""
-SECTIONS="conversion,tables,strategies,stratification,precision,extremes"
+SECTIONS="conversion,tables,strategies,stratification,precision,extremes,prefilter"
 KEEP=0
 PYTHON="${PYTHON:-/usr/bin/python3}"   # Debian's python3 (python3-numpy, python3-matplotlib)
 
@@ -67,26 +70,30 @@ trap cleanup EXIT
   echo "report.sh: $PYTHON lacks numpy/matplotlib (apt install python3-numpy python3-matplotlib)" >&2; exit 1; }
 command -v oiiotool >/dev/null || { echo "report.sh: missing oiiotool (apt install openimageio-tools)" >&2; exit 1; }
 
-TARGETS=(envprobe envconvert envdiff envinfo envbake envsample envrender)
+TARGETS=(envprobe envconvert envdiff envinfo envbake envsample envrender envprefilter _envkit)
 if [[ $DO_BUILD == 1 ]]; then
   if [[ ! -f "$BUILD/build.ninja" ]]; then
     cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
   fi
-  echo "report.sh: building ${TARGETS[*]} bench_precision in $BUILD" >&2
+  echo "report.sh: building ${TARGETS[*]} bench_precision prefilter_accuracy in $BUILD" >&2
   cmake --build "$BUILD" -j "${ENVKIT_JOBS:-2}" --target "${TARGETS[@]}" >"$WORK/build.log" 2>&1 || {
     tail -20 "$WORK/build.log" >&2; echo "report.sh: build failed (log above)" >&2; exit 1; }
   # bench_precision (section 5) is optional: without it that section says so and the rest of the report runs.
   cmake --build "$BUILD" -j "${ENVKIT_JOBS:-2}" --target bench_precision >>"$WORK/build.log" 2>&1 ||
     echo "report.sh: could not build bench_precision (section 5 will say so)" >&2
+  cmake --build "$BUILD" -j "${ENVKIT_JOBS:-2}" --target prefilter_accuracy >>"$WORK/build.log" 2>&1 ||
+    echo "report.sh: could not build prefilter_accuracy (the prefilter section will say so)" >&2
 fi
-for t in envprobe envconvert envdiff envbake envsample; do
+for t in envprobe envconvert envdiff envbake envsample envprefilter; do
   [[ -x "$BUILD/bin/$t" ]] || { echo "report.sh: missing $BUILD/bin/$t" >&2; exit 1; }
 done
+# Errors as a renderer sees them (report/seen.py) use the Python module built beside the tools.
+[[ -f "$BUILD/python/envkit/__init__.py" ]] || { echo "report.sh: missing the Python module in $BUILD/python" >&2; exit 1; }
 
 export REPORT_MODE="$MODE" REPORT_BIN="$BUILD/bin" REPORT_ROOT="$ROOT" REPORT_OUT="$OUT" REPORT_WORK="$WORK"
 export REPORT_REPEATS="$REPEATS" PYTHONDONTWRITEBYTECODE=1
 # The sections are modules of the package report, which imports the package bench (scripts/bench/common.py).
-export PYTHONPATH="$ROOT/scripts${PYTHONPATH:+:$PYTHONPATH}"
+export PYTHONPATH="$ROOT/scripts:$BUILD/python${PYTHONPATH:+:$PYTHONPATH}"
 START=$(date +%s)
 FAILED=()
 IFS=',' read -r -a SECS <<< "$SECTIONS"

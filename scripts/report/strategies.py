@@ -37,7 +37,7 @@ REF_SPP = ctx.pick(16, 256, 2048)
 RELIABLE = 3.0  # a level counts when its raw relMSE is at least this many times the reference's own noise
 CAP = ctx.pick(2.0, 3.0, 10.0)  # seconds: do not climb to a level predicted (linearly in spp) to take longer
 MATERIALS = ctx.pick(["glossy"], ["diffuse", "glossy", "mirror"], ["diffuse", "glossy", "mirror"])
-PROBES = ctx.pick(["sunny"], ["sunny", "overcast"], ["sunny", "overcast"])
+PROBES = ctx.pick(["sunny"], ["sunny", "overcast", "sunrise"], ["sunny", "overcast", "sunrise", "courtyard"])
 MAT_LABEL = {"diffuse": "diffuse", "glossy": "glossy (roughness 0.1)", "mirror": "near-mirror (roughness 0.01)"}
 
 ctx.info(f"{len(CONFIGS)} strategies, {len(MATERIALS) * len(PROBES)} scenes, {RES}x{RES} px, spp ladder {LEVELS}, "
@@ -45,6 +45,7 @@ ctx.info(f"{len(CONFIGS)} strategies, {len(MATERIALS) * len(PROBES)} scenes, {RE
 machine = machine_line()
 SKY_SIZE = ctx.pick("256x128", "1024x512", "1024x512")
 skies = make_probe_images(ctx, PROBES, SKY_SIZE)
+PROBES = [p for p in PROBES if p in skies]
 
 results = {}  # scene -> config -> list of dict(spp, seconds, relmse, relmse_raw)
 refs = {}
@@ -52,7 +53,8 @@ failures = {}
 for probe in PROBES:
     for mat in MATERIALS:
         key = f"{mat}/{probe}"
-        scene = scene_with_image(ctx, f"sphere_{mat}_{probe}", f"{mat}_{probe}", skies[probe], (RES, RES))
+        template = f"sphere_{mat}_{probe if probe in ('sunny', 'overcast') else 'sunny'}"
+        scene = scene_with_image(ctx, template, f"{mat}_{probe}", skies[probe], (RES, RES))
         ctx.info(f"{key}: reference")
         ref = Reference(ctx, scene, REF_SPP, ["--strategy", "mis", "--heuristic", "power"], f"ref_{mat}_{probe}")
         refs[key] = ref
@@ -155,7 +157,10 @@ text = [f"## 3. Sampling strategies\n",
         f"Scenes `scripts/report/scenes/sphere_{{diffuse,glossy,mirror}}_{{sunny,overcast}}.json`: one sphere filling a "
         f"{RES}x{RES} image (diffuse albedo 0.7; gold conductor, GGX roughness 0.1 and 0.01), lit by the built-in "
         f"default probe (sunny: sun of radius 0.27 deg at 35 deg elevation, seen in the spheres) or the same outdoor "
-        f"model with cloud cover 1 and no sun (overcast), as {SKY_SIZE} lat-long images baked in memory (`--bake`). "
+        f"model with cloud cover 1 and no sun (overcast), as {SKY_SIZE} lat-long images baked in memory (`--bake`), "
+        f"and real captures: blender's studio-light HDRIs "
+        f"{', '.join(p for p in PROBES if p not in ('sunny', 'overcast')) or '(none in this run)'} (scenes of the "
+        f"sunny templates with the image replaced). "
         f"Reference: `--strategy mis --heuristic power` at {REF_SPP} spp; its own noise (from its variance AOV, "
         f"mean Var/(R^2+0.01)) is subtracted from every relMSE. Time: envrender's render time (scene loading and "
         f"baking excluded), both cores. Each strategy climbs the spp ladder {LEVELS} while the next level is "

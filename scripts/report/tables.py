@@ -1,7 +1,10 @@
-"""Section 2: importance-table resolution. envbake --resolution at full, 1/2, 1/4, 1/8 of the map: bake time, bytes,
-and the default scene's render relMSE at equal spp and at equal time (envrender reading each table file)."""
+"""Section 2: tables. Per method (cdf, alias, hierarchical) on a real HDRI: bake time, bytes, the worst relative error
+of the density the tables draw from against the ideal importance / total, and a chi-square test of drawn texels.
+Then importance-table resolution: envbake --resolution at full, 1/2, 1/4, 1/8 of the map: bake time, bytes, and the
+default scene's render relMSE at equal spp and at equal time (envrender reading each table file)."""
 import json
 import math
+import os
 
 import numpy as np
 
@@ -41,6 +44,58 @@ for f in FRACS:
     b["seconds_median"] = float(np.median(b["seconds"]))
     b["wall_median"] = float(np.median(b["wall"]))
     b["bytes_total"] = sum(v for k, v in b["bytes"].items())
+
+# ---------------------------------------------------------------- per method
+METHODS = ["cdf", "alias", "hierarchical"]
+HDRI = "/usr/share/blender/datafiles/studiolights/world/sunrise.exr"
+SAMPLES = ctx.pick(100_000, 1_000_000, 4_000_000)
+
+
+def chi2_p(observed, expected):
+    """Pearson chi-square over bins with expected >= 5 (the rest pooled into one bin), and its p-value by the
+    Wilson-Hilferty approximation (dof in the thousands here, where it is accurate to ~1e-3)."""
+    big = expected >= 5
+    obs = np.append(observed[big], observed[~big].sum())
+    exp = np.append(expected[big], expected[~big].sum())
+    keep = exp > 0
+    stat = float(np.sum((obs[keep] - exp[keep]) ** 2 / exp[keep]))
+    dof = max(int(keep.sum()) - 1, 1)
+    z = ((stat / dof) ** (1 / 3) - (1 - 2 / (9 * dof))) / math.sqrt(2 / (9 * dof))
+    return stat, dof, 0.5 * math.erfc(z / math.sqrt(2))
+
+
+def method_row(method, table_path, seconds):
+    import envkit  # built beside the tools (report.sh puts BUILD/python on PYTHONPATH)
+    t = envkit.load(table_path)
+    imp = np.asarray(t.importance, np.float64)
+    grid = envkit.EnvMap.blank(t.height, "latlong")
+    omega = np.asarray(grid.solid_angles(), np.float64)
+    ideal = imp / t.total_importance  # density per steradian each texel should have
+    lit = imp > 0
+    dens = np.asarray(t.pdf(np.asarray(grid.directions(), np.float64)[lit], method=method), np.float64)
+    worst = float(np.max(np.abs(dens / ideal[lit] - 1.0)))
+    u = np.random.default_rng(7).random((SAMPLES, 2))
+    _, _, texels = t.sample(u, method=method)
+    texels = np.asarray(texels)
+    counts = np.bincount(texels[:, 1] * t.width + texels[:, 0], minlength=t.width * t.height).astype(np.float64)
+    stat, dof, p = chi2_p(counts, SAMPLES * (ideal * omega).reshape(-1))
+    sizes = dict(t.table_bytes)
+    return {"bytes": sizes.get(method, 0), "seconds": seconds, "worst_pdf": worst, "chi2": stat, "dof": dof, "p": p}
+
+
+per_method = {}
+if os.path.exists(HDRI):
+    cmds = {m: [ctx.tool("envbake"), HDRI, "-o", ctx.path(f"m_{m}.envtbl"), "--tables", m, "--json", "--quiet"]
+            + ctx.pick(["--resolution", "256x128"], [], []) for m in METHODS}
+    seconds = {m: [] for m in METHODS}
+    for _ in range(ctx.repeats):
+        for m, c in cmds.items():
+            seconds[m].append(float(json.loads(ctx.run(c)[0])["seconds"]))
+    for m in METHODS:
+        per_method[m] = method_row(m, ctx.path(f"m_{m}.envtbl"), float(np.median(seconds[m])))
+    ctx.info("per-method measures done")
+else:
+    ctx.note(f"{HDRI} is missing (blender's data): no per-method measures")
 
 # ---------------------------------------------------------------- render
 renders = {}
@@ -114,7 +169,18 @@ for f in FRACS:
 hdr = ["table", "importance res.", "bake (s, envbake's own)", "envbake wall (s)", "MiB"]
 for name, _ in STRATS:
     hdr += [f"{name}: relMSE @ {SPP} spp", f"{name}: relMSE @ equal time", f"{name}: mean / ref mean"]
-text = ["## 2. Table resolution\n",
+method_rows = [[m, r["seconds"], f"{r['bytes'] / 2**20:.2f}", r["worst_pdf"], f"{r['chi2']:.0f} / {r['dof']}", r["p"]]
+               for m, r in per_method.items()]
+text = ["## 2. Tables\n",
+        f"### Per method\n\n`envbake {os.path.basename(HDRI)} --tables M` (blender's sunrise HDRI, a real capture with a "
+        f"sun) for each method M, envbake's own seconds (median of {ctx.repeats} interleaved run(s)) and the bytes of "
+        f"that table. Worst pdf error: max over lit texels of |pdf / (importance / total) - 1|, the density the "
+        f"tables draw from (Tables.pdf at the texel's centre) against the ideal. Chi-square: {SAMPLES:,} samples "
+        f"(Tables.sample, uniform random u) binned per texel against the ideal probabilities (bins below 5 expected "
+        f"pooled); p above 0.01 means the draws match the ideal.\n",
+        md_table(["method", "bake (s)", "MiB", "worst pdf error", "chi-square / dof", "p"], method_rows)
+        if method_rows else "Not measured in this run (see notes).\n",
+        "\n### Importance resolution\n",
         f"`envprobe default` {W}x{H}; `envbake --resolution WxH --tables {TABLES}` at full, 1/2, 1/4, 1/8 of the "
         f"map (median of {ctx.repeats} interleaved run(s); envbake's own `seconds` from `--json` and the wall time "
         f"including file I/O; bytes = all tables in the file). Renders: the built-in default scene "
@@ -140,5 +206,5 @@ text.append("\n" + commands_block(ctx))
 ctx.write_md("tables.md", "\n".join(text))
 ctx.save_summary({"fracs": FRACS, "bake": {str(f): bake[f] for f in FRACS},
                   "renders": {f"{k[0]}|{k[1]}|{k[2]}": v for k, v in renders.items()}, "problem": problem,
-                  "spp": SPP, "strategies": [s[0] for s in STRATS], "map": [W, H]})
+                  "spp": SPP, "strategies": [s[0] for s in STRATS], "map": [W, H], "per_method": per_method})
 ctx.info("wrote tables.md")

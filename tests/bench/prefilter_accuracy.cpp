@@ -2,7 +2,8 @@
 // relative RMS of every level (worst channel) against the brute-force GGX sum, and the CPU time of the chain, on a
 // smooth sky, a textured sky and a textured sky with a 1e4 sun. A measurement, not a check (the checks are
 // Prefilter.* in tests/ibl/test_prefilter.cpp).
-// Usage: prefilter_accuracy [MAP]   (MAP, any map file, is area-resampled to 256 x 128 and measured too)
+// Usage: prefilter_accuracy [--sizes 8,16,...] [--accuracies 0.4,0.2,...] [MAP]
+// (MAP, any map file, is area-resampled to 256 x 128 and measured too; default sizes 8..256, accuracies 0.4..0.05)
 #include <envkit/core/error.h>
 #include <envkit/envmap/envmap.h>
 #include <envkit/ibl/prefilter.h>
@@ -10,7 +11,9 @@
 #include <envkit/resample/resample.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -39,27 +42,54 @@ void measure(const Named& k, int size, double accuracy) {
   std::printf("\n");
 }
 
+// "8,16,32" -> {8, 16, 32}; empty on anything that is not a list of positive numbers.
+std::vector<double> parse_list(const std::string& text) {
+  std::vector<double> out;
+  std::istringstream in(text);
+  for (std::string item; std::getline(in, item, ',');) {
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !(v > 0.0)) return {};
+    out.push_back(v);
+  }
+  return out;
+}
+
+int usage() {
+  std::fprintf(stderr, "usage: prefilter_accuracy [--sizes 8,16,...] [--accuracies 0.4,0.2,...] [MAP]\n");
+  return 2;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc > 2 || (argc == 2 && (std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help"))) {
-    std::fprintf(stderr, "usage: prefilter_accuracy [MAP]\n");
-    return 2;
+  std::vector<double> sizes = {8, 16, 32, 64, 128, 256}, accuracies = {0.4, 0.2, 0.1, 0.05};
+  std::string map_path;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if ((arg == "--sizes" || arg == "--accuracies") && i + 1 < argc) {
+      (arg == "--sizes" ? sizes : accuracies) = parse_list(argv[++i]);
+      if ((arg == "--sizes" ? sizes : accuracies).empty()) return usage();
+    } else if (arg.rfind("-", 0) == 0 || !map_path.empty()) {
+      return usage();
+    } else {
+      map_path = arg;
+    }
   }
   try {
     const EnvMap smooth = latlong_env(256, smooth_sky), textured = textured_sky(256, 0.0f),
                  sunny = textured_sky(256, 1e4f);
     std::vector<Named> maps = {{"smooth", &smooth}, {"textured", &textured}, {"sun", &sunny}};
     EnvMap hdri;
-    if (argc == 2) {
-      const EnvMap file = load_envmap(argv[1]);
+    if (!map_path.empty()) {
+      const EnvMap file = load_envmap(map_path);
       hdri.param = std::make_unique<LatLongMap>(256, 128);
       hdri.image = resample(file.ref(), *hdri.param, identity3());
       maps.push_back({"hdri", &hdri});
     }
-    for (int size : {8, 16, 32, 64, 128, 256})
-      for (double accuracy : {0.4, 0.2, 0.1, 0.05})
-        for (const Named& k : maps) measure(k, size, accuracy);
+    for (double size : sizes)
+      for (double accuracy : accuracies)
+        for (const Named& k : maps) measure(k, int(size), accuracy);
   } catch (const Error& e) {
     std::fprintf(stderr, "prefilter_accuracy: %s\n", e.what());
     return 1;
