@@ -11,6 +11,7 @@
 #include <envkit/render/integrator.h>
 #include <envkit/render/material.h>
 #include <envkit/render/render.h>
+#include <envkit/render/scene_loader.h>
 #include <envkit/tables/env_tables.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -378,6 +379,35 @@ TEST(MeasuredFile, BadFilesAreRefusedWithOneLine) {
     EXPECT_EQ(message.find('\n'), std::string::npos) << message;
     std::error_code ec;
     fs::remove(p, ec);
+  }
+}
+
+// The scene format: "file" is relative to the scene file, "scale" multiplies f per channel; a bad file's message names
+// the scene, the line and the field before the file's own problem.
+TEST(MeasuredScene, FileIsRelativeToTheSceneAndScaleMultiplies) {
+  lambert_file();  // written into work_dir()
+  const std::string scene_file = (work_dir() / "scene.json").string();
+  const auto scene_text = [](const std::string& material) {
+    return R"({"camera": {"position": [0, 0, -5], "look_at": [0, 0, 0], "resolution": [4, 2]},
+"environment": {"probe": "constant"},
+"materials": {"m": )" +
+           material + R"(},
+"shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}]})";
+  };
+  const LoadedScene loaded = load_scene_text(
+      scene_text(R"({"type": "measured", "file": "lambert.binary", "scale": [1, 0.5, 2]})"), scene_file);
+  const Material& m = loaded.scene->material(loaded.scene->find_material("m"));
+  const Vec3 f = m.eval(Vec3(0, 0, 1), Vec3(0, 0, 1));
+  EXPECT_NEAR(f.x, kLambertAlbedo / kPi, 1e-6);
+  EXPECT_NEAR(f.y, 0.5 * kLambertAlbedo / kPi, 1e-6);
+  EXPECT_NEAR(f.z, 2.0 * kLambertAlbedo / kPi, 1e-6);
+  try {
+    load_scene_text(scene_text(R"({"type": "measured", "file": "nowhere.binary"})"), scene_file);
+    ADD_FAILURE() << "a missing MERL file was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("scene.json:3: materials.m.file: MERL BRDF file '"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("nowhere.binary' does not exist"), std::string::npos) << e.what();
   }
 }
 
