@@ -157,7 +157,10 @@ std::string resolve(const std::string& base_dir, const std::string& relative) {
   return (std::filesystem::path(base_dir) / relative).lexically_normal().string();
 }
 
-std::unique_ptr<Material> parse_material(const Reader& r, const json& m, const std::string& path) {
+void require_scene_file(const Reader& r, const std::string& path, const std::string& file, const std::string& what);
+
+std::unique_ptr<Material> parse_material(const Reader& r, const json& m, const std::string& path,
+                                         const std::string& base_dir) {
   if (!m.is_object()) r.fail(path, "expected an object");
   const std::string type = r.string(r.require(m, path, "type"), Reader::join(path, "type"));
   if (type == "diffuse") {
@@ -193,8 +196,20 @@ std::unique_ptr<Material> parse_material(const Reader& r, const json& m, const s
     r.check_keys(m, path, {"type", "reflectance"});
     return make_mirror(r.colour(m, path, "reflectance", Vec3(1.0), 1.0));
   }
+  if (type == "measured") {
+    r.check_keys(m, path, {"type", "file", "scale"});
+    const std::string field = Reader::join(path, "file");
+    const std::string file = resolve(base_dir, r.file_name(r.require(m, path, "file"), field));
+    require_scene_file(r, field, file, "MERL BRDF file");
+    const Vec3 scale = r.colour(m, path, "scale", Vec3(1.0), 1e6);
+    try {
+      return make_measured(file, scale);
+    } catch (const Error& err) {
+      r.fail(field, err.what());
+    }
+  }
   r.fail(Reader::join(path, "type"),
-         "unknown material type '" + excerpt(type) + "' (valid: diffuse, conductor, plastic, mirror)");
+         "unknown material type '" + excerpt(type) + "' (valid: diffuse, conductor, plastic, mirror, measured)");
 }
 
 /// Fails unless `file` is a regular file (a FIFO or device would block or never end), naming the scene, the line, the
@@ -397,7 +412,7 @@ LoadedScene load_scene_text(const std::string& text, const std::string& file, co
   const json& materials = r.require(root, "", "materials");
   if (!materials.is_object() || materials.empty()) r.fail("materials", "expected an object of named materials");
   for (const auto& [name, m] : materials.items())
-    out.scene->add_material(name, parse_material(r, m, "materials." + name));
+    out.scene->add_material(name, parse_material(r, m, "materials." + name, base_dir));
 
   // Shapes
   const json& shapes = r.require(root, "", "shapes");

@@ -152,6 +152,22 @@ void write_scene(const fs::path& p, const std::string& variant) {
       .save((p.parent_path() / "sky.envtbl").string());
 }
 
+/// merl:ok|dims|truncated|long|nan|negative: a MERL binary BRDF (three int32 dimensions 90 90 180, then 3 x 90 x 90 x
+/// 180 doubles) of constant value, or spoiled as named (dims 90 90 360, half the values, 8 trailing bytes, one NaN, all
+/// values -1).
+void write_merl(const fs::path& p, const std::string& variant) {
+  if (!std::set<std::string>{"ok", "dims", "truncated", "long", "nan", "negative"}.count(variant))
+    throw std::runtime_error("unknown merl variant '" + variant + "'");
+  const std::int32_t dims[3] = {90, 90, variant == "dims" ? 360 : 180};
+  std::vector<double> values(std::size_t(3) * 90 * 90 * 180, variant == "negative" ? -1.0 : 100.0);
+  if (variant == "nan") values[1000] = std::numeric_limits<double>::quiet_NaN();
+  if (variant == "truncated") values.resize(values.size() / 2);
+  std::string bytes(reinterpret_cast<const char*>(dims), sizeof dims);
+  bytes.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(double));
+  if (variant == "long") bytes.append(8, '\0');
+  spit(p, bytes);
+}
+
 /// Makes file `p` from a generator description (see tests/bad-inputs/README.md). "truncate:G" and "corrupt:G"
 /// first make G (written uncompressed when it is an EXR, so the cut lands in pixel data), then damage it.
 void generate(const fs::path& p, const std::string& gen) {
@@ -238,6 +254,7 @@ void generate(const fs::path& p, const std::string& gen) {
   }
   if (head == "table") return write_table(p);
   if (head == "scene") return write_scene(p, arg);
+  if (head == "merl") return write_merl(p, arg);
   if (head == "text") return spit(p, arg);
   if (head == "empty") return spit(p, "");
   if (head == "dir") return (void)fs::create_directories(p);

@@ -36,9 +36,31 @@
 ///   Sampling: one lobe chosen with u_lobe, specular with probability F(cos_o) / (F(cos_o) + (1 - F(cos_o))
 ///   mean(diffuse)) (the estimated albedos), pdf = the mixture pdf.
 /// - mirror: a delta lobe wi = (-wo.x, -wo.y, wo.z) with constant reflectance (no Fresnel).
+/// - measured: an isotropic BRDF read from a MERL binary file (Matusik et al. 2003; format and cells: merl.h in
+///   renderer/src, docs/SCENE_FORMAT.md). f is interpolated TRILINEARLY between the cells' centres in the
+///   format's own coordinates (sqrt(theta_half) index, theta_diff, phi_diff; clamped at the ends of the theta axes,
+///   periodic with period pi in phi_diff), so it is continuous (the reference code's nearest lookup makes steps in
+///   highlights) and exact at the centres. A cell with a negative (missing) value in any channel is black: the
+///   measurement misses cells near grazing theta_diff, where cos theta_i is small. Reciprocal by construction.
+///   Sampling by tabulated inversion over half vectors h (wi = reflect(wo, h), d omega_i = 4 (wo.h) d omega_h):
+///   32 theta_o bins (uniform in theta_o; wo's bin is the one containing its theta_o, for sample() and pdf()
+///   alike), each a CdfDistribution2D over 90 x 128 half-vector cells (theta_half = (pi/2) v^2 for v uniform over
+///   the 90 rows, as the format's own axis; phi_half - phi_o uniform over [0, 2 pi)) holding the mass of f cos
+///   (mean of RGB) at the bin's centre (2x2 midpoint rule per cell) plus 0.1% spread uniformly over the half
+///   vectors' solid angle (so the density is positive wherever f is). Inside a cell, h is uniform in solid angle;
+///   pdf = P(cell) / (solid angle of the cell) / (4 wo.h). Half vectors that reflect wo below the horizon are
+///   lost (sample() false). Memory: the data 90 x 90 x 180 x 3 floats = 17.5 MB, the tables ~1.5 MB (32 x ~47 KB);
+///   built once at load (bins in parallel with oneTBB), immutable afterwards.
+///   Lobe alphas (the product tables' proxies), from the data at normal incidence: the share of f cos per
+///   theta_half (f cos_i 4 cos theta_half sin theta_half over theta_half < pi/4) has quantiles that a GGX lobe
+///   (D cos theta_half, cut at the horizon) of alpha = tan t sqrt((1 - q) / (q - tan^2 t)) shares; the narrowest
+///   lobe takes the alpha of the 5% quantile, the widest that of the median (never less than the narrowest);
+///   an alpha of 0.5 or more (a Lambertian lobe reads 0.51-0.57) is reported as 1. narrowest_lobe_probability()
+///   is 1/2 when the two differ (one sampler draws both). Any positive proxy keeps MIS unbiased.
 #include <envkit/core/vec.h>
 
 #include <memory>
+#include <string>
 
 namespace envkit::render {
 
@@ -89,5 +111,10 @@ std::unique_ptr<Material> make_conductor(const Vec3& eta, const Vec3& k, double 
                                          Shadowing shadowing = Shadowing::HeightCorrelated);
 std::unique_ptr<Material> make_plastic(const Vec3& diffuse, double roughness, double ior = 1.5);
 std::unique_ptr<Material> make_mirror(const Vec3& reflectance);
+/// A measured isotropic BRDF read from the MERL binary file `merl_file` (see the model above), f multiplied by `scale`
+/// per RGB channel (negative or non-finite entries count as 0). Throws Error("<file>: <problem>") for a file that
+/// is missing, not regular, not 90 x 90 x 180, of the wrong size (truncated or with trailing bytes), holding a NaN or
+/// infinite value, or without a positive value.
+std::unique_ptr<Material> make_measured(const std::string& merl_file, const Vec3& scale = Vec3(1.0));
 
 }  // namespace envkit::render
