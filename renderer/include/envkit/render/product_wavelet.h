@@ -42,7 +42,7 @@
 ///     pdf(wi) = product(cell) / sum of products x R^2 / (2 pi h)   per steradian.
 /// pdf() of a direction (a BSDF sample, for MIS) reads the same cell.
 /// The sun is not split off: the strategy samples the whole map (the paper has no split). A sun much smaller than a
-/// cell (2 pi h / R^2 sr, about 7 degrees across at R = 32) is drawn with its cell's probability spread uniformly
+/// cell (2 pi h / R^2 sr, about 5 degrees across at R = 32) is drawn with its cell's probability spread uniformly
 /// over the cell: the paper's resolution limit, visible as noise on diffuse surfaces under a small bright sun.
 ///
 /// Cost. Memory: 4 R^2 bytes per lighting bin (B^2 of them) and per BSDF slice (W^2 per non-delta material): with
