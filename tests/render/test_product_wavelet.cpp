@@ -191,7 +191,8 @@ TEST(ProductWavelet, SamplesFollowThePdfForEveryMaterial) {
         const Frame f = Frame::from_normal(n);
         const ProductWavelet::Point p = wavelet.at(n, f.to_world(wo_local), *m.second);
         double integral = 0;
-        const chi2::Result r = chi_square(p, 32, 300000, testmaps::seed_of(m.first, std::uint64_t(tests)), integral, alpha);
+        const chi2::Result r =
+            chi_square(p, 32, 300000, testmaps::seed_of(m.first, std::uint64_t(tests)), integral, alpha);
         std::printf("%s %d: %s\n", m.first.c_str(), tests, r.message.c_str());
         EXPECT_TRUE(r.passed) << m.first << " normal " << tests << ": " << r.message;
         EXPECT_NEAR(integral, 1.0, 1e-5) << m.first;
