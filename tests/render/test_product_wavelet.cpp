@@ -335,3 +335,27 @@ TEST(ProductWavelet, BadOptionsAreErrors) {
   EXPECT_EQ(parse_strategy("product-wavelet"), Strategy::ProductWavelet);
   EXPECT_EQ(parse_strategy("product-wavelet-mis"), Strategy::ProductWaveletMis);
 }
+
+TEST(ProductWavelet, DeltaAndUnknownMaterialsHaveAConstantBsdfFactor) {
+  const SphericalDistribution env = test_environment(64, 32);
+  const auto mirror = make_mirror(Vec3(0.9, 0.9, 0.9));
+  const auto diffuse = make_diffuse(Vec3(0.5, 0.5, 0.5));
+  const auto other = make_diffuse(Vec3(0.2, 0.2, 0.2));
+  WaveletOptions o;
+  o.wo_bins = 4;
+  const ProductWavelet wavelet(env, {mirror.get(), diffuse.get()}, o);
+  EXPECT_EQ(wavelet.brdf(*mirror, Vec3(0, 0, 1)), nullptr);  // pure delta: followed by BSDF sampling instead
+  EXPECT_EQ(wavelet.brdf(*other, Vec3(0, 0, 1)), nullptr);   // not among the scene's: the lighting alone
+  ASSERT_NE(wavelet.brdf(*diffuse, Vec3(0, 0, 1)), nullptr);
+  const Vec3 n = unit(0.1, 0.9, 0.2);
+  for (const Material* m : {static_cast<const Material*>(mirror.get()), static_cast<const Material*>(other.get())}) {
+    const ProductWavelet::Point p = wavelet.at(n, n, *m);
+    double integral = 0;
+    const chi2::Result r = chi_square(p, 32, 100000, 5, integral);
+    EXPECT_TRUE(r.passed) << r.message;
+    EXPECT_NEAR(integral, 1.0, 1e-5);
+  }
+  // Diffuse x cos: the factor of a cell near the normal is larger than one near the cap's rim.
+  const float* f = wavelet.brdf(*diffuse, Vec3(0, 0, 1));
+  EXPECT_GT(f[16 * 32 + 16], 10.0f * f[0]);
+}
