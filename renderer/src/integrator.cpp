@@ -104,6 +104,8 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   }
   direct_ = s == Strategy::Bsdf                              ? &Integrator::direct_bsdf
             : s == Strategy::Light || s == Strategy::Product ? &Integrator::direct_light
+            : s == Strategy::ProductWavelet                  ? &Integrator::direct_product_wavelet
+            : s == Strategy::ProductWaveletMis               ? &Integrator::direct_product_wavelet_mis
                                                              : &Integrator::direct_mis;
   if (product) build_product_tables();
   if (s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis) build_product_wavelet();
@@ -122,8 +124,6 @@ void Integrator::build_product_wavelet() {
   for (int m = 0; m < scene_.material_count(); ++m) materials.push_back(&scene_.material(m));
   wavelet_ = std::make_unique<ProductWavelet>(light_.distribution(SamplingMethod::Hierarchical, false), materials,
                                               options_.wavelet);
-  direct_ =
-      s == Strategy::ProductWavelet ? &Integrator::direct_product_wavelet : &Integrator::direct_product_wavelet_mis;
 }
 
 std::array<std::optional<Lobe>, 2> Integrator::product_lobes(const Material& material) {

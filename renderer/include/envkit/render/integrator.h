@@ -208,7 +208,7 @@ class Integrator {
   /// A lobe's axis at a shading point, world frame: the normal for the cosine, the mirror direction for GGX.
   static Vec3 lobe_axis(const Lobe& lobe, const ShadingPoint& x);
   void build_product_tables();
-  /// Validates the product-wavelet options, builds the sampler and picks its estimator.
+  /// Validates the product-wavelet options and builds the sampler.
   void build_product_wavelet();
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;

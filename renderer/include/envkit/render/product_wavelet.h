@@ -35,10 +35,11 @@
 /// variance, never bias. The product is evaluated as all R x R cell products of the decoded factors (one multiply
 /// per cell, then the sum pyramid of a HierarchicalDistribution2D): the pyramid's node sums are the wavelet
 /// product's scaling coefficients, which haar::product_sums() computes in the wavelet domain (tests check the two
-/// agree). Evaluating the product top-down only along a sample's descent, as the paper does, would save little
-/// here: the root's sum (every coefficient's product) is needed by every pdf, and a point draws M samples and
-/// evaluates N pdfs from one product. Samples warp down the product's quadtree (the pyramid's hierarchical
-/// warping) and are uniform inside the finest cell, so
+/// agree). That function is the paper's product in the wavelet domain; evaluating it top-down only along a
+/// sample's descent would not save its cost here: the root's sum (every coefficient's product) is needed by every
+/// pdf, and a point draws M samples and evaluates N pdfs from one product, while the pointwise path needs no
+/// top-down reconstruction of both factors' scaling coefficients per point. Samples warp down the product's quadtree
+/// (the pyramid's hierarchical warping) and are uniform inside the finest cell, so
 ///     pdf(wi) = product(cell) / sum of products x R^2 / (2 pi h)   per steradian.
 /// pdf() of a direction (a BSDF sample, for MIS) reads the same cell.
 /// The sun is not split off: the strategy samples the whole map (the paper has no split). A sun much smaller than a
