@@ -136,6 +136,9 @@ int run(const Args& a) {
     setup_notes.push_back("product tables for the scene's " + std::to_string(integrator.product_lobe_count()) +
                           " lobe shape(s) (" + tools::fmt(double(integrator.product_table_bytes()) / (1 << 20), 3) +
                           " MiB)");
+  if (const envkit::render::ProductWavelet* w = integrator.product_wavelet())
+    setup_notes.push_back("wavelet product tables, " + std::to_string(w->options().resolution) + "^2 cells (" +
+                          tools::fmt(double(w->bytes()) / (1 << 20), 3) + " MiB)");
   if (!setup_notes.empty() && !a.quiet) {
     setup_notes.back() += " (built in " + tools::fmt(setup_ms, 3) + " ms)";
     for (const std::string& note : setup_notes) tools::info(note);
@@ -204,8 +207,11 @@ int main(int argc, char** argv) {
   app.add_option("--spp", a.spp, "samples per pixel")->transform(tools::integer_in(1, 1 << 24))->capture_default_str();
   app.add_option("--time", a.time, "render for this many seconds instead of --spp (passes of 1 spp)")
       ->check(tools::number_in(0.0, 1e6, true));
-  app.add_option("--strategy", a.strategy, "bsdf|light|mis|mis-compensated|product|product-mis")
-      ->check(CLI::IsMember({"bsdf", "light", "mis", "mis-compensated", "product", "product-mis"}))
+  app.add_option("--strategy", a.strategy,
+                 "bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis "
+                 "(product-wavelet: Clarberg et al. 2005's wavelet product of lighting and BSDF, the whole map)")
+      ->check(CLI::IsMember({"bsdf", "light", "mis", "mis-compensated", "product", "product-mis", "product-wavelet",
+                             "product-wavelet-mis"}))
       ->capture_default_str();
   app.add_option("--light-method", a.light_method,
                  "environment sampling table of light, mis and mis-compensated: cdf|alias|hierarchical (the product "

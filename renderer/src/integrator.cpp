@@ -39,15 +39,21 @@ const char* strategy_name(Strategy s) {
       return "product";
     case Strategy::ProductMis:
       return "product-mis";
+    case Strategy::ProductWavelet:
+      return "product-wavelet";
+    case Strategy::ProductWaveletMis:
+      return "product-wavelet-mis";
   }
   return "?";
 }
 
 Strategy parse_strategy(const std::string& name) {
   for (Strategy s : {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
-                     Strategy::ProductMis})
+                     Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis})
     if (name == strategy_name(s)) return s;
-  throw Error("unknown strategy '" + name + "' (valid: bsdf, light, mis, mis-compensated, product, product-mis)");
+  throw Error("unknown strategy '" + name +
+              "' (valid: bsdf, light, mis, mis-compensated, product, product-mis, product-wavelet, "
+              "product-wavelet-mis)");
 }
 
 Heuristic parse_heuristic(const std::string& name) {
@@ -83,7 +89,7 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
     const bool compensated = s == Strategy::MisCompensated;
     // The light counts are the shading point's (techniques()).
     whole_ = {{LightTechnique{light_.distribution(options_.light_method, compensated), 0}}, 1};
-    if (options_.sun_samples > 0) {
+    if (options_.sun_samples > 0 && s != Strategy::ProductWavelet && s != Strategy::ProductWaveletMis) {
       // A table file may hold the split (envbake --tables ...,sun); else it is built here.
       if (auto stored = light_.tables().stored_sun_split(options_.light_method, compensated))
         sun_ = std::move(*stored);
@@ -98,8 +104,26 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   }
   direct_ = s == Strategy::Bsdf                              ? &Integrator::direct_bsdf
             : s == Strategy::Light || s == Strategy::Product ? &Integrator::direct_light
+            : s == Strategy::ProductWavelet                  ? &Integrator::direct_product_wavelet
+            : s == Strategy::ProductWaveletMis               ? &Integrator::direct_product_wavelet_mis
                                                              : &Integrator::direct_mis;
   if (product) build_product_tables();
+  if (s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis) build_product_wavelet();
+}
+
+void Integrator::build_product_wavelet() {
+  const Strategy s = options_.strategy;
+  const int n_min = options_.bsdf_samples.value_or(1), m_min = options_.light_samples.value_or(1);
+  if (s == Strategy::ProductWavelet && m_min < 1) throw Error("strategy product-wavelet needs --light-samples >= 1");
+  if (s == Strategy::ProductWaveletMis && n_min + m_min < 1)
+    throw Error("strategy product-wavelet-mis needs at least one sample");
+  if (options_.light_method != SamplingMethod::Hierarchical)
+    throw Error(std::string("--light-method ") + method_name(options_.light_method) +
+                ": the product-wavelet strategies read the hierarchical table");
+  std::vector<const Material*> materials;
+  for (int m = 0; m < scene_.material_count(); ++m) materials.push_back(&scene_.material(m));
+  wavelet_ = std::make_unique<ProductWavelet>(light_.distribution(SamplingMethod::Hierarchical, false), materials,
+                                              options_.wavelet);
 }
 
 std::array<std::optional<Lobe>, 2> Integrator::product_lobes(const Material& material) {
@@ -270,6 +294,61 @@ Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
       continue;
     }
     sum += b.value * (mis_weight(N * b.pdf, b.light_density) / N);
+  }
+  return sum;
+}
+
+ProductWavelet::Point Integrator::wavelet_point(const ShadingPoint& x) const {
+  return wavelet_->at(light_.to_table(x.frame.n), light_.to_table(x.frame.to_world(x.wo)), x.material);
+}
+
+Integrator::LightTerm Integrator::wavelet_term(const ShadingPoint& x, const ProductWavelet::Point& p, Vec2 u) const {
+  LightTerm t;
+  const DirectionSample s = p.sample(u);
+  t.pdf = s.pdf;
+  const Vec3 wi_world = apply(light_.rotation(), s.direction);
+  if (!(s.pdf > 0.0) || (wi_world ^ x.ng) <= 0.0) return t;
+  t.wi_local = x.frame.to_local(wi_world);
+  const Vec3 f_cos = x.material.eval(x.wo, t.wi_local);
+  if (is_black(f_cos)) return t;
+  const LightSample l = light_.lookup(wi_world);  // prefetched while the shadow ray is traced
+  if (scene_.occluded(Ray{x.origin, wi_world})) return t;
+  t.value = mul(f_cos, light_.radiance(l));
+  return t;
+}
+
+Vec3 Integrator::direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const {
+  const int M = counts(x.material).light;
+  const ProductWavelet::Point p = wavelet_point(x);
+  const std::uint32_t dimension = sampler.reserve(1);
+  Vec3 sum(0, 0, 0);
+  for (int j = 0; j < M; ++j) {
+    const LightTerm l = wavelet_term(x, p, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(M)));
+    if (!is_black(l.value)) sum += l.value / (l.pdf * M);
+  }
+  return sum + delta_lobe_term(x, sampler);  // product samples cannot reach a delta lobe
+}
+
+Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const {
+  const SampleCounts n = counts(x.material);
+  const int N = n.bsdf, M = n.light;
+  const ProductWavelet::Point p = wavelet_point(x);
+  Vec3 sum(0, 0, 0);
+  const std::uint32_t light_dimension = sampler.reserve(1);
+  for (int j = 0; j < M; ++j) {
+    const LightTerm l = wavelet_term(x, p, sampler.point_2d(light_dimension, std::uint32_t(j), std::uint32_t(M)));
+    if (is_black(l.value)) continue;
+    sum += l.value * (mis_weight(M * l.pdf, N * x.material.pdf(x.wo, l.wi_local)) / (M * l.pdf));
+  }
+  const std::uint32_t dimension = sampler.reserve(2);
+  for (int i = 0; i < N; ++i) {
+    const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N));
+    if (!(b.pdf > 0.0) || is_black(b.value)) continue;
+    if (b.is_delta) {
+      sum += b.value / double(N);
+      continue;
+    }
+    sum += b.value * (mis_weight(N * b.pdf, M * p.pdf(light_.to_table(b.wi_world))) / N);
   }
   return sum;
 }

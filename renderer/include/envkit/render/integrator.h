@@ -34,6 +34,10 @@
 ///           from the table of its lobe's axis, a plastic's from the mixture of its base's and its coat's tables in
 ///           the proportion in which its BSDF samples them. The table's (mixture's) pdf enters the weights as any
 ///           light table's. Uses the hierarchical table.
+///  - product-wavelet, product-wavelet-mis: as light and mis, with M light samples drawn from the shading point's
+///           wavelet product of lighting and BSDF x cos (Clarberg et al. 2005; product_wavelet.h), built once when
+///           the integrator starts for the scene's materials. The whole map, no sun split (S is not used); the
+///           weights are product-mis's. Uses the hierarchical table.
 /// Random numbers: the M samples of a light technique (and the N BSDF samples) at a shading point draw points k =
 /// 0 .. M - 1 of one dimension pair at index sample x M + k (Sampler::point_2d), so that over a pixel's samples
 /// they are one stratified sequence of spp x M points.
@@ -43,6 +47,7 @@
 #include <envkit/render/camera.h>
 #include <envkit/render/env_light.h>
 #include <envkit/render/frame.h>
+#include <envkit/render/product_wavelet.h>
 #include <envkit/render/sampler.h>
 #include <envkit/render/scene.h>
 #include <envkit/sampling/env_sampling.h>
@@ -59,7 +64,7 @@
 
 namespace envkit::render {
 
-enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis };
+enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis, ProductWavelet, ProductWaveletMis };
 enum class Heuristic { Balance, Power };
 
 const char* strategy_name(Strategy s);
@@ -80,6 +85,8 @@ struct IntegratorOptions {
   /// draw from the rest of the map. 0 = no split. Used by every strategy but bsdf, at shading points whose
   /// material takes sun samples (takes_sun_samples(): Lambertian and plastic always).
   int sun_samples = 1;
+  /// The product-wavelet strategies' resolution, bins and compression (product_wavelet.h).
+  WaveletOptions wavelet;
 };
 
 /// A lobe is wide when it is at least this GGX alpha (Lambertian counts as 1): it sees much of the sky from a
@@ -138,6 +145,8 @@ class Integrator {
   int product_lobe_count() const;
   std::size_t product_table_bytes() const;
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
+  /// The product-wavelet strategies' sampler, or nullptr for other strategies.
+  const ProductWavelet* product_wavelet() const { return wavelet_.get(); }
 
  private:
   /// What every strategy knows of the point it shades (see direct()).
@@ -199,6 +208,8 @@ class Integrator {
   /// A lobe's axis at a shading point, world frame: the normal for the cosine, the mirror direction for GGX.
   static Vec3 lobe_axis(const Lobe& lobe, const ShadingPoint& x);
   void build_product_tables();
+  /// Validates the product-wavelet options and builds the sampler.
+  void build_product_wavelet();
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;
   LightTerm light_term(const ShadingPoint& x, const LightTable& table, Vec2 u) const;
@@ -210,6 +221,11 @@ class Integrator {
   Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_light(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;  ///< mis and mis-compensated
+  Vec3 direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const;
+  /// The shading point's wavelet product (product_wavelet.h), and one light sample drawn from it (as light_term()).
+  ProductWavelet::Point wavelet_point(const ShadingPoint& x) const;
+  LightTerm wavelet_term(const ShadingPoint& x, const ProductWavelet::Point& p, Vec2 u) const;
 
   const Scene& scene_;
   const EnvironmentLight& light_;
@@ -222,6 +238,7 @@ class Integrator {
   /// Product strategies: tables of the scene's lobes over the whole map and over the rest of the map beside the sun
   /// (each for the lobes of the materials that use that table; nullptr when none does).
   std::unique_ptr<LobeProductTables> product_whole_, product_split_;
+  std::unique_ptr<ProductWavelet> wavelet_;
   mutable std::atomic<std::size_t> nonfinite_{0};
 };
 
