@@ -74,6 +74,26 @@ std::string preview_path(const std::string& exr) {
   return std::filesystem::path(exr).replace_extension(".png").string();
 }
 
+// The option an IntegratorOptions field comes from.
+std::string option_flag(envkit::render::IntegratorField field) {
+  using F = envkit::render::IntegratorField;
+  switch (field) {
+    case F::Strategy:
+      return "--strategy";
+    case F::LightMethod:
+      return "--light-method";
+    case F::BsdfSamples:
+      return "--bsdf-samples";
+    case F::LightSamples:
+      return "--light-samples";
+    case F::SunSamples:
+      return "--sun-samples";
+    case F::MaxDepth:
+      return "--max-depth";
+  }
+  return "?";
+}
+
 int run(const Args& a) {
   using namespace envkit::render;
   namespace tools = envkit::tools;
@@ -99,12 +119,6 @@ int run(const Args& a) {
   // in environment_description ("probe ..." for a generated environment, which is no file).
   for (const std::string& image : envkit::face_paths(scene.environment_description)) inputs.push_back(image);
   envkit::check_outputs({a.output, png}, inputs, a.force);
-  if (!a.quiet) {
-    for (const std::string& note : scene.notes) tools::info(note);
-    for (const std::string& w : scene.tables->warnings())
-      if (a.strategy == "mis-compensated" || w.find("compensated") == std::string::npos) tools::warn(w);
-  }
-
   IntegratorOptions io;
   io.strategy = parse_strategy(a.strategy);
   io.light_method = envkit::parse_method(a.light_method);
@@ -113,8 +127,20 @@ int run(const Args& a) {
   io.light_samples = a.light_samples;
   io.sun_samples = a.sun_samples;
   io.max_depth = a.max_depth;
+  if (!a.quiet) {
+    for (const std::string& note : scene.notes) tools::info(note);
+    // A warning about the compensated tables matters only to the strategy that draws from them.
+    for (const envkit::TableWarning& w : scene.tables->warnings())
+      if (io.strategy == Strategy::MisCompensated || !w.concerns_compensated_tables()) tools::warn(w.message);
+  }
   const auto setup_start = std::chrono::steady_clock::now();
-  const Integrator integrator(*scene.scene, *scene.light, io);
+  const Integrator integrator = [&] {
+    try {
+      return Integrator(*scene.scene, *scene.light, io);
+    } catch (const IntegratorOptionsError& e) {
+      throw envkit::Error(e.message(option_flag));  // the library names fields; the user typed options
+    }
+  }();
   const double setup_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - setup_start).count();
   std::vector<std::string> setup_notes;

@@ -119,7 +119,7 @@ int run(Options& o) {
   t.save(o.out);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  for (const std::string& w : t.warnings()) tools::warn(o.in.path + ": " + w);
+  for (const envkit::TableWarning& w : t.warnings()) tools::warn(o.in.path + ": " + w.message);
   if (o.json) {
     nlohmann::json j = nlohmann::json::parse(t.descriptor());
     j["output"] = o.out;

@@ -1,19 +1,14 @@
 // envconvert: converts an environment map between parameterizations, conventions and orientations.
-// A thin shell over libenv: load_envmap -> resample -> save_envmap, with checks up front and one-line errors.
+// A thin shell over libenv: its options become one ConversionRequest (validated before anything is read), then
+// load_envmap -> convert -> save_envmap, with one-line errors.
 #include <envkit/core/atomic_file.h>
 #include <envkit/core/error.h>
+#include <envkit/envmap/conversion.h>
 #include <envkit/envmap/envmap.h>
 #include <envkit/io/image_io.h>
-#include <envkit/maps/param_factory.h>
-#include <envkit/maps/solid_angle_table.h>
 #include <envkit/maps/view.h>
 #include <envkit/maps/view_spec.h>
-#include <envkit/resample/filter.h>
-#include <envkit/resample/map_size.h>
-#include <envkit/resample/resample.h>
 
-#include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <optional>
@@ -161,13 +156,13 @@ void add_options(CLI::App& app, Options& o) {
   app.footer(kFooter);
 }
 
-bool has_extension(const std::string& path, const std::string& ext) {
-  std::string e = fs::path(path).extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return e == ext;
+bool is_view(Kind kind) { return kind == Kind::Perspective || kind == Kind::Fisheye; }
+
+bool view_given(const Options& o) {
+  return !o.view_dir.empty() || o.roll || o.fov || !o.lens.empty() || !o.fov_axis.empty();
 }
 
-// The camera view the --view-dir/--roll/--fov/--lens options describe.
+// The camera view the --view-dir/--roll/--fov/--fov-axis/--lens options describe, with the defaults of `kind`.
 envkit::ViewParams view_params(const Options& o, Kind kind) {
   envkit::ViewParams v;
   v.fov_degrees = o.fov.value_or(envkit::default_fov_degrees(kind));
@@ -186,74 +181,98 @@ envkit::ViewParams view_params(const Options& o, Kind kind) {
     else
       throw CLI::ValidationError("--view-dir", "'" + o.view_dir + "' is not x,y,z (non-zero) or yaw,pitch");
   }
-  try {
-    envkit::check_view(kind, v);
-  } catch (const envkit::Error& e) {
-    throw CLI::ValidationError("--fov/--lens", e.what());
-  }
   return v;
 }
 
-// Combinations CLI11 cannot express, reported as usage errors (exit 2) before any file is touched.
-void check_combinations(Options& o) {
-  const Kind to = envkit::parse_kind(o.to);
-  if (!o.layout.empty() && to != Kind::CubeMap) throw CLI::ValidationError("--layout", "applies to --to cube only");
-  if (envkit::is_face_pattern(o.out)) {
-    if (to != Kind::CubeMap)
-      throw CLI::ValidationError("--output", "a '%' pattern writes six cube faces: it needs --to cube");
-    if (!o.layout.empty() && envkit::parse_layout(o.layout) != envkit::CubeLayout::VerticalStrip)
-      throw CLI::ValidationError("--layout", "does not apply to six face files ('%' in the output)");
+// The conversion the options ask for, each name parsed once, here. The view options describe the output when it
+// is a camera view, else an input read --from perspective|fisheye (describe_input).
+envkit::ConversionRequest conversion_request(const Options& o, std::optional<Kind> from) {
+  envkit::ConversionRequest r;
+  r.to = envkit::parse_kind(o.to);
+  if (o.size > 0) r.size = o.size;
+  // A convention read from the input's metadata carries over unless one is given for either side.
+  if (!o.convention.empty())
+    r.convention = &envkit::convention(o.convention);
+  else if (!o.in.convention.empty())
+    r.convention = &envkit::convention("envkit");
+  if (!o.layout.empty()) r.layout = envkit::parse_layout(o.layout);
+  const bool from_view = from && is_view(*from);
+  if (view_given(o) && is_view(r.to))
+    r.view = view_params(o, r.to);
+  else if (view_given(o) && !from_view)
+    r.view = envkit::ViewParams{};  // refused for being given at all (validate): the options' values are not read
+  if (o.aspect != 1.0) r.aspect = o.aspect;
+  r.filter = envkit::parse_filter(o.filter);
+  if (!o.rotate.empty()) r.rotation = envkit::parse_rotation(o.rotate);
+  r.output = o.out;
+  r.pixel_type = o.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
+  r.compression = o.compression;
+  return r;
+}
+
+// A refused request as the usage error (exit 2) naming the options at fault. `from_view`: --from is a camera view
+// (the view options then describe the input, and only --aspect can be out of place).
+CLI::ValidationError usage_error(const envkit::ConversionError& e, const envkit::ConversionRequest& r, bool from_view) {
+  using Field = envkit::ConversionField;
+  const char* const describe_a_view = "describe a camera view: add --to (or --from) perspective|fisheye";
+  switch (e.field) {
+    case Field::Layout:
+      return CLI::ValidationError("--layout", r.to != Kind::CubeMap ? "applies to --to cube only" : e.message);
+    case Field::Output:
+      return CLI::ValidationError("--output", "a '%' pattern writes six cube faces: it needs --to cube");
+    case Field::PixelType:
+      return CLI::ValidationError("--half", e.message);
+    case Field::Compression:
+      return CLI::ValidationError("--compression", e.message);
+    case Field::View:
+      if (!is_view(r.to)) return CLI::ValidationError("--view-dir/--roll/--fov/--lens/--aspect", describe_a_view);
+      return CLI::ValidationError("--fov/--lens", e.message);
+    case Field::Aspect:
+      if (!from_view) return CLI::ValidationError("--view-dir/--roll/--fov/--lens/--aspect", describe_a_view);
+      return CLI::ValidationError("--aspect", "applies to --to perspective|fisheye");
+    case Field::Height:  // no option sets it
+      break;
+    case Field::Size:
+      return CLI::ValidationError("--size", "'" + e.value + "': " + e.message);
   }
-  if (o.half && !has_extension(o.out, ".exr"))
-    throw CLI::ValidationError("--half", "half floats need an OpenEXR (.exr) output");
-  // Only OpenEXR and TIFF writers take a compression; for other formats it would be silently ignored.
-  if (!o.compression.empty() && !has_extension(o.out, ".exr") && !has_extension(o.out, ".tif") &&
-      !has_extension(o.out, ".tiff"))
-    throw CLI::ValidationError("--compression", "applies to OpenEXR (.exr) and TIFF (.tif) outputs only, not '" +
-                                                    fs::path(o.out).filename().string() + "'");
-  if (!o.compression.empty() && has_extension(o.out, ".exr") && !envkit::is_exr_compression(o.compression))
-    throw CLI::ValidationError("--compression", "'" + o.compression + "' is not an OpenEXR compression (" +
-                                                    envkit::exr_compression_list() + ")");
+  return CLI::ValidationError(conversion_field_name(e.field), e.message);
+}
+
+// Checks the request before anything is read; a refusal is a usage error naming the options.
+void validate(const envkit::ConversionRequest& r, bool from_view) {
+  try {
+    envkit::validate(r);
+  } catch (const envkit::ConversionError& e) {
+    throw usage_error(e, r, from_view);
+  }
+}
+
+// What the options say about the input beyond its path: a mirror-ball photograph's ball, non-finite values, and a
+// camera view read --from perspective|fisheye. Usage errors (exit 2) before any file is touched.
+void describe_input(Options& o, std::optional<Kind> from, Kind to) {
   if (!o.ball_centre.empty()) {
     const auto [x, y] = tools::parse_number_pair("--ball-centre", o.ball_centre);
     o.in.ball_cx = x;
     o.in.ball_cy = y;
   }
-  const bool ball = o.in.ball_cx || o.in.ball_radius;
-  if (ball && (o.in.from.empty() || envkit::parse_kind(o.in.from) != Kind::MirrorBall))
+  if ((o.in.ball_cx || o.in.ball_radius) && from != Kind::MirrorBall)
     throw CLI::ValidationError("--ball-centre/--ball-radius",
                                "describe a mirror-ball photograph: add --from mirrorball");
   if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
-  const auto is_view = [](Kind k) { return k == Kind::Perspective || k == Kind::Fisheye; };
-  const bool view_given = !o.view_dir.empty() || o.roll || o.fov || !o.lens.empty() || !o.fov_axis.empty();
-  const bool from_view = !o.in.from.empty() && is_view(envkit::parse_kind(o.in.from));
-  if ((view_given || o.aspect != 1.0) && !is_view(to) && !from_view)
-    throw CLI::ValidationError("--view-dir/--roll/--fov/--lens/--aspect",
-                               "describe a camera view: add --to (or --from) perspective|fisheye");
-  if (o.aspect != 1.0 && !is_view(to)) throw CLI::ValidationError("--aspect", "applies to --to perspective|fisheye");
-  if (view_given && !is_view(to)) o.in.view = view_params(o, envkit::parse_kind(o.in.from));
-  if (is_view(to)) view_params(o, to);  // the output view's bounds: a usage error before anything is read
-}
-
-// The output image, the resampler's footprint tables and the encoder's copy: about 32 bytes per texel.
-void check_output_size(Kind kind, int n, const envkit::Convention& conv, std::optional<envkit::CubeLayout> layout) {
-  const envkit::ParamSpec spec = envkit::spec_for(kind, 1, conv, layout);
-  int w = 0, h = 0;
-  envkit::natural_image_size(kind, n, spec.layout, w, h);
-  tools::check_image_size("--size", std::to_string(n), std::string(envkit::kind_name(kind)) + " output", w, h, 32.0);
+  if (!view_given(o) || is_view(to) || !from || !is_view(*from)) return;
+  o.in.view = view_params(o, *from);
+  try {
+    envkit::check_view(*from, *o.in.view);
+  } catch (const envkit::Error& e) {
+    throw CLI::ValidationError("--fov/--lens", e.what());
+  }
 }
 
 int convert(Options& o) {
-  check_combinations(o);
-  if (o.size > 0) {  // before anything is read: an impossible size is a usage error, not a late "out of memory"
-    std::optional<envkit::CubeLayout> layout;
-    if (envkit::is_face_pattern(o.out))
-      layout = envkit::CubeLayout::VerticalStrip;
-    else if (!o.layout.empty())
-      layout = envkit::parse_layout(o.layout);
-    check_output_size(envkit::parse_kind(o.to), o.size,
-                      envkit::convention(o.convention.empty() ? "envkit" : o.convention), layout);
-  }
+  const std::optional<Kind> from = o.in.from.empty() ? std::nullopt : std::optional(envkit::parse_kind(o.in.from));
+  const envkit::ConversionRequest request = conversion_request(o, from);
+  validate(request, from && is_view(*from));
+  describe_input(o, from, request.to);
   // Nothing is read before the paths are known to be sane: no surprises after a long conversion.
   envkit::install_temp_cleanup_on_signal();
   const std::vector<std::string> inputs = tools::input_paths(o.in.path);
@@ -262,47 +281,22 @@ int convert(Options& o) {
 
   tools::LoadedInput in = tools::load_input(o.in);
   tools::report_input(in, o.quiet);
-  if (!o.rotate.empty()) in.map.rotation = envkit::parse_rotation(o.rotate);
 
-  // Output frame: a convention read from the file's metadata carries over unless told otherwise.
-  const std::string conv_name =
-      !o.convention.empty() ? o.convention : (o.in.convention.empty() ? in.map.convention : "envkit");
-  const envkit::Convention& conv = envkit::convention(conv_name);
-  const Kind kind = envkit::parse_kind(o.to);
-  std::optional<envkit::CubeLayout> layout;
-  if (envkit::is_face_pattern(o.out))
-    layout = envkit::CubeLayout::VerticalStrip;
-  else if (!o.layout.empty())
-    layout = envkit::parse_layout(o.layout);
-  const auto spec_of_size = [&](int n) {
-    if (kind == Kind::Perspective || kind == Kind::Fisheye)
-      return envkit::view_spec(kind, n, o.aspect, view_params(o, kind), conv);
-    return envkit::spec_for(kind, n, conv, layout);
-  };
-  const int n =
-      o.size > 0 ? o.size
-                 : envkit::matching_natural_size(envkit::data_texel_count(in.map.image, *in.map.param), spec_of_size);
-  check_output_size(kind, n, conv, layout);
-
-  envkit::EnvMap out;
-  out.param = envkit::make_parameterization(spec_of_size(n));
-  out.convention = conv.name;
-
-  envkit::ResampleOptions ro;
-  ro.filter = envkit::parse_filter(o.filter);
-  const std::size_t work = static_cast<std::size_t>(out.param->width()) * out.param->height();
+  envkit::ParamSpec spec;
+  try {
+    spec = envkit::output_spec(in.map, request);
+  } catch (const envkit::ConversionError& e) {
+    throw usage_error(e, request, from && is_view(*from));
+  }
+  const std::size_t work = static_cast<std::size_t>(spec.width) * spec.height;
   tools::ProgressBar bar("envconvert: resampling", tools::want_progress(o.progress, o.quiet, work));
-  ro.progress = bar.callback();
-  out.image = envkit::resample(in.map.ref(), *out.param, out.to_world(), ro);
+  const envkit::EnvMap out = envkit::convert(in.map, request, spec, bar.callback());
   bar.finish();
 
-  // save_envmap writes the envkit:* keys that describe the new map; the input's (its layout, face, rotation,
-  // source, ...) would describe the wrong file.
-  std::erase_if(out.image.metadata, [](const auto& kv) { return kv.first.rfind("envkit:", 0) == 0; });
   envkit::SaveOptions so;
-  so.write.pixel_type = o.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
-  so.write.compression = o.compression;
-  so.filter = envkit::filter_name(ro.filter);
+  so.write.pixel_type = request.pixel_type;
+  so.write.compression = request.compression;
+  so.filter = envkit::filter_name(request.filter);
   so.source = fs::path(o.in.path).filename().string();
   const envkit::ClampReport clamped = envkit::save_envmap(o.out, out, so);
   if (clamped.any()) tools::warn(clamped.message(o.out));

@@ -321,7 +321,7 @@ int describe_tables(const Options& o) {
     for (const auto& [name, bytes] : t.table_bytes())
       row("  " + name,
           tools::fmt(double(bytes) / (1 << 20), 4) + " MiB, " + tools::fmt(double(bytes) / texels, 3) + " bytes/texel");
-    for (const std::string& w : t.warnings()) row("warning", w);
+    for (const envkit::TableWarning& w : t.warnings()) row("warning", w.message);
   }
   if (!o.export_exr.empty()) export_tables(t, o.in.path, o.export_exr);
   return tools::kExitOk;

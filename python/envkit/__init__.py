@@ -26,6 +26,7 @@ import os as _os
 
 from . import _envkit
 from ._envkit import (
+    ConversionError,
     EnvMap,
     Error,
     PrefilteredChain,
@@ -42,6 +43,7 @@ from ._envkit import (
 )
 
 __all__ = [
+    "ConversionError",
     "EnvMap",
     "Error",
     "Tables",

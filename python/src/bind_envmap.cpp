@@ -3,6 +3,7 @@
 // command-line tool makes (envconvert, envinfo, envdiff), so results are the
 // tools' results bit for bit.
 #include <envkit/core/error.h>
+#include <envkit/envmap/conversion.h>
 #include <envkit/envmap/map_compare.h>
 #include <envkit/envmap/map_stats.h>
 #include <envkit/envmap/sun.h>
@@ -13,8 +14,6 @@
 #include <envkit/maps/texel_directions.h>
 #include <envkit/maps/view_spec.h>
 #include <envkit/resample/filter.h>
-#include <envkit/resample/map_size.h>
-#include <envkit/resample/resample.h>
 #include <pybind11/stl.h>
 
 #include <atomic>
@@ -117,107 +116,103 @@ py::array mat3_array(const Mat3& m) {
   return out;
 }
 
-/// Bytes per output texel of a conversion, as envconvert's --size check counts them.
-constexpr double kConvertBytesPerTexel = 32.0;
+/// envkit.ConversionError: arguments of a conversion that do not go together (a layout for a lat-long, a view for
+/// a cube, a field of view out of the lens's range). Both an envkit.Error, as every refusal of the module was, and
+/// a ValueError: a bad argument value.
+py::handle g_conversion_error;
 
-/// The resampling envconvert does: `src` (optionally rotated on top of its own
-/// orientation) onto a new map laid out by spec_at(N), N = size or (size 0) the
-/// natural size that keeps about the source's texel density. `size_name`: the
-/// argument that gave the size, named when the output is too large.
-Ptr resample_to(const PyEnvMap& src, Kind kind, int size, const std::string& size_name, const std::string& filter,
-                const Convention& conv, std::optional<CubeLayout> layout, const py::object& rotate,
-                const std::function<ParamSpec(int)>& spec_at) {
-  const Filter f = parse_filter(filter);
-  const Mat3 to_world = rotated(src.map.to_world(), rotate);
-  if (kind != Kind::CubeMap) layout.reset();
-  auto out = std::make_shared<PyEnvMap>();
-  {
-    py::gil_scoped_release release;
-    const int n = size > 0 ? size : matching_natural_size(data_texel_count(src.map.image, *src.map.param), spec_at);
-    const ParamSpec spec = spec_at(n);
-    // Output, resampling weights and the float copy the writers make: envconvert's budget per texel.
-    check_size_arg(size_name, kind_name(kind) + " output", spec.width, spec.height, kConvertBytesPerTexel);
-    out->map.param = make_parameterization(spec);
-    out->map.convention = conv.name;
-    ResampleOptions ro;
-    ro.filter = f;
-    out->map.image =
-        resample(MapRef{src.map.image, *src.map.param, to_world}, *out->map.param, out->map.to_world(), ro);
+/// Names of the arguments that gave a request's fields, for its refusals.
+struct ConvertArgNames {
+  std::string size = "size";  ///< the argument that gave the size ("nside" for HEALPix, "rotation" for rotate())
+  Kind to = Kind::LatLong;
+};
+
+[[noreturn]] void raise_conversion_error(const std::string& message) {
+  PyErr_SetString(g_conversion_error.ptr(), message.c_str());
+  throw py::error_already_set();
+}
+
+/// A refused request as the Python exception that names the arguments at fault. Needs the GIL.
+[[noreturn]] void raise_refusal(const ConversionError& e, const ConvertArgNames& names) {
+  switch (e.field) {
+    case ConversionField::Size:  // a request too large is a ValueError, as every size argument's
+      throw py::value_error(names.size + ": " + e.message);
+    case ConversionField::Height:
+      if (is_view_kind(names.to)) throw py::value_error("size: give either size=(width, height) or aspect, not both");
+      throw py::value_error("size: (width, height) applies to camera views; give N for " + kind_name(names.to));
+    case ConversionField::View:
+    case ConversionField::Aspect:
+      if (!is_view_kind(names.to))
+        raise_conversion_error(
+            "view_dir/roll/fov/fov_axis/lens/aspect describe a camera view: convert to perspective or fisheye");
+      raise_conversion_error(e.message);  // the lens's range, as envconvert prints it after --fov/--lens
+    default:
+      raise_conversion_error(e.what());  // "layout: applies to cube maps only"
   }
-  // The envkit:* keys of the source describe another file (its layout,
-  // rotation, source).
-  std::erase_if(out->map.image.metadata, [](const auto& kv) { return kv.first.rfind("envkit:", 0) == 0; });
-  if (kind == Kind::CubeMap) out->layout = layout ? *layout : conv.cube_layout;
-  out->filter = filter_name(f);
+}
+
+/// The conversion `request` asks of `src`, as envconvert performs it (validate, output_spec, convert).
+Ptr converted(const PyEnvMap& src, const ConversionRequest& request, const ConvertArgNames& names) {
+  auto out = std::make_shared<PyEnvMap>();
+  try {
+    py::gil_scoped_release release;
+    validate(request);
+    out->map = convert(src.map, request);
+  } catch (const ConversionError& e) {
+    raise_refusal(e, names);
+  }
+  if (request.to == Kind::CubeMap)
+    out->layout = request.layout.value_or(output_convention(request, src.map).cube_layout);
+  out->filter = filter_name(request.filter);
   out->source = src.source;
   return out;
 }
 
-/// Spec of a map like `p` (same kind, convention, layout and, for a camera view, the same view and aspect) at
-/// natural size N: what rotate() and resize() resample onto.
-std::function<ParamSpec(int)> same_kind_spec(const PyEnvMap& p) {
-  const Kind kind = p.map.param->kind();
-  const Convention& conv = envkit::convention(p.map.convention);
-  if (is_view_kind(kind)) {
-    const ViewParams view = *p.map.param->view();
-    const double aspect = double(p.map.param->width()) / p.map.param->height();
-    return [=, &conv](int n) { return view_spec(kind, n, aspect, view, conv); };
+/// A request for a map like `p` (same kind, convention, layout and, for a camera view, the same view and aspect):
+/// what rotate() and resize() resample onto.
+ConversionRequest same_kind_request(const PyEnvMap& p, const std::string& filter) {
+  ConversionRequest r;
+  r.to = p.map.param->kind();
+  r.convention = &envkit::convention(p.map.convention);
+  if (r.to == Kind::CubeMap) r.layout = p.layout;
+  if (is_view_kind(r.to)) {
+    r.view = *p.map.param->view();
+    r.aspect = double(p.map.param->width()) / p.map.param->height();
   }
-  const std::optional<CubeLayout> layout = kind == Kind::CubeMap ? p.layout : std::nullopt;
-  return [=, &conv](int n) { return spec_for(kind, n, conv, layout); };
+  r.filter = parse_filter(filter);
+  return r;
 }
 
 /// EnvMap.convert: envconvert's options, with size=(w, h) as well as --size N --aspect A for camera views and
-/// nside= for HEALPix (--size N_side).
-Ptr convert(const PyEnvMap& p, const std::string& to, const py::object& size_arg, const std::string& filter,
-            const std::optional<std::string>& convention, const py::object& rotate,
-            const std::optional<std::string>& layout_arg, const ViewArgs& view_args, const py::object& aspect_obj,
-            const py::object& nside_obj) {
-  const std::optional<double> aspect_arg = optional_real_arg(aspect_obj, "aspect", 1e-3, 1e3);
+/// nside= for HEALPix (--size N_side). Names are parsed here; the request's combinations are validate()'s.
+Ptr convert_map(const PyEnvMap& p, const std::string& to, const py::object& size_arg, const std::string& filter,
+                const std::optional<std::string>& convention, const py::object& rotate,
+                const std::optional<std::string>& layout, const ViewArgs& view_args, const py::object& aspect_obj,
+                const py::object& nside_obj) {
+  ConversionRequest r;
+  r.aspect = optional_real_arg(aspect_obj, "aspect", 1e-3, 1e3);
   const std::optional<int> nside = optional_int_arg(nside_obj, "nside", 1, int(kMaxSizeArg));
-  const Kind kind = parse_kind(to);
-  const Convention& conv = envkit::convention(convention ? *convention : p.map.convention);
-  std::optional<CubeLayout> layout;
-  if (layout_arg) {
-    if (kind != Kind::CubeMap) throw Error("layout: applies to cube maps only");
-    layout = parse_layout(*layout_arg);
-  }
-  const bool view = is_view_kind(kind);
-  if ((view_args.given() || aspect_arg) && !view)
-    throw Error("view_dir/roll/fov/fov_axis/lens/aspect describe a camera view: convert to perspective or fisheye");
+  r.to = parse_kind(to);
+  r.convention = &envkit::convention(convention ? *convention : p.map.convention);
+  if (layout) r.layout = parse_layout(*layout);
   int size = 0;
-  std::optional<int> height;  // size=(w, h): the view's height as given
   if (py::isinstance<py::tuple>(size_arg) || py::isinstance<py::list>(size_arg)) {
     const auto wh = int_pair_arg(size_arg, "size", 1, int(kMaxSizeArg));
-    if (!view) throw py::value_error("size: (width, height) applies to camera views; give N for " + kind_name(kind));
-    if (aspect_arg) throw py::value_error("size: give either size=(width, height) or aspect, not both");
     size = wh.first;
-    height = wh.second;
+    r.height = wh.second;
   } else {
     size = int_arg(size_arg, "size", 0, int(kMaxSizeArg));  // 0: about the input's texel density
   }
   if (nside) {
-    if (kind != Kind::HEALPix) throw py::value_error("nside: applies to healpix only");
+    if (r.to != Kind::HEALPix) throw py::value_error("nside: applies to healpix only");
     if (size > 0) throw py::value_error("nside: give either size or nside, not both");
     size = *nside;
   }
-  std::function<ParamSpec(int)> spec_at;
-  if (view) {
-    const ViewParams v = view_params(view_args, kind).value_or([&] {
-      ViewParams d;
-      d.fov_degrees = default_fov_degrees(kind);
-      return d;
-    }());
-    const double aspect = aspect_arg.value_or(1.0);
-    spec_at = [=, &conv](int n) {
-      ParamSpec s = view_spec(kind, n, aspect, v, conv);
-      if (height) s.height = *height;
-      return s;
-    };
-  } else {
-    spec_at = [=, &conv](int n) { return spec_for(kind, n, conv, layout); };
-  }
-  return resample_to(p, kind, size, nside ? "nside" : "size", filter, conv, layout, rotate, spec_at);
+  if (size > 0) r.size = size;
+  r.view = parsed_view(view_args, r.to);
+  r.filter = parse_filter(filter);
+  if (!rotate.is_none()) r.rotation = rotation_arg(rotate);
+  return converted(p, r, ConvertArgNames{nside ? "nside" : "size", r.to});
 }
 
 /// A map of zeros laid out like envconvert's output of `kind` at natural size N: allocated by envkit, so that
@@ -458,6 +453,10 @@ void write(const PyEnvMap& p, const std::string& path, bool half, const std::str
 }  // namespace
 
 void bind_envmap(py::module_& m) {
+  const py::tuple bases = py::make_tuple(m.attr("Error"), py::handle(PyExc_ValueError));
+  g_conversion_error = PyErr_NewException("_envkit.ConversionError", bases.ptr(), nullptr);  // lives with the module
+  if (!g_conversion_error) throw py::error_already_set();
+  m.attr("ConversionError") = g_conversion_error;
   py::class_<PyEnvMap, Ptr>(m, "EnvMap",
                             R"(An environment map: float32 pixels (H x W x C, linear, row 0 at the top),
 a parameterization and a convention (docs/PYTHON.md).
@@ -542,8 +541,8 @@ UserWarning); compression: none, zip, piz, dwaa, ...)")
              const std::optional<std::string>& layout, const py::object& view, const py::object& view_dir,
              const py::object& roll, const py::object& fov, const py::object& fov_axis, const py::object& lens,
              const py::object& aspect, const py::object& nside) {
-            return convert(p, to, size, filter, convention, rotate, layout,
-                           ViewArgs{view, view_dir, roll, fov, fov_axis, lens}, aspect, nside);
+            return convert_map(p, to, size, filter, convention, rotate, layout,
+                               ViewArgs{view, view_dir, roll, fov, fov_axis, lens}, aspect, nside);
           },
           py::arg("to"), py::arg("size") = 0, py::arg("filter") = "area", py::arg("convention") = py::none(),
           py::arg("rotate") = py::none(), py::arg("layout") = py::none(), py::kw_only(), py::arg("view") = py::none(),
@@ -564,8 +563,9 @@ see come out with alpha 0. HEALPix: nside=N (image 4N x 3N), or size=N.)")
       .def(
           "rotate",
           [](const PyEnvMap& p, const py::object& rotation, const std::string& filter) {
-            return resample_to(p, p.map.param->kind(), 0, "rotation", filter, envkit::convention(p.map.convention),
-                               p.layout, rotation, same_kind_spec(p));
+            ConversionRequest r = same_kind_request(p, filter);
+            if (!rotation.is_none()) r.rotation = rotation_arg(rotation);
+            return converted(p, r, ConvertArgNames{"rotation", r.to});
           },
           py::arg("rotation"), py::arg("filter") = "area",
           "The environment rotated by R, on a map of the same parameterization "
@@ -574,8 +574,10 @@ see come out with alpha 0. HEALPix: nside=N (image 4N x 3N), or size=N.)")
       .def(
           "resize",
           [](const PyEnvMap& p, const py::object& size, const std::string& filter) {
-            return resample_to(p, p.map.param->kind(), int_arg(size, "size", 1, int(kMaxSizeArg)), "size", filter,
-                               envkit::convention(p.map.convention), p.layout, py::none(), same_kind_spec(p));
+            const int n = int_arg(size, "size", 1, int(kMaxSizeArg));
+            ConversionRequest r = same_kind_request(p, filter);
+            r.size = n;
+            return converted(p, r, ConvertArgNames{"size", r.to});
           },
           py::arg("size"), py::arg("filter") = "area",
           "Same parameterization at natural size N (lat-long 2N x N, cube "

@@ -266,7 +266,12 @@ element instead of the batched one (the same results bit for bit, slower on larg
       .def_property_readonly(
           "descriptor", [](const PyTables& t) { return t.tables->descriptor(); },
           "The JSON descriptor stored in the file (text).")
-      .def_property_readonly("warnings", [](const PyTables& t) { return t.tables->warnings(); })
+      .def_property_readonly("warnings",
+                             [](const PyTables& t) {
+                               std::vector<std::string> messages;
+                               for (const TableWarning& w : t.tables->warnings()) messages.push_back(w.message);
+                               return messages;
+                             })
       .def_property_readonly("table_bytes", [](const PyTables& t) { return t.tables->table_bytes(); })
       .def(
           "methods",

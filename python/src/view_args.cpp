@@ -67,18 +67,20 @@ bool ViewArgs::given() const {
 
 bool is_view_kind(Kind kind) { return kind == Kind::Perspective || kind == Kind::Fisheye; }
 
-std::optional<ViewParams> view_params(const ViewArgs& in, Kind kind) {
+std::optional<ViewParams> view_params(const ViewArgs& args, Kind kind) {
+  const std::optional<ViewParams> v = parsed_view(args, kind);
+  if (v) check_view(kind, *v);
+  return v;
+}
+
+std::optional<ViewParams> parsed_view(const ViewArgs& in, Kind kind) {
   if (!in.given()) return std::nullopt;
   ViewArgs a = in;
   if (!in.view.is_none()) {
     if (!in.view_dir.is_none() || !in.roll.is_none() || !in.fov.is_none() || !in.fov_axis.is_none() ||
         !in.lens.is_none())
       throw Error("view: give either view= or view_dir/roll/fov/fov_axis/lens, not both");
-    if (py::isinstance<py::str>(in.view)) {
-      const ViewParams v = parse_view(in.view.cast<std::string>());
-      check_view(kind, v);
-      return v;
-    }
+    if (py::isinstance<py::str>(in.view)) return parse_view(in.view.cast<std::string>());
     if (!py::isinstance<py::dict>(in.view)) throw Error("view: expected a dict (EnvMap.view) or envkit:view text");
     for (const auto& [key, value] : in.view.cast<py::dict>()) {
       const std::string k = py::str(key);
@@ -106,7 +108,6 @@ std::optional<ViewParams> view_params(const ViewArgs& in, Kind kind) {
   if (!a.fov_axis.is_none()) v.fov_axis = fov_axis(a.fov_axis.cast<std::string>());
   if (!a.lens.is_none()) v.lens = parse_lens(a.lens.cast<std::string>());
   if (!a.view_dir.is_none()) v.forward = view_direction(a.view_dir);
-  check_view(kind, v);
   return v;
 }
 

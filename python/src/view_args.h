@@ -26,6 +26,8 @@ struct ViewArgs {
 /// The view the arguments describe for a map of `kind`, or nullopt when none was given. Defaults as envconvert's
 /// (fov from default_fov_degrees); validated by libenv (check_view). Throws envkit::Error naming the argument.
 std::optional<ViewParams> view_params(const ViewArgs& args, Kind kind);
+/// The same without the check: for a ConversionRequest, which validate() checks.
+std::optional<ViewParams> parsed_view(const ViewArgs& args, Kind kind);
 
 /// The view as a dict of the keywords above (view_dir as x, y, z), so that it can be passed back as view=.
 py::dict view_dict(const ViewParams& view);

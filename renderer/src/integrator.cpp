@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 namespace envkit::render {
 
@@ -62,29 +63,86 @@ Heuristic parse_heuristic(const std::string& name) {
   throw Error("unknown heuristic '" + name + "' (valid: balance, power)");
 }
 
+const char* integrator_field_name(IntegratorField field) {
+  switch (field) {
+    case IntegratorField::Strategy:
+      return "strategy";
+    case IntegratorField::LightMethod:
+      return "light_method";
+    case IntegratorField::BsdfSamples:
+      return "bsdf_samples";
+    case IntegratorField::LightSamples:
+      return "light_samples";
+    case IntegratorField::SunSamples:
+      return "sun_samples";
+    case IntegratorField::MaxDepth:
+      return "max_depth";
+  }
+  return "?";
+}
+
+IntegratorOptionsError::IntegratorOptionsError(IntegratorField at, std::function<std::string(const Speller&)> compose)
+    : Error(compose([](IntegratorField f) { return std::string(integrator_field_name(f)); })),
+      field(at),
+      compose_(std::move(compose)) {}
+
+namespace {
+
+using Speller = IntegratorOptionsError::Speller;
+
+[[noreturn]] void refuse(IntegratorField field, std::function<std::string(const Speller&)> compose) {
+  throw IntegratorOptionsError(field, std::move(compose));
+}
+
+}  // namespace
+
+void validate(const IntegratorOptions& o) {
+  using F = IntegratorField;
+  // Counts the options leave unset are at least 1 (sample_counts()): only given counts can fail these rules.
+  const int n_min = o.bsdf_samples.value_or(1), m_min = o.light_samples.value_or(1);
+  if (n_min < 0 || m_min < 0)
+    refuse(n_min < 0 ? F::BsdfSamples : F::LightSamples, [](const Speller&) { return "sample counts must be >= 0"; });
+  if (o.max_depth < 1) refuse(F::MaxDepth, [](const Speller& n) { return n(F::MaxDepth) + " must be >= 1"; });
+  const Strategy s = o.strategy;
+  if (s == Strategy::Bsdf && n_min < 1)
+    refuse(F::BsdfSamples, [](const Speller& n) { return "strategy bsdf needs " + n(F::BsdfSamples) + " >= 1"; });
+  if (s == Strategy::Light && m_min < 1)
+    refuse(F::LightSamples, [](const Speller& n) { return "strategy light needs " + n(F::LightSamples) + " >= 1"; });
+  if ((s == Strategy::Mis || s == Strategy::MisCompensated) && n_min + m_min < 1)
+    refuse(F::Strategy, [](const Speller&) { return "strategy mis needs at least one sample"; });
+  if (s == Strategy::MisCompensated && n_min < 1)
+    refuse(F::BsdfSamples, [](const Speller& n) {
+      return "strategy mis-compensated needs " + n(F::BsdfSamples) +
+             " >= 1 (BSDF sampling covers what the compensated table leaves out)";
+    });
+  if (o.sun_samples < 0) refuse(F::SunSamples, [](const Speller& n) { return n(F::SunSamples) + " must be >= 0"; });
+  const bool product = s == Strategy::Product || s == Strategy::ProductMis;
+  const bool wavelet = s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis;
+  if (s == Strategy::ProductWavelet && m_min < 1)
+    refuse(F::LightSamples,
+           [](const Speller& n) { return "strategy product-wavelet needs " + n(F::LightSamples) + " >= 1"; });
+  if (s == Strategy::ProductWaveletMis && n_min + m_min < 1)
+    refuse(F::Strategy, [](const Speller&) { return "strategy product-wavelet-mis needs at least one sample"; });
+  if (wavelet && o.light_method != SamplingMethod::Hierarchical)
+    refuse(F::LightMethod, [method = o.light_method](const Speller& n) {
+      return n(F::LightMethod) + " " + method_name(method) + ": the product-wavelet strategies read the hierarchical table";
+    });
+  if (s == Strategy::Product && m_min < 1)
+    refuse(F::LightSamples, [](const Speller& n) { return "strategy product needs " + n(F::LightSamples) + " >= 1"; });
+  if (s == Strategy::ProductMis && n_min + m_min < 1)
+    refuse(F::Strategy, [](const Speller&) { return "strategy product-mis needs at least one sample"; });
+  if (product && o.light_method != SamplingMethod::Hierarchical)
+    refuse(F::LightMethod, [method = o.light_method](const Speller& n) {
+      return n(F::LightMethod) + " " + method_name(method) +
+             ": the product strategies refine the hierarchical table (another method needs " + n(F::Strategy) +
+             " light, mis or mis-compensated)";
+    });
+}
+
 Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
     : scene_(scene), light_(light), options_(options) {
-  // Counts the options leave unset are at least 1 (sample_counts()): only given counts can fail these rules.
-  const int n_min = options_.bsdf_samples.value_or(1), m_min = options_.light_samples.value_or(1);
-  if (n_min < 0 || m_min < 0) throw Error("sample counts must be >= 0");
-  if (options_.max_depth < 1) throw Error("--max-depth must be >= 1");
+  validate(options_);
   const Strategy s = options_.strategy;
-  if (s == Strategy::Bsdf && n_min < 1) throw Error("strategy bsdf needs --bsdf-samples >= 1");
-  if (s == Strategy::Light && m_min < 1) throw Error("strategy light needs --light-samples >= 1");
-  if ((s == Strategy::Mis || s == Strategy::MisCompensated) && n_min + m_min < 1)
-    throw Error("strategy mis needs at least one sample");
-  if (s == Strategy::MisCompensated && n_min < 1)
-    throw Error(
-        "strategy mis-compensated needs --bsdf-samples >= 1 (BSDF sampling covers what the compensated "
-        "table leaves out)");
-  if (options_.sun_samples < 0) throw Error("--sun-samples must be >= 0");
-  const bool product = s == Strategy::Product || s == Strategy::ProductMis;
-  if (s == Strategy::Product && m_min < 1) throw Error("strategy product needs --light-samples >= 1");
-  if (s == Strategy::ProductMis && n_min + m_min < 1) throw Error("strategy product-mis needs at least one sample");
-  if (product && options_.light_method != SamplingMethod::Hierarchical)
-    throw Error(std::string("--light-method ") + method_name(options_.light_method) +
-                ": the product strategies refine " +
-                "the hierarchical table (another method needs --strategy light, mis or mis-compensated)");
   if (s != Strategy::Bsdf) {
     const bool compensated = s == Strategy::MisCompensated;
     // The light counts are the shading point's (techniques()).
@@ -107,19 +165,11 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
             : s == Strategy::ProductWavelet                  ? &Integrator::direct_product_wavelet
             : s == Strategy::ProductWaveletMis               ? &Integrator::direct_product_wavelet_mis
                                                              : &Integrator::direct_mis;
-  if (product) build_product_tables();
+  if (s == Strategy::Product || s == Strategy::ProductMis) build_product_tables();
   if (s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis) build_product_wavelet();
 }
 
 void Integrator::build_product_wavelet() {
-  const Strategy s = options_.strategy;
-  const int n_min = options_.bsdf_samples.value_or(1), m_min = options_.light_samples.value_or(1);
-  if (s == Strategy::ProductWavelet && m_min < 1) throw Error("strategy product-wavelet needs --light-samples >= 1");
-  if (s == Strategy::ProductWaveletMis && n_min + m_min < 1)
-    throw Error("strategy product-wavelet-mis needs at least one sample");
-  if (options_.light_method != SamplingMethod::Hierarchical)
-    throw Error(std::string("--light-method ") + method_name(options_.light_method) +
-                ": the product-wavelet strategies read the hierarchical table");
   std::vector<const Material*> materials;
   for (int m = 0; m < scene_.material_count(); ++m) materials.push_back(&scene_.material(m));
   wavelet_ = std::make_unique<ProductWavelet>(light_.distribution(SamplingMethod::Hierarchical, false), materials,

@@ -155,6 +155,21 @@ TEST_F(RenderCli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(envrender({"--sun-samples", "1.5"}).code, 2);
 }
 
+// A constant map has no compensated importance: its compensated tables are the plain ones. Only the strategy that
+// draws from them says so.
+TEST_F(RenderCli, TheCompensatedTablesWarningIsForMisCompensatedOnly) {
+  const auto flat = write("flat.json", scene());
+  const std::string warning = "the compensated tables are the plain ones";
+  auto r = envrender({"--scene", flat.string(), "-o", (dir_ / "mis.exr").string(), "--spp", "1", "--strategy", "mis"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find(warning), std::string::npos) << r.err;
+  r = envrender(
+      {"--scene", flat.string(), "-o", (dir_ / "comp.exr").string(), "--spp", "1", "--strategy", "mis-compensated"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: compensated importance max(f - mean, 0) is zero everywhere"), std::string::npos)
+      << r.err;
+}
+
 // A map with a sun: envrender says it samples the sun apart and records the samples; --sun-samples 0 samples the
 // map as one table; both images agree within their noise. A map without a sun records 0.
 TEST_F(RenderCli, SunSamplesAreReportedAndRecorded) {

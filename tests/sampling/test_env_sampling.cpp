@@ -487,7 +487,8 @@ TEST(EnvSamplingDirections, MatchTheClosedFormAtEverySize) {
 TEST(EnvTablesBake, AllBlackMapSamplesUniformlyWithAWarning) {
   const EnvTables t = bake(make("black", Kind::LatLong, 16, 8, 0.0f));
   ASSERT_EQ(t.warnings().size(), 1u);
-  EXPECT_NE(t.warnings()[0].find("no light"), std::string::npos);
+  EXPECT_EQ(t.warnings()[0].cause, TableWarning::Cause::NoLight);
+  EXPECT_NE(t.warnings()[0].message.find("no light"), std::string::npos);
   for (SamplingMethod method : kMethods) {
     const SphericalDistribution& d = *t.distribution(method);
     // Uniform in uv: pdf per steradian is 1 / (W H Omega_texel); it integrates to 1.

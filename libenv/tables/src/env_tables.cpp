@@ -402,40 +402,61 @@ void EnvTables::build_distributions(const BakeOptions& options) {
 
   const FloatBuffer weights = weights_of([&](std::size_t i) { return importance_[i]; });
   build_set(weights, 0);
-  if (!(total > 0.0)) {
-    warnings_.push_back("the map carries no light (all importance is zero): the tables sample uniformly");
-  } else {
-    int zero_rows = 0;
-    for (int y = 0; y < H; ++y)
-      zero_rows += std::all_of(std::as_const(importance_).begin() + std::ptrdiff_t(y) * W,
-                               std::as_const(importance_).begin() + std::ptrdiff_t(y + 1) * W,
-                               [](float v) { return !(v > 0.0f); });
-    if (zero_rows > 0)
-      warnings_.push_back(std::to_string(zero_rows) +
-                          " all-zero rows: never sampled (pdf 0 there); their conditional tables are uniform");
-    const SphericalDistribution* cdf = distributions_[0][0].get();
-    if (cdf && cdf->distribution().unreachable_texels() > 0)
-      warnings_.push_back(std::to_string(cdf->distribution().unreachable_texels()) +
-                          " lit texels are below the float resolution of their CDF (cdf gives them pdf 0; "
-                          "hierarchical and alias sample them)");
-  }
-
   if (options.compensated) {
-    const double mean = total / kFourPi;  // solid-angle mean of the importance
-    bool any = false;
-    for (float v : std::as_const(importance_)) any = any || double(v) > mean;
-    if (any) {
+    if (!compensated_importance_is_zero()) {
+      const double mean = total / kFourPi;  // solid-angle mean of the importance
       build_set(weights_of([&](std::size_t i) { return std::max(0.0, double(importance_[i]) - mean); }), 1);
     } else {
-      warnings_.push_back(
-          "compensated importance max(f - mean, 0) is zero everywhere (a constant map): the compensated tables are "
-          "the plain ones");
       for (int m = 0; m < 3; ++m)
         if (distributions_[0][m])
           distributions_[1][m] =
               std::make_unique<SphericalDistribution>(*distributions_[0][m], distributions_[0][m]->distribution_ptr());
     }
   }
+  warnings_ = bake_warnings(options.compensated);
+}
+
+bool EnvTables::compensated_importance_is_zero() const {
+  const double mean = total_importance_ / kFourPi;  // solid-angle mean of the importance
+  return std::none_of(importance_.begin(), importance_.end(), [mean](float v) { return double(v) > mean; });
+}
+
+std::vector<TableWarning> EnvTables::bake_warnings(bool compensated) const {
+  using Cause = TableWarning::Cause;
+  std::vector<TableWarning> w;
+  if (!(total_importance_ > 0.0)) {
+    w.push_back({Cause::NoLight, "the map carries no light (all importance is zero): the tables sample uniformly"});
+  } else {
+    const int W = width_, H = height_;
+    int zero_rows = 0;
+    for (int y = 0; y < H; ++y)
+      zero_rows += std::all_of(std::as_const(importance_).begin() + std::ptrdiff_t(y) * W,
+                               std::as_const(importance_).begin() + std::ptrdiff_t(y + 1) * W,
+                               [](float v) { return !(v > 0.0f); });
+    if (zero_rows > 0)
+      w.push_back({Cause::ZeroRows, std::to_string(zero_rows) + " all-zero rows: never sampled (pdf 0 there); their "
+                                                                "conditional tables are uniform"});
+    const SphericalDistribution* cdf = distributions_[0][0].get();
+    if (cdf && cdf->distribution().unreachable_texels() > 0)
+      w.push_back({Cause::UnreachableTexels, std::to_string(cdf->distribution().unreachable_texels()) +
+                                                 " lit texels are below the float resolution of their CDF (cdf gives "
+                                                 "them pdf 0; hierarchical and alias sample them)"});
+  }
+  if (compensated && compensated_importance_is_zero())
+    w.push_back({Cause::CompensatedFallback,
+                 "compensated importance max(f - mean, 0) is zero everywhere (a constant map): the compensated tables "
+                 "are the plain ones"});
+  return w;
+}
+
+std::vector<TableWarning> EnvTables::with_causes(const std::vector<std::string>& messages) const {
+  const bool compensated =
+      std::any_of(distributions_[1].begin(), distributions_[1].end(), [](const auto& d) { return d != nullptr; });
+  const std::vector<TableWarning> found = bake_warnings(compensated);
+  std::vector<TableWarning> w;
+  for (std::size_t i = 0; i < messages.size(); ++i)
+    w.push_back({found.size() == messages.size() ? found[i].cause : TableWarning::Cause::Other, messages[i]});
+  return w;
 }
 
 const SphericalDistribution* EnvTables::distribution(SamplingMethod method, bool compensated) const {
@@ -514,7 +535,9 @@ std::string EnvTables::make_descriptor(const BakeOptions* options) const {
   }
   d["methods"] = methods;
   d["compensated_methods"] = compensated;
-  d["warnings"] = warnings_;
+  nlohmann::json warnings = nlohmann::json::array();
+  for (const TableWarning& w : warnings_) warnings.push_back(w.message);
+  d["warnings"] = warnings;
   if (sun_looked_for_) {  // for people reading the descriptor; loading reads the sun's own section
     d["sun"] = nullptr;
     for (const auto& set : sun_splits_)

@@ -297,6 +297,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
   t.file_path_ = path;
   const auto [descriptor_data, descriptor_size] = section("descriptor");
   t.descriptor_.assign(reinterpret_cast<const char*>(descriptor_data), descriptor_size);
+  std::vector<std::string> warning_messages;
   try {
     const nlohmann::json d = nlohmann::json::parse(t.descriptor_);
     t.grid_ = parse_kind(d.at("grid").get<std::string>());
@@ -315,7 +316,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
         throw Error("source.to_world is not 9 finite numbers");
       t.source_to_world_ = Mat3(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8]);
     }
-    t.warnings_ = d.at("warnings").get<std::vector<std::string>>();
+    warning_messages = d.at("warnings").get<std::vector<std::string>>();
   } catch (const nlohmann::json::exception& e) {
     throw fail_with(std::string("corrupt descriptor: ") + e.what());
   } catch (const Error& e) {
@@ -366,6 +367,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
       t.distributions_[set][m] = restore_on_grid(m, in, name);
       if (!first) first = t.distributions_[set][m].get();
     }
+  t.warnings_ = t.with_causes(warning_messages);
   if (const auto sun = sections.find("sun"); sun != sections.end()) {
     // The flag, then (when set) the sun, read again for each residual table that shares it.
     const auto sun_blob = [&, sun] {

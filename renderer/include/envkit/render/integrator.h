@@ -44,6 +44,7 @@
 /// Delta lobes (perfect mirror): no light sample can hit them, so every strategy follows them by BSDF sampling
 /// with weight 1 (pure-delta materials take exactly one BSDF sample, whatever N and M say).
 /// No NaN or Inf leaves radiance(): a non-finite estimate (never expected) is replaced by 0 and counted.
+#include <envkit/core/error.h>
 #include <envkit/render/camera.h>
 #include <envkit/render/env_light.h>
 #include <envkit/render/frame.h>
@@ -56,6 +57,7 @@
 
 #include <array>
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -88,6 +90,32 @@ struct IntegratorOptions {
   /// The product-wavelet strategies' resolution, bins and compression (product_wavelet.h).
   WaveletOptions wavelet;
 };
+
+/// The IntegratorOptions field a refusal concerns.
+enum class IntegratorField { Strategy, LightMethod, BsdfSamples, LightSamples, SunSamples, MaxDepth };
+
+/// The field's name in IntegratorOptions ("max_depth"): how the library's messages name options.
+const char* integrator_field_name(IntegratorField field);
+
+/// Options validate() refuses. The message names the options through a speller, so that each front end shows them
+/// its own way (envrender: --max-depth); what() names them by integrator_field_name ("max_depth must be >= 1").
+class IntegratorOptionsError : public Error {
+ public:
+  using Speller = std::function<std::string(IntegratorField)>;
+  /// `compose` writes the message with the options spelled by its argument.
+  IntegratorOptionsError(IntegratorField at, std::function<std::string(const Speller&)> compose);
+  /// The message with every option spelled by `spell`.
+  std::string message(const Speller& spell) const { return compose_(spell); }
+  IntegratorField field;  ///< the option at fault
+
+ private:
+  std::function<std::string(const Speller&)> compose_;
+};
+
+/// Throws IntegratorOptionsError unless the options go together: counts that are given are >= 0 and at least what
+/// the strategy draws from, max_depth >= 1, sun_samples >= 0, and the hierarchical table for the product
+/// strategies. The Integrator runs it first.
+void validate(const IntegratorOptions& options);
 
 /// A lobe is wide when it is at least this GGX alpha (Lambertian counts as 1): it sees much of the sky from a
 /// shading point. Materials whose lobes are all wide take the wide sample counts below.
@@ -123,7 +151,8 @@ bool takes_sun_samples(const Material& material);
 
 class Integrator {
  public:
-  /// Validates the options against the light (e.g. a missing compensated table) and throws Error.
+  /// Validates the options (validate(): IntegratorOptionsError) and them against the light (e.g. a missing
+  /// compensated table: Error).
   Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options);
   ~Integrator();
 

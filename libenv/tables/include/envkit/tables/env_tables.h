@@ -99,6 +99,23 @@ std::string file_content_hash(const std::vector<std::string>& paths);
 /// Python's Tables.methods().
 std::string table_name(SamplingMethod method, bool compensated);
 
+/// A warning of a bake: its cause, typed, and the message tools print. A table file stores the messages only; the
+/// causes of loaded tables are those a bake of them finds (the conditions show in the tables themselves).
+struct TableWarning {
+  enum class Cause {
+    NoLight,              ///< the map carries no light: the tables sample uniformly
+    ZeroRows,             ///< all-zero rows are never sampled
+    UnreachableTexels,    ///< lit texels below the float resolution of their CDF (cdf gives them pdf 0)
+    CompensatedFallback,  ///< the compensated importance is zero everywhere: the compensated tables are the plain ones
+    Other,                ///< a stored warning these causes do not account for (a file edited by hand)
+  };
+  Cause cause = Cause::Other;
+  std::string message;
+
+  /// Whether it concerns the compensated tables only: a renderer that does not draw from them need not say it.
+  bool concerns_compensated_tables() const { return cause == Cause::CompensatedFallback; }
+};
+
 class EnvTables {
  public:
   /// Bakes tables from an environment map. source_path and source_hash are recorded (hash computed when empty).
@@ -141,7 +158,7 @@ class EnvTables {
   /// The descriptor as stored (JSON text): bake settings, sizes, methods, warnings.
   const std::string& descriptor() const { return descriptor_; }
   /// Warnings of the bake (all-zero map, zero rows, unreachable texels, compensated fallback).
-  const std::vector<std::string>& warnings() const { return warnings_; }
+  const std::vector<TableWarning>& warnings() const { return warnings_; }
   /// Bytes held by each table kind, by name ("importance", "cdf", "alias", "hierarchical", "cdf-compensated", ...).
   std::vector<std::pair<std::string, std::size_t>> table_bytes() const;
 
@@ -151,6 +168,13 @@ class EnvTables {
   /// Finds the map's sun once and stores the split of every distribution (BakeOptions::sun).
   void store_sun_splits();
   std::string make_descriptor(const BakeOptions* options) const;
+  /// The warnings a bake of these tables gives, in the order it gives them (`compensated`: it made compensated
+  /// tables).
+  std::vector<TableWarning> bake_warnings(bool compensated) const;
+  /// No texel's importance is above its solid-angle mean: the compensated importance max(f - mean, 0) is zero.
+  bool compensated_importance_is_zero() const;
+  /// Stored warning messages with the causes bake_warnings() finds for them (Other when they do not match).
+  std::vector<TableWarning> with_causes(const std::vector<std::string>& messages) const;
 
   Kind grid_ = Kind::LatLong;
   int width_ = 0;
@@ -166,7 +190,7 @@ class EnvTables {
   std::optional<Mat3> source_to_world_;
   std::string file_path_;
   std::string descriptor_;
-  std::vector<std::string> warnings_;
+  std::vector<TableWarning> warnings_;
   // [compensated][method]
   std::array<std::array<std::unique_ptr<SphericalDistribution>, 3>, 2> distributions_;
   bool sun_looked_for_ = false;  // BakeOptions::sun; the splits below are null when the map has no sun
