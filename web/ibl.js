@@ -75,7 +75,7 @@ export async function loadGgxCube(source, floatLinear = true) {
   });
   const texture = new THREE.CompressedCubeTexture(faces, THREE.RGBAFormat, type);
   texture.minFilter = THREE.LinearMipmapLinearFilter;
-  texture.magFilter = THREE.LinearFilter;
+  texture.magFilter = THREE.LinearFilter; // ENVKIT_CUBE_MAG_FILTER
   texture.generateMipmaps = false;
   texture.colorSpace = THREE.NoColorSpace; // linear radiance, no conversion
   texture.needsUpdate = true;
