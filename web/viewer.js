@@ -347,16 +347,18 @@ async function main() {
     render();
   }).observe(canvas);
 
-  const [chain, dfg, sh] = await Promise.all([
+  // Whatever loads is shown; a file that does not load is reported (and files can still be dropped).
+  const [chain, dfg, sh] = await Promise.allSettled([
     loadGgxCube(p.map, viewer.floatLinear),
     loadDfgLut(p.lut),
     p.sh ? loadShIrradiance(p.sh) : null,
   ]);
-  viewer.shared.dfg.value = dfg;
-  viewer.setChain(chain);
-  if (sh) sh.forEach((c, i) => viewer.shared.sh.value[i].copy(c));
-  viewer.hasSh = Boolean(sh);
+  if (dfg.status === 'fulfilled') viewer.shared.dfg.value = dfg.value;
+  if (chain.status === 'fulfilled') viewer.setChain(chain.value);
+  if (sh.status === 'fulfilled' && sh.value) sh.value.forEach((c, i) => viewer.shared.sh.value[i].copy(c));
+  viewer.hasSh = sh.status === 'fulfilled' && Boolean(sh.value);
   viewer.buildRow();
+  const failed = [chain, dfg, sh].filter((r) => r.status === 'rejected').map((r) => String(r.reason?.message ?? r.reason));
 
   if (!p.static) {
     const controls = new OrbitControls(viewer.camera, canvas);
@@ -381,8 +383,9 @@ async function main() {
     return { width: w, height: h, camera, rgba: btoa(binary), png: canvas.toDataURL('image/png') };
   };
   render();
-  window.envkitViewer.levels = chain.roughness.length;
-  window.envkitViewer.mapping = chain.mapping;
+  if (failed.length) throw new Error(`${failed.join('; ')} (files can be dropped on the page)`);
+  window.envkitViewer.levels = chain.value.roughness.length;
+  window.envkitViewer.mapping = chain.value.mapping;
   status('ready');
 }
 

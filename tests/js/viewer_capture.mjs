@@ -142,10 +142,19 @@ try {
   console.error(`viewer_capture: ${e.message}${hint ? ` (chromium: ${hint.trim()})` : ''}`);
   code = 1;
 }
-// Let the browser finish writing its profile before it is removed; kill it if it does not exit.
+// Let the browser finish writing its profile before it is removed (it is also asked to close after an error); kill
+// it if it does not exit, and wait for that too.
 const exited = new Promise((ok) => browser.once('exit', ok));
+if (code !== 0) send('Browser.close').catch(() => {});
 if (browser.exitCode === null) await Promise.race([exited, sleep(5000)]);
-if (browser.exitCode === null && browser.signalCode === null) browser.kill('SIGKILL');
+if (browser.exitCode === null && browser.signalCode === null) {
+  browser.kill('SIGKILL');
+  await Promise.race([exited, sleep(5000)]);
+}
 server.close();
-rmSync(profile, { recursive: true, force: true, maxRetries: 10, retryDelay: 100 });
+try {
+  rmSync(profile, { recursive: true, force: true, maxRetries: 10, retryDelay: 100 });
+} catch (e) {
+  console.error(`viewer_capture: could not remove ${profile}: ${e.message}`);
+}
 process.exit(code);
