@@ -177,6 +177,8 @@ export async function loadShIrradiance(source) {
   if (count > SH_MAX || rgb.some((v) => !Array.isArray(v) || v.length !== count || v.some((x) => !Number.isFinite(x))))
     throw new Error(`${url}: SH coefficients must be ${SH_MAX} or fewer finite numbers per channel`);
   const out = [];
-  for (let i = 0; i < SH_MAX; i++) out.push(i < count ? new THREE.Vector3(rgb[0][i], rgb[1][i], rgb[2][i]) : new THREE.Vector3());
+  for (let i = 0; i < SH_MAX; i++) {
+    out.push(i < count ? new THREE.Vector3(rgb[0][i], rgb[1][i], rgb[2][i]) : new THREE.Vector3());
+  }
   return out;
 }

@@ -7,7 +7,7 @@
 // URL parameters (all optional):
 //   map=URL        GGX chain, KTX2 cube in rgba16f or rgba32f (default data/sky_ggx.ktx2)
 //   lut=URL        DFG LUT, OpenEXR, scale-bias layout (default data/dfg.exr)
-//   sh=URL         envprefilter --sh JSON: adds the Lambertian sphere and the diffuse term of dielectrics (default none)
+//   sh=URL         envprefilter --sh JSON: adds the Lambertian sphere and the dielectrics' diffuse term (default none)
 //   roughness=LIST perceptual roughness of each sphere (default 0,0.25,0.5,0.75,1)
 //   material=NAME  metal (specular colour f0, no diffuse; default) or dielectric (f0 0.04 and the diffuse albedo)
 //   f0=R,G,B       specular colour F0 of metal spheres, linear (default 0.95,0.64,0.54: copper)
@@ -49,7 +49,9 @@ function parameters(search) {
     size: q.get('size') ? q.get('size').split('x').map(Number) : null,
     static: q.get('static') === '1',
   };
-  if (!['metal', 'dielectric'].includes(p.material)) throw new Error(`bad material: '${p.material}' (metal or dielectric)`);
+  if (!['metal', 'dielectric'].includes(p.material)) {
+    throw new Error(`bad material: '${p.material}' (metal or dielectric)`);
+  }
   return p;
 }
 
@@ -67,7 +69,8 @@ function note(text) {
 
 // Linear RGB of an <input type=color> (sRGB hex) and back.
 const linearOf = (hex) => new THREE.Color().setStyle(hex, THREE.SRGBColorSpace);
-const hexOf = (rgb) => `#${new THREE.Color().setRGB(...rgb, THREE.LinearSRGBColorSpace).getHexString(THREE.SRGBColorSpace)}`;
+const hexOf = (rgb) =>
+  `#${new THREE.Color().setRGB(...rgb, THREE.LinearSRGBColorSpace).getHexString(THREE.SRGBColorSpace)}`;
 
 class Viewer {
   constructor(p, canvas) {
@@ -224,11 +227,18 @@ class Viewer {
 
   notes() {
     const lines = [];
-    if (this.shared.latlongMode.value)
-      lines.push("A lat-long map is shown as the background only: the browser does not prefilter it. envprefilter's KTX2 " +
-        'chain gives the glossy levels (drop it here), its --sh JSON the diffuse sphere.');
-    if (!this.hasSh) lines.push('No SH irradiance: drop envprefilter --sh JSON for the Lambertian sphere and the diffuse term.');
-    if (this.chain?.halved) lines.push('This GPU does not filter 32-bit floats: the chain was uploaded as half floats.');
+    if (this.shared.latlongMode.value) {
+      lines.push(
+        'A lat-long map is shown as the background only: the browser does not prefilter it. ' +
+          "envprefilter's KTX2 chain gives the glossy levels (drop it here), its --sh JSON the diffuse sphere.",
+      );
+    }
+    if (!this.hasSh) {
+      lines.push('No SH irradiance: drop envprefilter --sh JSON for the Lambertian sphere and the diffuse term.');
+    }
+    if (this.chain?.halved) {
+      lines.push('This GPU does not filter 32-bit floats: the chain was uploaded as half floats.');
+    }
     return lines.join(' ');
   }
 }
@@ -358,7 +368,9 @@ async function main() {
   if (sh.status === 'fulfilled' && sh.value) sh.value.forEach((c, i) => viewer.shared.sh.value[i].copy(c));
   viewer.hasSh = sh.status === 'fulfilled' && Boolean(sh.value);
   viewer.buildRow();
-  const failed = [chain, dfg, sh].filter((r) => r.status === 'rejected').map((r) => String(r.reason?.message ?? r.reason));
+  const failed = [chain, dfg, sh]
+    .filter((r) => r.status === 'rejected')
+    .map((r) => String(r.reason?.message ?? r.reason));
 
   if (!p.static) {
     const controls = new OrbitControls(viewer.camera, canvas);
