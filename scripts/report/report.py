@@ -68,7 +68,7 @@ if c:
                f"the lowest error a glossy or diffuse surface sees at cube {F} ({g(conv[best]['seen_worst'])}, vs "
                + ", ".join(f"{f} {g(v['seen_worst'])}" for f, v in conv.items() if f != best) +
                f") and a sub-texel sun's power kept to {g(sun[best]['seen']['power'])}"
-               + (f" (the best at that is `{cons}`, {g(sun[cons]['seen']['power'])})" if cons != best else "") +
+               + (f" (the best at that is `{cons}`, {g(sun[cons]['seen']['power'])})" if cons != best else "")
                + (f"; it is also the fastest. " if best == fastest else
                   f"; it takes {conv[best]['time'] / conv[fastest]['time']:.1f}x the time of the fastest, `{fastest}`. ")
                + (f"For previews, `--filter {prev}` is the fastest within 2x of that error ({g(conv[prev]['time'])} s, "
