@@ -282,7 +282,7 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
 
   Context ctx{probe, map, options, features};
   ctx.rotate = !is_identity(options.map_to_world);
-  if (may_integrate_exactly(map, options)) ctx.latlong = dynamic_cast<const LatLongMap*>(&map);
+  if (may_integrate_exactly(map, options)) ctx.latlong = map.latlong_geometry();
   for (std::size_t k = 0; k < features.size(); ++k) ctx.all_features |= Mask{1} << k;
 
   const int width = map.width(), height = map.height();

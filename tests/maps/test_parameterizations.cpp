@@ -16,6 +16,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -128,6 +129,44 @@ TEST(Parameterizations, LargeMapsSumTo4Pi) {
     double sum = 0.0;
     for (int j = 0; j < 4096; j += 64) sum += p->solid_angle(0, j, 4096, j + 64);
     EXPECT_NEAR(sum / kFourPi, 1.0, 1e-6);
+  }
+}
+
+// The hooks that let fast paths find a map's own geometry without knowing its class.
+TEST(Parameterizations, GeometryHooksNameTheirOwnMapsOnly) {
+  for (const Case& c : all_cases()) {
+    auto p = c.make();
+    EXPECT_EQ(p->latlong_geometry() != nullptr, p->kind() == Kind::LatLong) << c.name;
+    if (p->latlong_geometry()) EXPECT_EQ(static_cast<const void*>(p->latlong_geometry()), p.get()) << c.name;
+    const std::optional<CubeFaceLayout> faces = p->cube_faces();
+    ASSERT_EQ(faces.has_value(), p->kind() == Kind::CubeMap) << c.name;
+    if (faces) {
+      const auto& cube = static_cast<const CubeMap&>(*p);
+      EXPECT_EQ(faces->layout, cube.layout()) << c.name;
+      EXPECT_EQ(faces->basis, cube.basis()) << c.name;
+      EXPECT_EQ(faces->face_size, cube.face_size()) << c.name;
+    }
+  }
+}
+
+// Every texel's solid angle at once (cube maps by their faces' symmetry): each texel as texel_solid_angle says,
+// blank cells 0, and the double sum of them.
+TEST(Parameterizations, TexelSolidAnglesAreEachTexelsSolidAngle) {
+  for (const Case& c : all_cases()) {
+    auto p = c.make();
+    const std::size_t count = static_cast<std::size_t>(p->width()) * p->height();
+    if (count > 300000) continue;
+    std::vector<float> omega(count, -1.0f);
+    const double total = p->texel_solid_angles(omega);
+    double sum = 0.0;
+    for (int j = 0; j < p->height(); ++j)
+      for (int i = 0; i < p->width(); ++i) {
+        const double expected = p->texel_solid_angle(i, j);
+        ASSERT_NEAR(omega[static_cast<std::size_t>(j) * p->width() + i], expected, 1e-6 * expected + 1e-30)
+            << c.name << " texel " << i << "," << j;
+        sum += expected;
+      }
+    EXPECT_NEAR(total, sum, 1e-12 * sum) << c.name;
   }
 }
 

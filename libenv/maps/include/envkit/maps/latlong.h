@@ -31,6 +31,7 @@ class LatLongMap final : public Parameterization {
   bool same_grid(const Parameterization& other) const override;
   TexelGrid grid() const override { return grid_; }
   std::vector<std::vector<std::size_t>> twin_texels() const override;
+  const LatLongMap* latlong_geometry() const override { return this; }
 
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;
