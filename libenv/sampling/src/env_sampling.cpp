@@ -171,14 +171,26 @@ std::shared_ptr<const SphericalDistribution::Geometry> SphericalDistribution::ma
 void SphericalDistribution::choose_sampler() {
   // Lat-long grids with a built-in distribution get a sampler with its texel choice (pick(): the classes are
   // final, so it is what their sample_texel() returns) and the direction inlined, without a virtual call.
-  const Distribution2D* d = distribution_.get();
+  const BuiltinDistribution builtin = distribution_->builtin();
   if (grid_ == Kind::LatLong) {
     const auto choose = [&]<bool kOneStep>() {
-      if (dynamic_cast<const CdfDistribution2D*>(d)) sample_ = &sample_latlong<CdfDistribution2D, kOneStep>;
-      if (dynamic_cast<const AliasDistribution2D*>(d)) sample_ = &sample_latlong<AliasDistribution2D, kOneStep>;
-      if (dynamic_cast<const HierarchicalDistribution2D*>(d))
-        sample_ = &sample_latlong<HierarchicalDistribution2D, kOneStep>;
-      if (dynamic_cast<const RefinedDistribution2D*>(d)) sample_ = &sample_latlong<RefinedDistribution2D, kOneStep>;
+      switch (builtin) {
+        case BuiltinDistribution::Cdf:
+          sample_ = &sample_latlong<CdfDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Alias:
+          sample_ = &sample_latlong<AliasDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Hierarchical:
+          sample_ = &sample_latlong<HierarchicalDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Refined:
+          sample_ = &sample_latlong<RefinedDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Sparse:
+        case BuiltinDistribution::Other:
+          break;  // sample_general
+      }
     };
     if (g_->longitude_substeps == 1)
       choose.template operator()<true>();
