@@ -299,7 +299,8 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
     for (std::size_t k = 0; k < features.size(); ++k) {
       const double theta = safe_acos(features[k].centre.y);
       const double margin = 1e-9 + features[k].bound;
-      if (theta + margin >= kPi * rect[2] && theta - margin <= kPi * rect[3]) mask |= Mask{1} << k;
+      if (theta + margin >= LatLongMap::polar_angle(rect[2]) && theta - margin <= LatLongMap::polar_angle(rect[3]))
+        mask |= Mask{1} << k;
     }
     return mask;
   };

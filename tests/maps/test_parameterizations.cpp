@@ -132,6 +132,27 @@ TEST(Parameterizations, LargeMapsSumTo4Pi) {
   }
 }
 
+// The band between two parallels: the lat-long rows' bands add up to the sphere, a texel is 2 pi / W of its row's
+// band, and nearby angles keep full precision where cos a - cos b would cancel.
+TEST(LatLong, BandHeightIsTheRowsSolidAngle) {
+  for (const int H : {1, 2, 7, 512}) {
+    const int W = 2 * H + 1;
+    const LatLongMap map(W, H);
+    double sphere = 0.0;
+    for (int j = 0; j < H; ++j) {
+      const double a = LatLongMap::polar_angle(double(j) / H), b = LatLongMap::polar_angle(double(j + 1) / H);
+      const double band = LatLongMap::band_height(a, b);
+      EXPECT_NEAR(band, std::cos(a) - std::cos(b), 1e-15) << H << " row " << j;
+      EXPECT_NEAR(map.texel_solid_angle(W / 2, j) / (kTwoPi * band / W), 1.0, 1e-14) << H << " row " << j;
+      sphere += kTwoPi * band;
+    }
+    EXPECT_NEAR(sphere / kFourPi, 1.0, 1e-15) << H;
+  }
+  // cos a - cos b = (b^2 - a^2) / 2 to 1e-19 relative here; the plain difference of the cosines is 0.
+  EXPECT_NEAR(LatLongMap::band_height(1e-9, 2e-9) / 1.5e-18, 1.0, 1e-12);
+  EXPECT_EQ(LatLongMap::band_height(0.3, 0.3), 0.0);
+}
+
 // The hooks that let fast paths find a map's own geometry without knowing its class.
 TEST(Parameterizations, GeometryHooksNameTheirOwnMapsOnly) {
   for (const Case& c : all_cases()) {
