@@ -257,8 +257,9 @@ void export_tables(const envkit::EnvTables& t, const std::string& table_path, co
   write("marginal", scalar_image(1, H, marginal));
   write("conditional", scalar_image(W, H, conditional));
 
-  if (const envkit::SphericalDistribution* h = t.distribution(envkit::SamplingMethod::Hierarchical)) {
-    const auto& tree = dynamic_cast<const envkit::HierarchicalDistribution2D&>(h->distribution());
+  const envkit::SphericalDistribution* h = t.distribution(envkit::SamplingMethod::Hierarchical);
+  if (h && h->distribution().builtin() == envkit::BuiltinDistribution::Hierarchical) {
+    const auto& tree = static_cast<const envkit::HierarchicalDistribution2D&>(h->distribution());
     const double root = tree.node(tree.levels(), 0, 0);
     for (int k = 0; k <= tree.levels(); ++k) {
       const int lw = tree.level_width(k), lh = tree.level_height(k);

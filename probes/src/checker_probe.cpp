@@ -35,10 +35,10 @@ bool CheckerProbe::background_may_vary(const Vec3& dir, double radius) const {
   if (colour_a_ == colour_b_ || (n_theta_ == 1 && n_phi_ == 1)) return false;
   if (radius >= 0.5 * kPi) return true;
   const Vec2 uv = LatLongMap::uv_from_direction(dir);
-  const double theta = kPi * uv.y;
+  const double theta = LatLongMap::polar_angle(uv.y);
   // Parallels theta = k pi / n_theta, k = 1 .. n_theta - 1.
   const double k = std::round(uv.y * n_theta_);
-  if (k >= 1 && k <= n_theta_ - 1 && std::abs(theta - k * kPi / n_theta_) < radius) return true;
+  if (k >= 1 && k <= n_theta_ - 1 && std::abs(theta - LatLongMap::polar_angle(k / n_theta_)) < radius) return true;
   if (n_phi_ == 1) return false;
   // Meridians meet at the poles; away from them the cap spans azimuths within asin(sin r / sin theta).
   const double sin_theta = std::sin(theta);
@@ -86,7 +86,8 @@ Vec3 CheckerProbe::total_power() const {
   const int first = (n_phi_ + 1) / 2, second = n_phi_ / 2;
   for (int a = 0; a < n_theta_; ++a) {
     const double band =
-        cell_phi * cos_pi_difference(static_cast<double>(a) / n_theta_, static_cast<double>(a + 1) / n_theta_);
+        cell_phi * LatLongMap::band_height(LatLongMap::polar_angle(static_cast<double>(a) / n_theta_),
+                                           LatLongMap::polar_angle(static_cast<double>(a + 1) / n_theta_));
     power += (colour(a, 0) * first + colour(a, 1) * second) * band;
   }
   return power;
@@ -99,7 +100,8 @@ std::optional<Vec3> CheckerProbe::upward_irradiance() const {
   const double cell_phi = kTwoPi / n_phi_;
   const int first = (n_phi_ + 1) / 2, second = n_phi_ / 2;
   for (int a = 0; a < n_theta_; ++a) {
-    const double t0 = kPi * a / n_theta_, t1 = std::min(kPi * (a + 1) / n_theta_, 0.5 * kPi);
+    const double t0 = LatLongMap::polar_angle(static_cast<double>(a) / n_theta_);
+    const double t1 = std::min(LatLongMap::polar_angle(static_cast<double>(a + 1) / n_theta_), 0.5 * kPi);
     if (!(t1 > t0)) break;
     const double s0 = std::sin(t0), s1 = std::sin(t1);
     e += (colour(a, 0) * first + colour(a, 1) * second) * (cell_phi * 0.5 * (s1 * s1 - s0 * s0));

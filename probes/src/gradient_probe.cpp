@@ -1,5 +1,6 @@
 // Sky gradients L = base + gain y^2 and L = base + gain max(y, 0).
 #include <envkit/core/error.h>
+#include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
 
 #include <algorithm>
@@ -37,9 +38,11 @@ bool GradientProbe::integrate_latlong(double u0, double u1, double v0, double v1
     integral = Vec3(0.0);
     return true;
   }
-  const double c0 = std::cos(kPi * v0), c1 = std::cos(kPi * v1);
-  const double dc = cos_pi_difference(v0, v1);  // c0 - c1, accurate
-  double moment;                                // integral of the shape over theta, times sin theta
+  const double theta0 = LatLongMap::polar_angle(v0), theta1 = LatLongMap::polar_angle(v1);
+  const double c0 = std::cos(theta0), c1 = std::cos(theta1);
+  const double dc = LatLongMap::band_height(theta0, theta1);  // c0 - c1, accurate
+  // The integral of the shape over theta, times sin theta.
+  double moment;
   if (form_ == Form::Quadratic) {
     moment = dc * (c0 * c0 + c0 * c1 + c1 * c1) / 3.0;  // (c0^3 - c1^3) / 3
   } else {

@@ -1,4 +1,5 @@
 // Probe base class and the spherical geometry helpers shared by the probes.
+#include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
 
 #include <cmath>
@@ -16,13 +17,9 @@ double cap_solid_angle(double alpha) {
   return kFourPi * s * s;
 }
 
-double cos_pi_difference(double v0, double v1) {
-  return 2.0 * std::sin(0.5 * kPi * (v0 + v1)) * std::sin(0.5 * kPi * (v1 - v0));
-}
-
 double latlong_rect_solid_angle(double u0, double u1, double v0, double v1) {
   if (!(u1 > u0) || !(v1 > v0)) return 0.0;
-  return kTwoPi * (u1 - u0) * cos_pi_difference(v0, v1);
+  return kTwoPi * (u1 - u0) * LatLongMap::band_height(LatLongMap::polar_angle(v0), LatLongMap::polar_angle(v1));
 }
 
 bool valid_radiance(const Vec3& v) {

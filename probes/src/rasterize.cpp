@@ -282,7 +282,7 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
 
   Context ctx{probe, map, options, features};
   ctx.rotate = !is_identity(options.map_to_world);
-  if (may_integrate_exactly(map, options)) ctx.latlong = dynamic_cast<const LatLongMap*>(&map);
+  if (may_integrate_exactly(map, options)) ctx.latlong = map.latlong_geometry();
   for (std::size_t k = 0; k < features.size(); ++k) ctx.all_features |= Mask{1} << k;
 
   const int width = map.width(), height = map.height();
@@ -299,7 +299,8 @@ void rasterize_into(const Probe& probe, const Parameterization& map, Image& imag
     for (std::size_t k = 0; k < features.size(); ++k) {
       const double theta = safe_acos(features[k].centre.y);
       const double margin = 1e-9 + features[k].bound;
-      if (theta + margin >= kPi * rect[2] && theta - margin <= kPi * rect[3]) mask |= Mask{1} << k;
+      if (theta + margin >= LatLongMap::polar_angle(rect[2]) && theta - margin <= LatLongMap::polar_angle(rect[3]))
+        mask |= Mask{1} << k;
     }
     return mask;
   };

@@ -16,6 +16,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -128,6 +129,65 @@ TEST(Parameterizations, LargeMapsSumTo4Pi) {
     double sum = 0.0;
     for (int j = 0; j < 4096; j += 64) sum += p->solid_angle(0, j, 4096, j + 64);
     EXPECT_NEAR(sum / kFourPi, 1.0, 1e-6);
+  }
+}
+
+// The band between two parallels: the lat-long rows' bands add up to the sphere, a texel is 2 pi / W of its row's
+// band, and nearby angles keep full precision where cos a - cos b would cancel.
+TEST(LatLong, BandHeightIsTheRowsSolidAngle) {
+  for (const int H : {1, 2, 7, 512}) {
+    const int W = 2 * H + 1;
+    const LatLongMap map(W, H);
+    double sphere = 0.0;
+    for (int j = 0; j < H; ++j) {
+      const double a = LatLongMap::polar_angle(double(j) / H), b = LatLongMap::polar_angle(double(j + 1) / H);
+      const double band = LatLongMap::band_height(a, b);
+      EXPECT_NEAR(band, std::cos(a) - std::cos(b), 1e-15) << H << " row " << j;
+      EXPECT_NEAR(map.texel_solid_angle(W / 2, j) / (kTwoPi * band / W), 1.0, 1e-14) << H << " row " << j;
+      sphere += kTwoPi * band;
+    }
+    EXPECT_NEAR(sphere / kFourPi, 1.0, 1e-15) << H;
+  }
+  // cos a - cos b = (b^2 - a^2) / 2 to 1e-19 relative here; the plain difference of the cosines is 0.
+  EXPECT_NEAR(LatLongMap::band_height(1e-9, 2e-9) / 1.5e-18, 1.0, 1e-12);
+  EXPECT_EQ(LatLongMap::band_height(0.3, 0.3), 0.0);
+}
+
+// The hooks that let fast paths find a map's own geometry without knowing its class.
+TEST(Parameterizations, GeometryHooksNameTheirOwnMapsOnly) {
+  for (const Case& c : all_cases()) {
+    auto p = c.make();
+    EXPECT_EQ(p->latlong_geometry() != nullptr, p->kind() == Kind::LatLong) << c.name;
+    if (p->latlong_geometry()) EXPECT_EQ(static_cast<const void*>(p->latlong_geometry()), p.get()) << c.name;
+    const std::optional<CubeFaceLayout> faces = p->cube_faces();
+    ASSERT_EQ(faces.has_value(), p->kind() == Kind::CubeMap) << c.name;
+    if (faces) {
+      const auto& cube = static_cast<const CubeMap&>(*p);
+      EXPECT_EQ(faces->layout, cube.layout()) << c.name;
+      EXPECT_EQ(faces->basis, cube.basis()) << c.name;
+      EXPECT_EQ(faces->face_size, cube.face_size()) << c.name;
+    }
+  }
+}
+
+// Every texel's solid angle at once (cube maps by their faces' symmetry): each texel as texel_solid_angle says,
+// blank cells 0, and the double sum of them.
+TEST(Parameterizations, TexelSolidAnglesAreEachTexelsSolidAngle) {
+  for (const Case& c : all_cases()) {
+    auto p = c.make();
+    const std::size_t count = static_cast<std::size_t>(p->width()) * p->height();
+    if (count > 300000) continue;
+    std::vector<float> omega(count, -1.0f);
+    const double total = p->texel_solid_angles(omega);
+    double sum = 0.0;
+    for (int j = 0; j < p->height(); ++j)
+      for (int i = 0; i < p->width(); ++i) {
+        const double expected = p->texel_solid_angle(i, j);
+        ASSERT_NEAR(omega[static_cast<std::size_t>(j) * p->width() + i], expected, 1e-6 * expected + 1e-30)
+            << c.name << " texel " << i << "," << j;
+        sum += expected;
+      }
+    EXPECT_NEAR(total, sum, 1e-12 * sum) << c.name;
   }
 }
 

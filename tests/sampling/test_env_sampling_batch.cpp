@@ -8,15 +8,21 @@
 #include <envkit/sampling/distribution_alias.h>
 #include <envkit/sampling/distribution_cdf.h>
 #include <envkit/sampling/distribution_hierarchical.h>
+#include <envkit/sampling/distribution_refined.h>
+#include <envkit/sampling/distribution_sparse.h>
 #include <envkit/tables/env_tables.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <random>
+#include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 using namespace envkit;
@@ -173,7 +179,7 @@ namespace {
 /// A distribution that is not one of the built-ins (the default sample_texels loop and sample_general path).
 class Wrapped final : public Distribution2D {
  public:
-  Wrapped(const float* w, int width, int height) : Distribution2D(w, width, height), inner_(w, width, height) {
+  Wrapped(const float* w, int width, int height) : Distribution2D(width, height), inner_(w, width, height) {
     integral_ = inner_.integral();
   }
   const char* method() const override { return "wrapped"; }
@@ -181,7 +187,6 @@ class Wrapped final : public Distribution2D {
   double pdf(Vec2 uv) const override { return inner_.pdf(uv); }
   double texel_probability(int x, int y) const override { return inner_.texel_probability(x, y); }
   std::size_t bytes() const override { return inner_.bytes(); }
-  void save(BlobWriter& out) const override { inner_.save(out); }
 
  private:
   HierarchicalDistribution2D inner_;
@@ -195,6 +200,34 @@ TEST(EnvSamplingBatch, OtherDistributionsLoopTheScalarPath) {
     for (std::size_t i = 0; i < weights.size(); ++i) weights[i] = float(1 + i % 13);
     const SphericalDistribution d(g.kind, std::make_shared<const Wrapped>(weights.data(), g.width, g.height));
     expect_batch_matches_scalar(d, test_u(500), g.name + " wrapped");
+  }
+}
+
+// builtin() is what SphericalDistribution trusts to inline a class's pick(): each built-in class names itself, as its
+// method() does, and a class defined elsewhere is Other (sampled through the virtual calls).
+TEST(EnvSamplingBatch, BuiltinNamesTheClass) {
+  const int W = 64, H = 32;
+  std::vector<float> weights(std::size_t(W) * H, 1.0f);
+  const auto fine = std::make_shared<const HierarchicalDistribution2D>(weights.data(), W, H);
+  const std::uint64_t texel = 5;
+  const float one = 1.0f;
+  const std::vector<float> cells(std::size_t(fine->level_width(1)) * fine->level_height(1), 1.0f);
+  const CdfDistribution2D cdf(weights.data(), W, H);
+  const AliasDistribution2D alias(weights.data(), W, H);
+  const SparseDistribution2D sparse(W, H, std::span(&texel, 1), std::span(&one, 1));
+  const RefinedDistribution2D refined(fine, 1, cells);
+  const Wrapped other(weights.data(), W, H);
+  const std::pair<const Distribution2D*, BuiltinDistribution> expected[] = {
+      {&cdf, BuiltinDistribution::Cdf},
+      {&alias, BuiltinDistribution::Alias},
+      {fine.get(), BuiltinDistribution::Hierarchical},
+      {&sparse, BuiltinDistribution::Sparse},
+      {&refined, BuiltinDistribution::Refined},
+      {&other, BuiltinDistribution::Other}};
+  const char* names[] = {"cdf", "alias", "hierarchical", "sparse", "refined", "wrapped"};
+  for (std::size_t k = 0; k < std::size(expected); ++k) {
+    EXPECT_EQ(expected[k].first->builtin(), expected[k].second) << names[k];
+    EXPECT_STREQ(expected[k].first->method(), names[k]);
   }
 }
 

@@ -257,9 +257,9 @@ TEST(SunSplitStored, AResidualWithTheSunInItIsRefused) {
   BlobWriter out;
   split->save_sun(out);
   const std::vector<std::byte> blob = out.flatten();
-  const auto restore = [&](const SphericalDistribution& residual) {
+  const auto restore = [&](const StoredTable& residual) {
     BlobReader in(blob.data(), blob.size(), "sun");
-    const std::shared_ptr<const SphericalDistribution> shared(&residual, [](const SphericalDistribution*) {});
+    const std::shared_ptr<const StoredTable> shared(&residual, [](const StoredTable*) {});
     return SunSplit::restore(in, tables.grid(), tables.width(), tables.height(), shared);
   };
   EXPECT_EQ(restore(split->residual()).sun().region, split->sun().region);

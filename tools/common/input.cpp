@@ -55,9 +55,9 @@ nlohmann::json input_json(const LoadedInput& in) {
                           {"description", in.map.param->describe()},
                           {"detected", in.detection.reason},
                           {"assumed", in.detection.assumed}};
-  if (const auto* cube = dynamic_cast<const CubeMap*>(in.map.param.get())) {
-    param["layout"] = layout_name(cube->layout());
-    param["face_size"] = cube->face_size();
+  if (const std::optional<CubeFaceLayout> cube = in.map.param->cube_faces()) {
+    param["layout"] = layout_name(cube->layout);
+    param["face_size"] = cube->face_size;
   }
   return {
       {"file", in.path},

@@ -262,9 +262,9 @@ std::string exr_envmap_attribute(const EnvMap& map, const std::string& path) {
   const Mat3 id = identity3();
   if (map.rotation != id) return "";
   if (map.param->kind() == Kind::LatLong) return map.param->grid() == TexelGrid::Corner ? "latlong" : "";
-  if (const auto* cube = dynamic_cast<const CubeMap*>(map.param.get()))
-    return cube->layout() == CubeLayout::VerticalStrip && cube->basis() == CubeBasis::Envkit &&
-                   cube->grid() == TexelGrid::Corner
+  if (const std::optional<CubeFaceLayout> cube = map.param->cube_faces())
+    return cube->layout == CubeLayout::VerticalStrip && cube->basis == CubeBasis::Envkit &&
+                   map.param->grid() == TexelGrid::Corner
                ? "cube"
                : "";
   return "";
@@ -277,8 +277,8 @@ ClampReport save_envmap(const std::string& path, const EnvMap& map, const SaveOp
   w.metadata["envkit:parameterization"] = kind_name(map.param->kind());
   w.metadata["envkit:convention"] = map.convention;
   w.metadata["envkit:description"] = map.param->describe();
-  if (const auto* cube = dynamic_cast<const CubeMap*>(map.param.get()))
-    w.metadata["envkit:layout"] = layout_name(cube->layout());
+  const std::optional<CubeFaceLayout> cube = map.param->cube_faces();
+  if (cube) w.metadata["envkit:layout"] = layout_name(cube->layout);
   if (!opt.filter.empty()) w.metadata["envkit:filter"] = opt.filter;
   if (!opt.source.empty()) w.metadata["envkit:source"] = opt.source;
   if (const ViewParams* view = map.param->view()) w.metadata["envkit:view"] = format_view(*view);
@@ -286,22 +286,18 @@ ClampReport save_envmap(const std::string& path, const EnvMap& map, const SaveOp
   for (const auto& [key, value] : oiio_env_tags_for(*map.param, map.to_world())) w.metadata[key] = value;
 
   // Never write a map that load_envmap would refuse to read back as what its metadata says it is.
-  {
-    const auto* cube = dynamic_cast<const CubeMap*>(map.param.get());
-    const std::string bad = size_mismatch(map.param->kind(), map.image.width, map.image.height,
-                                          cube ? std::optional(cube->layout()) : std::nullopt, false);
-    if (!bad.empty())
-      fail(path, "a " + size_text(map.image.width, map.image.height) + " " + kind_name(map.param->kind()) +
-                     " map could not be read back (a " + kind_name(map.param->kind()) + " map " + bad + ")");
-  }
+  const std::string bad = size_mismatch(map.param->kind(), map.image.width, map.image.height,
+                                        cube ? std::optional(cube->layout) : std::nullopt, false);
+  if (!bad.empty())
+    fail(path, "a " + size_text(map.image.width, map.image.height) + " " + kind_name(map.param->kind()) +
+                   " map could not be read back (a " + kind_name(map.param->kind()) + " map " + bad + ")");
   if (!is_face_pattern(path)) {
     w.envmap_attribute = exr_envmap_attribute(map, path);
     return write_image(path, map.image, w);
   }
-  const auto* cube = dynamic_cast<const CubeMap*>(map.param.get());
-  if (!cube || cube->layout() != CubeLayout::VerticalStrip)
+  if (!cube || cube->layout != CubeLayout::VerticalStrip)
     fail(path, "a '%' output pattern writes six cube faces: the map must be a cube map (--to cube)");
-  const int n = cube->face_size();
+  const int n = cube->face_size;
   const std::vector<std::string> paths = face_paths(path);
   w.metadata["envkit:layout"] = "faces";
   // Write every face to its temp file first, then commit them as one group: six faces or none, also on a signal.

@@ -1,5 +1,6 @@
 #include <envkit/core/error.h>
 #include <envkit/maps/cubemap.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cctype>
@@ -260,6 +261,32 @@ double CubeMap::solid_angle(double x0, double y0, double x1, double y1) const {
 }
 
 // d(omega)/dA on the plane at unit distance is 1 / |v|^3 with v = axis + a right + b down; times (da/dx)^2.
+// Every face has the same texel grid, symmetric under the face's mirror lines and its diagonal: the solid angles
+// of one eighth of one face give them all (48x fewer evaluations of four atan2).
+double CubeMap::texel_solid_angles(std::span<float> out) const {
+  const int n = n_;
+  const CubeFace& f0 = faces_[0];
+  std::vector<double> face(static_cast<std::size_t>(n) * n);
+  const int half = (n + 1) / 2;
+  tbb::parallel_for(0, half, [&](int j) {
+    for (int i = j; i < half; ++i) {
+      const double w = texel_solid_angle(f0.origin_x + i, f0.origin_y + j);
+      for (const auto& [a, b] : {std::pair{i, j}, std::pair{j, i}})
+        for (const int x : {a, n - 1 - a})
+          for (const int y : {b, n - 1 - b}) face[static_cast<std::size_t>(y) * n + x] = w;
+    }
+  });
+  double face_total = 0.0;
+  for (double w : face) face_total += w;
+  std::fill(out.begin(), out.end(), 0.0f);  // the blank cells of a cross
+  for (const CubeFace& cf : faces_)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        out[static_cast<std::size_t>(cf.origin_y + y) * width_ + cf.origin_x + x] =
+            static_cast<float>(face[static_cast<std::size_t>(y) * n + x]);
+  return 6.0 * face_total;
+}
+
 double CubeMap::solid_angle_density(Vec2 pos) const {
   const int f = face_at(static_cast<int>(std::floor(pos.x)), static_cast<int>(std::floor(pos.y)));
   if (f < 0) return 0.0;

@@ -14,7 +14,7 @@ LatLongMap::LatLongMap(int width, int height, TexelGrid grid) : Parameterization
 
 double LatLongMap::solid_angle_density(Vec2 pos) const {
   const double v = std::clamp(domain_from_image(pos).y, 0.0, 1.0);
-  return kTwoPi * du_dx_ * kPi * dv_dy_ * std::sin(kPi * v);
+  return kTwoPi * du_dx_ * kPi * dv_dy_ * std::sin(polar_angle(v));
 }
 
 bool LatLongMap::same_grid(const Parameterization& other) const {
@@ -107,11 +107,6 @@ Vec2 LatLongMap::to_image(const Vec3& dir) const {
   return p;
 }
 
-namespace {
-// cos(a) - cos(b) without cancellation for nearby a, b.
-double cos_difference(double a, double b) { return 2.0 * std::sin(0.5 * (b + a)) * std::sin(0.5 * (b - a)); }
-}  // namespace
-
 double LatLongMap::solid_angle(double x0, double y0, double x1, double y1) const {
   Vec2 d0 = domain_from_image(Vec2(x0, y0));
   Vec2 d1 = domain_from_image(Vec2(x1, y1));
@@ -119,7 +114,7 @@ double LatLongMap::solid_angle(double x0, double y0, double x1, double y1) const
   const double du = std::clamp(d1.x, 0.0, 1.0) - std::clamp(d0.x, 0.0, 1.0);
   const double v0 = std::clamp(d0.y, 0.0, 1.0), v1 = std::clamp(d1.y, 0.0, 1.0);
   if (du <= 0.0 || v1 <= v0) return 0.0;
-  return kTwoPi * du * cos_difference(kPi * v0, kPi * v1);
+  return kTwoPi * du * band_height(polar_angle(v0), polar_angle(v1));
 }
 
 bool LatLongMap::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const {

@@ -1,5 +1,6 @@
 #include <envkit/core/error.h>
 #include <envkit/maps/parameterization.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cctype>
@@ -76,5 +77,23 @@ bool Parameterization::covered_point(int i, int j, Vec2& pos) const {
 }
 
 bool Parameterization::resolve_tap(int /*anchor_i*/, int /*anchor_j*/, int& i, int& j) const { return clamp_tap(i, j); }
+
+double Parameterization::texel_solid_angles(std::span<float> out) const {
+  // Row sums in parallel, then a serial sum: the total does not depend on the thread count.
+  const int W = width_, H = height_;
+  std::vector<double> row_sums(H, 0.0);
+  tbb::parallel_for(0, H, [&](int j) {
+    double row = 0.0;
+    for (int i = 0; i < W; ++i) {
+      const double w = texel_solid_angle(i, j);
+      out[static_cast<std::size_t>(j) * W + i] = static_cast<float>(w);
+      row += w;
+    }
+    row_sums[j] = row;
+  });
+  double total = 0.0;
+  for (double r : row_sums) total += r;
+  return total;
+}
 
 }  // namespace envkit

@@ -4,7 +4,7 @@
 namespace envkit {
 
 TexelDirections::TexelDirections(const Parameterization& param) : param_(param) {
-  if (const auto* latlong = dynamic_cast<const LatLongMap*>(&param)) latlong_ = latlong->centre_angles();
+  if (const LatLongMap* latlong = param.latlong_geometry()) latlong_ = latlong->centre_angles();
 }
 
 }  // namespace envkit

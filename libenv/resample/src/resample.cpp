@@ -83,7 +83,7 @@ double texel_extent(const Parameterization& dst, const std::vector<double>& latl
 
 // Larger side of each lat-long row's texels in radians: the polar span or the widest parallel it crosses.
 std::vector<double> latlong_row_extents(const Parameterization& dst) {
-  const auto* ll = dynamic_cast<const LatLongMap*>(&dst);
+  const LatLongMap* ll = dst.latlong_geometry();
   if (!ll) return {};
   std::vector<double> extent(dst.height());
   for (int j = 0; j < dst.height(); ++j) {

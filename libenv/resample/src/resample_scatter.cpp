@@ -45,7 +45,7 @@ struct RowScales {
 
 RowScales latlong_row_scales(const Parameterization& dst) {
   RowScales r;
-  const auto* ll = dynamic_cast<const LatLongMap*>(&dst);
+  const LatLongMap* ll = dst.latlong_geometry();
   if (!ll) return r;
   const int H = dst.height();
   r.x.resize(H);

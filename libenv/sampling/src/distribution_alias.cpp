@@ -179,7 +179,7 @@ double AliasTable1D::bin_probability(int i) const {
 // ---------------------------------------------------------------------------------------------------------------
 // AliasDistribution2D
 
-AliasDistribution2D::AliasDistribution2D(BlobReader& in) : Distribution2D(in) {
+AliasDistribution2D::AliasDistribution2D(BlobReader& in) : StoredDistribution2D(in) {
   const std::size_t W = std::size_t(width_), H = std::size_t(height_);
   pdf_scale_ = in.scalar<double>();
   texels_ = in.table<AliasBin>(W * H);
@@ -238,7 +238,8 @@ void AliasDistribution2D::save(BlobWriter& out) const {
 }
 
 AliasDistribution2D::AliasDistribution2D(const float* weights, int width, int height)
-    : Distribution2D(weights, width, height), width_f_(width), height_f_(height) {
+    : StoredDistribution2D(width, height), width_f_(width), height_f_(height) {
+  sampling::require_weights(weights);
   const std::size_t W = std::size_t(width), H = std::size_t(height);
   texels_.resize(W * H);
   rows_.resize(H);

@@ -118,7 +118,8 @@ double PiecewiseConstant1D::bin_probability(int i) const {
 // CdfDistribution2D
 
 CdfDistribution2D::CdfDistribution2D(const float* weights, int width, int height)
-    : Distribution2D(weights, width, height) {
+    : StoredDistribution2D(width, height) {
+  sampling::require_weights(weights);
   const std::size_t W = std::size_t(width), H = std::size_t(height), stride = W + 1;
   conditional_.resize(stride * H);
   row_split_.resize(H);
@@ -160,7 +161,7 @@ CdfDistribution2D::CdfDistribution2D(const float* weights, int width, int height
   }
 }
 
-CdfDistribution2D::CdfDistribution2D(BlobReader& in) : Distribution2D(in) {
+CdfDistribution2D::CdfDistribution2D(BlobReader& in) : StoredDistribution2D(in) {
   const std::size_t W = std::size_t(width_), H = std::size_t(height_);
   conditional_ = in.table<float>((W + 1) * H);
   row_split_ = in.table<std::int32_t>(H);

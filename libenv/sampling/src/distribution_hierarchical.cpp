@@ -70,7 +70,7 @@ std::size_t HierarchicalDistribution2D::layout_levels() {
   return size;
 }
 
-HierarchicalDistribution2D::HierarchicalDistribution2D(BlobReader& in) : Distribution2D(in) {
+HierarchicalDistribution2D::HierarchicalDistribution2D(BlobReader& in) : StoredDistribution2D(in) {
   const std::size_t size = layout_levels();
   nodes_ = in.table<float>(size);
   root_ = in.scalar<double>();
@@ -126,7 +126,8 @@ void HierarchicalDistribution2D::save(BlobWriter& out) const {
 }
 
 HierarchicalDistribution2D::HierarchicalDistribution2D(const float* weights, int width, int height)
-    : Distribution2D(weights, width, height) {
+    : StoredDistribution2D(width, height) {
+  sampling::require_weights(weights);
   nodes_.assign(layout_levels(), 0.0f);
   const int top = levels();
 

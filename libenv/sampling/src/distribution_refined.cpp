@@ -14,10 +14,6 @@ const HierarchicalDistribution2D& checked(const std::shared_ptr<const Hierarchic
   return *fine;
 }
 
-/// The base class validates the size and a non-null weight pointer; a refined distribution has no per-texel
-/// weights, so it is given this one.
-constexpr float kNoWeights = 0.0f;
-
 /// The cell weights with every cell whose fine node is 0 set to 0 (nothing below it could be drawn).
 std::vector<float> supported_weights(const HierarchicalDistribution2D& fine, int level,
                                      std::span<const float> weights) {
@@ -40,17 +36,21 @@ std::vector<float> supported_weights(const HierarchicalDistribution2D& fine, int
   return out;
 }
 
+/// The coarse distribution over the nodes of `level` (supported_weights).
+HierarchicalDistribution2D cell_distribution(const HierarchicalDistribution2D& fine, int level,
+                                             std::span<const float> weights) {
+  const std::vector<float> w = supported_weights(fine, level, weights);
+  return HierarchicalDistribution2D(w.data(), fine.level_width(level), fine.level_height(level));
+}
+
 }  // namespace
 
 RefinedDistribution2D::RefinedDistribution2D(std::shared_ptr<const HierarchicalDistribution2D> fine, int level,
                                              std::span<const float> cell_weights)
-    : Distribution2D(&kNoWeights, checked(fine).width(), checked(fine).height()),
+    : Distribution2D(checked(fine).width(), checked(fine).height()),
       fine_(std::move(fine)),
       level_(level),
-      cells_([&] {
-        const std::vector<float> w = supported_weights(*fine_, level, cell_weights);
-        return HierarchicalDistribution2D(w.data(), fine_->level_width(level), fine_->level_height(level));
-      }()) {
+      cells_(cell_distribution(*fine_, level, cell_weights)) {
   cell_area_ = 1.0 / (double(cells_.width()) * double(cells_.height()));
   integral_ = 1.0;  // pdf() is normalised by construction
 }
@@ -84,9 +84,5 @@ double RefinedDistribution2D::texel_probability(int x, int y) const {
 }
 
 std::size_t RefinedDistribution2D::bytes() const { return sizeof(*this) + cells_.bytes(); }
-
-void RefinedDistribution2D::save(BlobWriter&) const {
-  throw Error("refined distribution: not stored in table files (it is built at load from the pyramid it refines)");
-}
 
 }  // namespace envkit

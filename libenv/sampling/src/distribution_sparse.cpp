@@ -5,21 +5,12 @@
 
 namespace envkit {
 
-namespace {
-
-const float* checked_weights(std::span<const std::uint64_t> texels, std::span<const float> weights) {
+SparseDistribution2D::SparseDistribution2D(int width, int height, std::span<const std::uint64_t> texels,
+                                           std::span<const float> weights)
+    : StoredDistribution2D(width, height) {
   if (texels.size() != weights.size())
     throw Error("sparse distribution: " + std::to_string(texels.size()) + " texels but " +
                 std::to_string(weights.size()) + " weights");
-  static const float none = 0.0f;  // the base class refuses a null pointer; an empty set is refused below
-  return weights.empty() ? &none : weights.data();
-}
-
-}  // namespace
-
-SparseDistribution2D::SparseDistribution2D(int width, int height, std::span<const std::uint64_t> texels,
-                                           std::span<const float> weights)
-    : Distribution2D(checked_weights(texels, weights), width, height) {
   const std::uint64_t grid = std::uint64_t(width) * std::uint64_t(height);
   double total = 0.0;
   for (std::size_t k = 0; k < texels.size(); ++k) {
@@ -49,7 +40,7 @@ SparseDistribution2D::SparseDistribution2D(int width, int height, std::span<cons
   integral_ = total / area;
 }
 
-SparseDistribution2D::SparseDistribution2D(BlobReader& in) : Distribution2D(in) {
+SparseDistribution2D::SparseDistribution2D(BlobReader& in) : StoredDistribution2D(in) {
   texels_ = in.array<std::uint64_t>();
   cdf_ = in.array<double>(texels_.size() + 1);
   pdf_uv_ = in.array<double>(texels_.size());

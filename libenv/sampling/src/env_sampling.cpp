@@ -87,7 +87,7 @@ SphericalDistribution::RowBand SphericalDistribution::row_band(int j, int height
   const double theta0 = LatLongMap::polar_angle(double(j) / height);
   const double theta1 = LatLongMap::polar_angle(double(j + 1) / height);
   RowBand band;
-  band.span = 2.0 * std::sin(0.5 * (theta1 + theta0)) * std::sin(0.5 * (theta1 - theta0));
+  band.span = LatLongMap::band_height(theta0, theta1);
   const bool north = 2 * j + 1 <= height;  // the row's centre is at or above the equator
   band.g0 = north ? 0.0 : 1.0;
   band.gs = north ? 1.0 : -1.0;
@@ -161,7 +161,8 @@ std::shared_ptr<const SphericalDistribution::Geometry> SphericalDistribution::ma
       G.longitudes[k] = {std::sin(a), -std::cos(a)};
     }
     G.row_edge_cos.resize(std::size_t(height) + 1);
-    for (int y = 0; y <= height; ++y) G.row_edge_cos[std::size_t(y)] = std::cos(kPi * (double(y) / height));
+    for (int y = 0; y <= height; ++y)
+      G.row_edge_cos[std::size_t(y)] = std::cos(LatLongMap::polar_angle(double(y) / height));
     G.row_edge_cos.front() = 1.0;
     G.row_edge_cos.back() = -1.0;
   }
@@ -171,14 +172,26 @@ std::shared_ptr<const SphericalDistribution::Geometry> SphericalDistribution::ma
 void SphericalDistribution::choose_sampler() {
   // Lat-long grids with a built-in distribution get a sampler with its texel choice (pick(): the classes are
   // final, so it is what their sample_texel() returns) and the direction inlined, without a virtual call.
-  const Distribution2D* d = distribution_.get();
+  const BuiltinDistribution builtin = distribution_->builtin();
   if (grid_ == Kind::LatLong) {
     const auto choose = [&]<bool kOneStep>() {
-      if (dynamic_cast<const CdfDistribution2D*>(d)) sample_ = &sample_latlong<CdfDistribution2D, kOneStep>;
-      if (dynamic_cast<const AliasDistribution2D*>(d)) sample_ = &sample_latlong<AliasDistribution2D, kOneStep>;
-      if (dynamic_cast<const HierarchicalDistribution2D*>(d))
-        sample_ = &sample_latlong<HierarchicalDistribution2D, kOneStep>;
-      if (dynamic_cast<const RefinedDistribution2D*>(d)) sample_ = &sample_latlong<RefinedDistribution2D, kOneStep>;
+      switch (builtin) {
+        case BuiltinDistribution::Cdf:
+          sample_ = &sample_latlong<CdfDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Alias:
+          sample_ = &sample_latlong<AliasDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Hierarchical:
+          sample_ = &sample_latlong<HierarchicalDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Refined:
+          sample_ = &sample_latlong<RefinedDistribution2D, kOneStep>;
+          break;
+        case BuiltinDistribution::Sparse:
+        case BuiltinDistribution::Other:
+          break;  // sample_general
+      }
     };
     if (g_->longitude_substeps == 1)
       choose.template operator()<true>();
@@ -288,7 +301,7 @@ void SphericalDistribution::texel_of(const Vec3& direction, int& x, int& y) cons
   const double horizontal = std::sqrt(d.x * d.x + d.z * d.z);
   const int W = width(), H = height();
   // Row: theta in [theta_y, theta_y+1) <=> edge_cos[y] >= cos theta > edge_cos[y + 1].
-  y = std::clamp(int(rough_atan2(horizontal, d.y) * (H / kPi)), 0, H - 1);
+  y = std::clamp(int(LatLongMap::v_of_polar_angle(rough_atan2(horizontal, d.y)) * H), 0, H - 1);
   while (y > 0 && d.y > g_->row_edge_cos[std::size_t(y)]) --y;
   while (y < H - 1 && d.y <= g_->row_edge_cos[std::size_t(y) + 1]) ++y;
   // Column: a = pi - longitude in [a_x, a_x+1), a_k = 2 pi k / W. Near a = 0 (the seam, where the guess may fall on

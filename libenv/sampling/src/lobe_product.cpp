@@ -73,10 +73,10 @@ double Lobe::value(double c) const {
 
 LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vector<Lobe> lobes)
     : lobes_(std::move(lobes)) {
-  const auto fine = std::dynamic_pointer_cast<const HierarchicalDistribution2D>(env.distribution_ptr());
-  if (!fine)
+  if (env.distribution().builtin() != BuiltinDistribution::Hierarchical)
     throw Error(std::string("product tables need the hierarchical environment table, got '") +
                 env.distribution().method() + "'");
+  const auto fine = std::static_pointer_cast<const HierarchicalDistribution2D>(env.distribution_ptr());
   if (lobes_.empty()) throw Error("product tables: no lobe");
   for (const Lobe& l : lobes_)
     if (l.shape == Lobe::Shape::Ggx && !(l.alpha >= 1e-3 && l.alpha <= 1.0))

@@ -112,7 +112,8 @@ std::vector<double> row_solid_angles(const Parameterization& grid, int height) {
   return omega;
 }
 
-std::shared_ptr<const Distribution2D> make_distribution_2d(SamplingMethod method, const float* weights, int W, int H) {
+std::shared_ptr<const StoredDistribution2D> make_distribution_2d(SamplingMethod method, const float* weights, int W,
+                                                                 int H) {
   switch (method) {
     case SamplingMethod::Cdf:
       return std::make_shared<CdfDistribution2D>(weights, W, H);
@@ -393,9 +394,9 @@ void EnvTables::build_distributions(const BakeOptions& options) {
         options.progress(0.3 + 0.35 * set + 0.1 * m, m == 0   ? "cdf tables"
                                                      : m == 1 ? "alias tables"
                                                               : "hierarchical tables");
-      std::shared_ptr<const Distribution2D> d = make_distribution_2d(SamplingMethod(m), weights.data(), W, H);
-      distributions_[set][m] = first ? std::make_unique<SphericalDistribution>(*first, std::move(d))
-                                     : std::make_unique<SphericalDistribution>(grid_, std::move(d));
+      std::shared_ptr<const StoredDistribution2D> d = make_distribution_2d(SamplingMethod(m), weights.data(), W, H);
+      distributions_[set][m] = first ? std::make_unique<StoredTable>(*first, std::move(d))
+                                     : std::make_unique<StoredTable>(grid_, std::move(d));
       if (!first) first = distributions_[set][m].get();
     }
   };
@@ -410,7 +411,7 @@ void EnvTables::build_distributions(const BakeOptions& options) {
       for (int m = 0; m < 3; ++m)
         if (distributions_[0][m])
           distributions_[1][m] =
-              std::make_unique<SphericalDistribution>(*distributions_[0][m], distributions_[0][m]->distribution_ptr());
+              std::make_unique<StoredTable>(*distributions_[0][m], distributions_[0][m]->stored_ptr());
     }
   }
   warnings_ = bake_warnings(options.compensated);
@@ -459,7 +460,7 @@ std::vector<TableWarning> EnvTables::with_causes(const std::vector<std::string>&
   return w;
 }
 
-const SphericalDistribution* EnvTables::distribution(SamplingMethod method, bool compensated) const {
+const StoredTable* EnvTables::distribution(SamplingMethod method, bool compensated) const {
   return distributions_[compensated ? 1 : 0][static_cast<int>(method)].get();
 }
 
@@ -562,8 +563,8 @@ std::string EnvTables::make_descriptor(const BakeOptions* options) const {
   return d.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
-std::unique_ptr<SphericalDistribution> make_table(Kind grid, int width, int height, std::span<const float> importance,
-                                                  SamplingMethod method) {
+std::unique_ptr<StoredTable> make_table(Kind grid, int width, int height, std::span<const float> importance,
+                                        SamplingMethod method) {
   if (!valid_grid_size(grid, width, height))
     throw Error(std::string("table: ") + grid_size_rule(grid) + ", got " + std::to_string(width) + "x" +
                 std::to_string(height));
@@ -572,7 +573,7 @@ std::unique_ptr<SphericalDistribution> make_table(Kind grid, int width, int heig
                 "x" + std::to_string(height) + " grid");
   const std::vector<double> row_omega = row_solid_angles(*make_grid(grid, width, height), height);
   const FloatBuffer weights = texel_weights([&](std::size_t i) { return importance[i]; }, row_omega, width, height);
-  return std::make_unique<SphericalDistribution>(grid, make_distribution_2d(method, weights.data(), width, height));
+  return std::make_unique<StoredTable>(grid, make_distribution_2d(method, weights.data(), width, height));
 }
 
 }  // namespace envkit

@@ -172,7 +172,7 @@ class FileBytes {
 
 std::string section_name(int method, int set) { return table_name(SamplingMethod(method), set != 0); }
 
-std::shared_ptr<const Distribution2D> restore_distribution(int method, BlobReader& in) {
+std::shared_ptr<const StoredDistribution2D> restore_distribution(int method, BlobReader& in) {
   switch (SamplingMethod(method)) {
     case SamplingMethod::Cdf:
       return std::make_shared<CdfDistribution2D>(in);
@@ -197,7 +197,7 @@ void EnvTables::save(const std::string& path) const {
     for (int m = 0; m < 3; ++m)
       if (distributions_[set][m]) {
         sections.push_back({section_name(m, set), {}});
-        distributions_[set][m]->distribution().save(sections.back().blob);
+        distributions_[set][m]->stored().save(sections.back().blob);
       }
   if (sun_looked_for_) {
     sections.push_back({"sun", {}});
@@ -207,7 +207,7 @@ void EnvTables::save(const std::string& path) const {
         if (sun_splits_[set][m]) {
           sun = sun_splits_[set][m].get();
           sections.push_back({"sun-" + section_name(m, set), {}});
-          sun->residual().distribution().save(sections.back().blob);
+          sun->residual().stored().save(sections.back().blob);
         }
     Section& found = *std::find_if(sections.begin(), sections.end(), [](const Section& s) { return s.name == "sun"; });
     found.blob.scalar<std::uint64_t>(sun ? 1 : 0);
@@ -352,11 +352,11 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
   // Every distribution of the file lies on one grid: the first computes its geometry, the others share it.
   const SphericalDistribution* first = nullptr;
   const auto restore_on_grid = [&](int m, BlobReader& in, const std::string& name) {
-    std::shared_ptr<const Distribution2D> d = restore_distribution(m, in);
+    std::shared_ptr<const StoredDistribution2D> d = restore_distribution(m, in);
     if (d->width() != t.width_ || d->height() != t.height_)
       throw fail_with("section " + name + " does not match the descriptor's size");
-    return first ? std::make_unique<SphericalDistribution>(*first, std::move(d))
-                 : std::make_unique<SphericalDistribution>(t.grid_, std::move(d));
+    return first ? std::make_unique<StoredTable>(*first, std::move(d))
+                 : std::make_unique<StoredTable>(t.grid_, std::move(d));
   };
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m) {
@@ -386,7 +386,7 @@ EnvTables EnvTables::load(const std::string& path, const std::string& expected_s
         if (it == sections.end()) continue;
         if (!t.distributions_[set][m]) throw fail_with("section " + name + " splits a table the file does not hold");
         BlobReader residual_in(it->second.first, it->second.second, path + ": section " + name, file);
-        std::shared_ptr<const SphericalDistribution> residual = restore_on_grid(m, residual_in, name);
+        std::shared_ptr<const StoredTable> residual = restore_on_grid(m, residual_in, name);
         BlobReader sun_in = sun_blob();
         sun_in.scalar<std::uint64_t>();
         t.sun_splits_[set][m] =

@@ -44,9 +44,8 @@ std::unique_ptr<Parameterization> grid_of(const EnvTables& tables) {
 /// solid-angle mean, 0), unless that is zero everywhere (a constant residual keeps its plain importance, as the
 /// bake does). Null when the rest of the map carries no light: its table would fall back to uniform sampling, whose
 /// samples land on the sun's texels too, and the sun would be counted twice.
-std::shared_ptr<const SphericalDistribution> residual_table(const EnvTables& tables,
-                                                            const std::vector<std::size_t>& sun_texels,
-                                                            SamplingMethod method, bool compensated) {
+std::shared_ptr<const StoredTable> residual_table(const EnvTables& tables, const std::vector<std::size_t>& sun_texels,
+                                                  SamplingMethod method, bool compensated) {
   const int W = tables.width(), H = tables.height();
   std::vector<float> residual(tables.importance().begin(), tables.importance().end());
   for (std::size_t t : sun_texels) residual[t] = 0.0f;
@@ -89,7 +88,7 @@ std::optional<SunSplit> SunSplit::find(const EnvTables& tables, const SunOptions
     const int y = int(sun_texels[k] / std::uint64_t(W));
     sun_weights[k] = float(double(importance[sun_texels[k]]) * map.param->solid_angle(0.0, y, 1.0, y + 1.0));
   }
-  split.sun_distribution_ = std::make_shared<SphericalDistribution>(
+  split.sun_distribution_ = std::make_shared<StoredTable>(
       tables.grid(), std::make_shared<SparseDistribution2D>(W, H, sun_texels, sun_weights));
   split.cos_bound_ = std::cos(bounding_angle(*split.sun_distribution_, sun->direction, sun->region));
   split.sun_ = std::move(*sun);
@@ -121,11 +120,11 @@ void SunSplit::save_sun(BlobWriter& out) const {
   out.scalar<std::int64_t>(sun_.clipped ? sun_.clipped_texels : -1);
   static_assert(sizeof(std::size_t) == sizeof(std::uint64_t));
   out.array(sun_.region);
-  sun_distribution_->distribution().save(out);
+  sun_distribution_->stored().save(out);
 }
 
 SunSplit SunSplit::restore(BlobReader& in, Kind grid, int width, int height,
-                           std::shared_ptr<const SphericalDistribution> residual) {
+                           std::shared_ptr<const StoredTable> residual) {
   const auto refuse = [&](const std::string& what) { return Error(in.context() + ": invalid sun (" + what + ")"); };
   SunSplit split;
   SunEstimate& sun = split.sun_;
@@ -172,7 +171,7 @@ SunSplit SunSplit::restore(BlobReader& in, Kind grid, int width, int height,
   sun.clipped_texels = sun.clipped ? int(clipped) : 0;
   sun.texels = int(region.size());
   sun.region.assign(region.begin(), region.end());
-  split.sun_distribution_ = std::make_shared<SphericalDistribution>(grid, std::move(texels));
+  split.sun_distribution_ = std::make_shared<StoredTable>(grid, std::move(texels));
   split.residual_ = std::move(residual);
   return split;
 }

@@ -37,10 +37,8 @@ Vec3 direction_from_elevation_azimuth(double elevation, double azimuth);
 double cap_solid_angle(double alpha);
 /// Degrees to radians.
 constexpr double radians(double degrees) { return degrees * (kPi / 180.0); }
-/// cos(pi v0) - cos(pi v1) without cancellation for nearby v0, v1.
-double cos_pi_difference(double v0, double v1);
 /// Exact solid angle of the lat-long domain rectangle [u0, u1] x [v0, v1] (latlong.h's u, v):
-/// 2 pi (u1 - u0) (cos(pi v0) - cos(pi v1)).
+/// 2 pi (u1 - u0) (cos(pi v0) - cos(pi v1)), the difference as LatLongMap::band_height.
 double latlong_rect_solid_angle(double u0, double u1, double v0, double v1);
 /// True if every channel is finite and >= 0 (what probes accept as radiance).
 bool valid_radiance(const Vec3& v);

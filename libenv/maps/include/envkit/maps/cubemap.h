@@ -64,6 +64,7 @@ class CubeMap final : public Parameterization {
   TexelGrid grid() const override { return grid_; }
   bool has_blank_texels() const override;
   std::vector<std::vector<std::size_t>> twin_texels() const override;
+  std::optional<CubeFaceLayout> cube_faces() const override { return CubeFaceLayout{layout_, basis_, n_}; }
   /// The placed face with face number `face` (0..5).
   const CubeFace& face(int face) const { return faces_[face]; }
   /// Index into face() of the face that holds image texel (i, j), or -1 for blank cells and outside.
@@ -73,6 +74,7 @@ class CubeMap final : public Parameterization {
   Vec2 to_image(const Vec3& dir) const override;
   double solid_angle(double x0, double y0, double x1, double y1) const override;
   double solid_angle_density(Vec2 pos) const override;
+  double texel_solid_angles(std::span<float> out) const override;
   bool resolve_tap(int anchor_i, int anchor_j, int& i, int& j) const override;
 
   /// Exact solid angle of the face-coordinate rectangle [a0, a1] x [b0, b1] (within [-1, 1]^2) of any face.

@@ -19,6 +19,8 @@
 /// column is duplicated.
 #include <envkit/maps/parameterization.h>
 
+#include <cmath>
+
 namespace envkit {
 
 class LatLongMap final : public Parameterization {
@@ -31,6 +33,7 @@ class LatLongMap final : public Parameterization {
   bool same_grid(const Parameterization& other) const override;
   TexelGrid grid() const override { return grid_; }
   std::vector<std::vector<std::size_t>> twin_texels() const override;
+  const LatLongMap* latlong_geometry() const override { return this; }
 
   bool to_direction(Vec2 pos, Vec3& dir) const override;
   Vec2 to_image(const Vec3& dir) const override;
@@ -46,6 +49,13 @@ class LatLongMap final : public Parameterization {
   static double polar_angle(double v) { return kPi * v; }
   static double u_of_longitude(double lon) { return (kPi - lon) / kTwoPi; }
   static double v_of_polar_angle(double theta) { return theta / kPi; }
+  /// Height along the polar axis of the band between the parallels at polar angles theta0 <= theta1 (radians):
+  /// cos theta0 - cos theta1, as 2 sin((theta0 + theta1) / 2) sin((theta1 - theta0) / 2), which keeps full precision
+  /// for nearby angles where the plain difference cancels. The band's solid angle is 2 pi times it (Archimedes), a
+  /// texel of a W-column row 2 pi / W times it. The one place that writes this formula.
+  static double band_height(double theta0, double theta1) {
+    return 2.0 * std::sin(0.5 * (theta1 + theta0)) * std::sin(0.5 * (theta1 - theta0));
+  }
   /// Radians per domain unit: along u at the equator (2 pi) and along v (pi).
   static constexpr double kRadiansPerU = kTwoPi;
   static constexpr double kRadiansPerV = kPi;

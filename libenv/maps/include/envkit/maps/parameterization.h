@@ -15,6 +15,8 @@
 #include <algorithm>
 #include <cstddef>
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -24,7 +26,10 @@ enum class Kind { LatLong, MirrorBall, AngularMap, CubeMap, Octahedral, DualPara
 /// Number of Kind values (tables indexed by static_cast<int>(Kind)).
 inline constexpr int kKindCount = 9;
 
-struct ViewParams;  // view.h
+struct ViewParams;      // view.h
+class LatLongMap;       // latlong.h
+enum class CubeLayout;  // cubemap.h
+enum class CubeBasis;   // cubemap.h
 
 /// "latlong", "mirrorball", "angular", "cube", "octahedral", "paraboloid", "healpix", "perspective", "fisheye".
 std::string kind_name(Kind kind);
@@ -43,6 +48,14 @@ enum class TexelGrid {
   /// rows on the poles). Mitsuba 3's envmap emitter reads its images this way (it pads a copy of column 0 after
   /// the last column and scales v by H - 1).
   CornerRows,
+};
+
+/// How a cube map places its six faces in the image (cubemap.h): what code that names, checks or splits a cube file
+/// needs to know about its faces.
+struct CubeFaceLayout {
+  CubeLayout layout;
+  CubeBasis basis;
+  int face_size = 0;  ///< N: every face is N x N texels
 };
 
 class Parameterization {
@@ -75,6 +88,13 @@ class Parameterization {
   /// Empty when all texel centres are distinct.
   virtual std::vector<std::vector<std::size_t>> twin_texels() const { return {}; }
 
+  /// The face layout of a cube map; nullopt for every other parameterization.
+  virtual std::optional<CubeFaceLayout> cube_faces() const { return std::nullopt; }
+  /// The lat-long geometry of a lat-long map (the map itself): its rows are bands of constant polar angle and its
+  /// columns meridians, so loops over its texels tabulate one value per row and per column instead of one per texel.
+  /// nullptr for every other parameterization.
+  virtual const LatLongMap* latlong_geometry() const { return nullptr; }
+
   /// Direction (unit length, map frame) seen at continuous image position `pos`.
   /// Returns false where the image holds no data (outside a mirror ball, blank cells of a cross).
   virtual bool to_direction(Vec2 pos, Vec3& dir) const = 0;
@@ -100,6 +120,11 @@ class Parameterization {
 
   /// Exact solid angle of texel (i, j); 0 for texels that hold no data.
   double texel_solid_angle(int i, int j) const { return solid_angle(i, j, i + 1.0, j + 1.0); }
+
+  /// texel_solid_angle(i, j) of every texel, rounded to float, into out[j * W + i] (out.size() == W H), and their
+  /// sum accumulated in double (independent of the thread count). The default evaluates every texel, rows in
+  /// parallel; cube maps evaluate one eighth of one face and copy it by the faces' symmetry.
+  virtual double texel_solid_angles(std::span<float> out) const;
 
   /// A position inside texel (i, j) that holds data: the centre when it does, otherwise (a rim texel holding a
   /// sliver of a disk) some covered point of the texel. False when the texel holds no data at all.

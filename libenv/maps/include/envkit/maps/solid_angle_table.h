@@ -2,14 +2,13 @@
 /// @file solid_angle_table.h
 /// Every texel's exact solid angle, computed once (in parallel) and stored compactly: one value per row for
 /// lat-long maps (a row's texels are equal, except that corner grids halve the duplicated edge columns), one
-/// constant for octahedral maps, one float per texel otherwise (relative precision 6e-8, ample for weights).
+/// constant for the equal-area maps (octahedral, HEALPix), one float per texel otherwise (relative precision 6e-8,
+/// ample for weights).
 #include <envkit/maps/parameterization.h>
 
 #include <vector>
 
 namespace envkit {
-
-class CubeMap;
 
 class SolidAngleTable {
  public:
@@ -25,7 +24,6 @@ class SolidAngleTable {
   double total() const { return total_; }
 
  private:
-  void fill_cube(const CubeMap& cube);
   int width_ = 0;
   bool halve_edge_columns_ = false;
   double constant_ = 0.0;

@@ -4,19 +4,21 @@
 ///
 /// Domain and conventions
 /// ----------------------
-/// A distribution is built from a W x H grid of non-negative weights (row-major, row 0 first) and lives on the
-/// unit square [0,1)^2 ("uv space"): texel (x, y) covers [x/W, (x+1)/W) x [y/H, (y+1)/H), its centre is
-/// ((x + 0.5)/W, (y + 0.5)/H). Densities are with respect to uv AREA, so a texel of weight w has density
-/// w / integral() everywhere inside it, where integral() = sum(w) / (W H). Mapping to the sphere (sin theta,
-/// texel solid angles) is the job of the layer above: it multiplies the weights by the Jacobian before building
-/// and divides pdf_uv by it afterwards.
+/// A distribution lives on the unit square [0,1)^2 ("uv space") divided into W x H texels: texel (x, y) covers
+/// [x/W, (x+1)/W) x [y/H, (y+1)/H), its centre is ((x + 0.5)/W, (y + 0.5)/H). Densities are with respect to uv
+/// AREA and constant inside a texel. Cdf, alias and hierarchical distributions are built from a W x H grid of
+/// non-negative weights (row-major, row 0 first), sparse ones from the weights of a few texels: a texel of weight
+/// w has density w / integral() everywhere inside it, where integral() = sum(w) / (W H). A refined distribution
+/// (distribution_refined.h) has no per-texel weights: it multiplies a coarse table with a hierarchical one's sums.
+/// Mapping to the sphere (sin theta, texel solid angles) is the job of the layer above: it multiplies the weights
+/// by the Jacobian before building and divides pdf_uv by it afterwards.
 ///
 /// Which warp to prefer
 /// --------------------
-/// All four are exact in the sense that matters for estimators: pdf(sample(u).uv) == sample(u).pdf bit for bit,
-/// and pdf() is the density the tables actually draw from. They differ in how close that is to the ideal
+/// Every method is exact in the sense that matters for estimators: pdf(sample(u).uv) == sample(u).pdf bit for
+/// bit, and pdf() is the density the tables actually draw from. They differ in how close that is to the ideal
 /// w / integral: sparse to double rounding (its densities and cumulative table are stored in double); alias and
-/// pyramid to ~1e-7 / ~1e-6 relative for every texel (pdf() returns w / integral);
+/// hierarchical to ~1e-7 / ~1e-6 relative for every texel (pdf() returns w / integral);
 /// cdf's pdf() follows its float CDF steps, within (m + c) 2^-24 of the ideal for a texel of marginal m and
 /// conditional c (~1e-4 relative for ordinary texels of a 16k row, more for texels far dimmer than their row).
 /// - CdfDistribution2D (distribution_cdf.h): marginal CDF over rows + conditional CDF per row, continuous
@@ -29,15 +31,19 @@
 ///   u to texels is discontinuous everywhere (neighbouring u go to unrelated texels): it destroys stratification,
 ///   so low-discrepancy sequences gain nothing. Not invertible. Largest tables (16 bytes/texel: one aligned
 ///   entry per column pick, which also holds the alias's weight).
-/// - HierarchicalDistribution2D (distribution_hierarchical.h): sum pyramid with hierarchical sample warping (Clarberg
-/// et
-///   al. 2005). The warp is continuous inside every quadtree cell, so it preserves the stratification of Sobol
-///   or other low-discrepancy points best (lowest variance per sample with QMC), and it is the structure that
-///   product sampling with a BSDF quadtree descends (Clarberg 2008). O(log max(W,H)) per sample, O(1) pdf,
+/// - HierarchicalDistribution2D (distribution_hierarchical.h): a sum pyramid (every node holds the sum of the
+///   four below it) with hierarchical sample warping (Clarberg et al. 2005). The warp is continuous inside every
+///   quadtree cell, so it preserves the stratification of Sobol or other low-discrepancy points best (lowest
+///   variance per sample with QMC), and it is the structure that product sampling with a BSDF quadtree descends
+///   (Clarberg 2008). O(log max(W,H)) per sample, O(1) pdf,
 ///   invertible, ~5.3 bytes/texel. Every node stores its own sum, so probabilities keep float RELATIVE precision
 ///   even for texels a billion times dimmer than the sun next to them.
 /// - SparseDistribution2D (distribution_sparse.h): light on a few texels of a large grid (a sun's texels, see
 ///   sun_split.h); one cumulative table over those texels, nothing per texel of the grid. O(log n), invertible.
+/// - RefinedDistribution2D (distribution_refined.h): a hierarchical warp over the nodes of one level of a
+///   hierarchical distribution, continued below the chosen node by that distribution's own sums (product sampling).
+///   Built at load from the distribution it refines, never stored.
+/// Cdf, alias, hierarchical and sparse distributions are StoredDistribution2D: table files hold them.
 /// (Mitsuba 3's distr_2d.h documents the same trade-off between its hierarchical and marginal warps.)
 ///
 /// Random numbers
@@ -81,6 +87,10 @@ inline constexpr double kTexelOffsetMax = 0x1.fffffep-1;
 /// Largest width or height a distribution accepts (see kTexelOffsetMax).
 inline constexpr int kMaxDistributionSize = 1 << 24;
 
+/// envkit's distribution classes, as Distribution2D::builtin() names them. The classes are final: the class named
+/// is the object's type.
+enum class BuiltinDistribution { Other, Cdf, Alias, Hierarchical, Sparse, Refined };
+
 /// One sample drawn from a Distribution2D.
 struct DistributionSample {
   Vec2 uv{0.0, 0.0};  ///< position in [0,1)^2, strictly inside texel (x, y)
@@ -111,6 +121,9 @@ class Distribution2D {
 
   /// "cdf", "alias", "hierarchical", "sparse" or "refined".
   virtual const char* method() const = 0;
+  /// Which of envkit's classes this is (BuiltinDistribution::Other for classes defined elsewhere): lets a caller
+  /// that inlines a class's non-virtual pick() choose it without RTTI.
+  virtual BuiltinDistribution builtin() const { return BuiltinDistribution::Other; }
 
   /// Warp u in [0,1)^2 to a sample. Deterministic: identical tables and u give bit-identical results.
   virtual DistributionSample sample(Vec2 u) const = 0;
@@ -132,7 +145,7 @@ class Distribution2D {
   /// tables larger than the caches one sample is a chain of dependent misses; the built-in distributions override
   /// this with warps that take the samples in groups of sampling::kSampleGroup and run each step of the chain for
   /// the whole group, prefetching the next step's table entries, so that the group's misses overlap instead of
-  /// following one another. On CPUs with AVX-512 the cdf and pyramid warps run each step eight samples per vector,
+  /// following one another. On CPUs with AVX-512 the cdf and hierarchical warps run each step eight samples per vector,
   /// with masks instead of their unpredictable branches (the same operations, so the same bits; ENVKIT_SIMD=none
   /// turns the vector paths off). This default is the plain loop.
   virtual void sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
@@ -146,10 +159,10 @@ class Distribution2D {
 
   /// The probability the stored (float) tables actually give texel (x, y), recomputed from them in double:
   /// what sample() draws, to be compared with the ideal w / sum(w). 0 for texels outside the grid.
-  /// Cost: O(1) for cdf, O(levels) for pyramid, O(W + H) for alias (a diagnostic, not for render loops).
+  /// Cost: O(1) for cdf, O(levels) for hierarchical, O(W + H) for alias (a diagnostic, not for render loops).
   virtual double texel_probability(int x, int y) const = 0;
 
-  /// Whether invert() is available (cdf, pyramid: yes; alias: no).
+  /// Whether invert() is available (cdf, hierarchical, sparse: yes; alias, refined: no).
   virtual bool can_invert() const { return false; }
 
   /// The u that sample() maps to uv: invert(sample(u).uv) == u up to rounding wherever the texel has non-zero
@@ -160,10 +173,6 @@ class Distribution2D {
 
   /// Memory held by the tables, in bytes.
   virtual std::size_t bytes() const = 0;
-
-  /// Writes the tables as a flat blob (table_blob.h) for table files. Each class restores it with its
-  /// BlobReader constructor; a restored distribution samples bit-identically to the saved one.
-  virtual void save(BlobWriter& out) const = 0;
 
   int width() const { return width_; }
   int height() const { return height_; }
@@ -178,7 +187,7 @@ class Distribution2D {
 
   /// Rows whose weights are all zero and whose conditional table (cdf, alias) was therefore made uniform.
   /// Such rows have zero marginal probability: they are never sampled (pdf is 0 there) unless the whole map is
-  /// zero; the uniform conditional only gives invert() a defined answer. Always 0 for the pyramid.
+  /// zero; the uniform conditional only gives invert() a defined answer. Always 0 for the hierarchical method.
   int uniform_fallback_rows() const { return fallback_rows_; }
 
   /// Texels with positive weight to which the float tables give zero probability (cdf only: a bin below the
@@ -187,16 +196,35 @@ class Distribution2D {
   std::size_t unreachable_texels() const { return unreachable_texels_; }
 
  protected:
-  /// Validates the size (1..kMaxDistributionSize each) and that weights is not null; throws Error otherwise.
-  Distribution2D(const float* weights, int width, int height) : width_(width), height_(height) {
+  /// Validates the size (1..kMaxDistributionSize each); throws Error otherwise.
+  Distribution2D(int width, int height) : width_(width), height_(height) {
     if (width < 1 || height < 1 || width > kMaxDistributionSize || height > kMaxDistributionSize)
       throw Error("distribution: invalid size " + std::to_string(width) + "x" + std::to_string(height) +
                   " (each side must be in 1.." + std::to_string(kMaxDistributionSize) + ")");
-    if (weights == nullptr) throw Error("distribution: null weights");
   }
+  /// Fields left to a derived constructor that sets them all (StoredDistribution2D's restore).
+  Distribution2D() = default;
 
-  /// Restores the fields of this base class written by save_base(); validates the size like the constructor.
-  explicit Distribution2D(BlobReader& in) {
+  int width_ = 0;
+  int height_ = 0;
+  double integral_ = 0.0;
+  bool uniform_fallback_ = false;
+  int fallback_rows_ = 0;
+  std::size_t unreachable_texels_ = 0;
+};
+
+/// A distribution that table files store (env_tables.h): cdf, alias, hierarchical and sparse.
+class StoredDistribution2D : public Distribution2D {
+ public:
+  /// Writes the tables as a flat blob (table_blob.h). Each class restores it with its BlobReader constructor; a
+  /// restored distribution samples bit-identically to the saved one.
+  virtual void save(BlobWriter& out) const = 0;
+
+ protected:
+  using Distribution2D::Distribution2D;
+
+  /// Restores the fields of Distribution2D written by save_base(); validates the size like its constructor.
+  explicit StoredDistribution2D(BlobReader& in) {
     width_ = in.scalar<std::int32_t>();
     height_ = in.scalar<std::int32_t>();
     integral_ = in.scalar<double>();
@@ -215,17 +243,16 @@ class Distribution2D {
     out.scalar<std::int32_t>(fallback_rows_);
     out.scalar<std::uint64_t>(unreachable_texels_);
   }
-
-  int width_ = 0;
-  int height_ = 0;
-  double integral_ = 0.0;
-  bool uniform_fallback_ = false;
-  int fallback_rows_ = 0;
-  std::size_t unreachable_texels_ = 0;
 };
 
 /// Small helpers shared by the implementations (and handy for callers writing their own warps).
 namespace sampling {
+
+/// The check of every constructor that takes a W x H weight array (after the base class checked the size): Error
+/// when it is null.
+inline void require_weights(const float* weights) {
+  if (weights == nullptr) throw Error("distribution: null weights");
+}
 
 /// Weight as the tables see it: negative, -0 and NaN become 0, +inf becomes FLT_MAX (very bright, but finite).
 inline float sanitize_weight(float w) { return w > 0.0f ? std::min(w, FLT_MAX) : 0.0f; }

@@ -130,7 +130,7 @@ class AliasTable1D {
 /// 2D alias sampling: marginal alias table over rows, one alias table per row. 16 bytes per texel (keep, alias,
 /// weight, alias weight: one aligned entry per column pick) + 8 per row. Rows are built in parallel with TBB for
 /// large grids; results do not depend on the thread count.
-class AliasDistribution2D final : public Distribution2D {
+class AliasDistribution2D final : public StoredDistribution2D {
  public:
   /// weights: W x H floats, row-major, row 0 first. Throws Error for a bad size or null weights.
   AliasDistribution2D(const float* weights, int width, int height);
@@ -139,6 +139,7 @@ class AliasDistribution2D final : public Distribution2D {
   void save(BlobWriter& out) const override;
 
   const char* method() const override { return "alias"; }
+  BuiltinDistribution builtin() const override { return BuiltinDistribution::Alias; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
   /// Batched sample_texel(), bit for bit: see pick_group().

@@ -129,7 +129,7 @@ class PiecewiseConstant1D {
 };
 
 /// Marginal/conditional CDF inversion over a W x H grid (see the file comment). ~4 bytes per texel.
-class CdfDistribution2D final : public Distribution2D {
+class CdfDistribution2D final : public StoredDistribution2D {
  public:
   /// weights: W x H floats, row-major, row 0 first. Rows are built in parallel with TBB for large grids; the
   /// result does not depend on the thread count. Throws Error for a bad size or null weights.
@@ -139,6 +139,7 @@ class CdfDistribution2D final : public Distribution2D {
   void save(BlobWriter& out) const override;
 
   const char* method() const override { return "cdf"; }
+  BuiltinDistribution builtin() const override { return BuiltinDistribution::Cdf; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
   /// Batched sample_texel(), bit for bit: see pick_group().

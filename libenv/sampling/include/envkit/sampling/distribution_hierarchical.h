@@ -111,7 +111,7 @@ namespace detail {
 }  // namespace detail
 
 /// Hierarchical sample warping through a sum pyramid. ~5.33 bytes per texel (4 for the leaves + 4/3 for sums).
-class HierarchicalDistribution2D final : public Distribution2D {
+class HierarchicalDistribution2D final : public StoredDistribution2D {
  public:
   /// weights: W x H floats, row-major, row 0 first. Large levels are built in parallel with TBB; results do not
   /// depend on the thread count. Throws Error for a bad size or null weights.
@@ -121,6 +121,7 @@ class HierarchicalDistribution2D final : public Distribution2D {
   void save(BlobWriter& out) const override;
 
   const char* method() const override { return "hierarchical"; }
+  BuiltinDistribution builtin() const override { return BuiltinDistribution::Hierarchical; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
   /// Batched sample_texel(), bit for bit: see pick_group().

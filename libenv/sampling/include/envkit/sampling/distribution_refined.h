@@ -13,7 +13,7 @@
 /// Cells whose fine node is 0 get weight 0 (they hold no texel that could be drawn); cells with a positive node
 /// and weight 0 are never drawn (pdf 0 on their texels): give every cell with light a positive weight where the
 /// estimator needs pdf > 0.
-/// Not stored in table files: it refers to the fine pyramid and is built from it at load (save() throws).
+/// Not a StoredDistribution2D: it refers to the fine pyramid and is built from it when a table file is loaded.
 #include <envkit/sampling/distribution_hierarchical.h>
 
 #include <memory>
@@ -30,12 +30,12 @@ class RefinedDistribution2D final : public Distribution2D {
                         std::span<const float> cell_weights);
 
   const char* method() const override { return "refined"; }
+  BuiltinDistribution builtin() const override { return BuiltinDistribution::Refined; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
   double pdf(Vec2 uv) const override;
   double texel_probability(int x, int y) const override;
   std::size_t bytes() const override;
-  void save(BlobWriter& out) const override;
 
   /// sample_texel() as an inline, non-virtual call, for callers that know the class (SphericalDistribution).
   TexelSample pick(Vec2 u) const {

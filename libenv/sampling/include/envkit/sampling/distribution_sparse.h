@@ -15,7 +15,7 @@
 
 namespace envkit {
 
-class SparseDistribution2D final : public Distribution2D {
+class SparseDistribution2D final : public StoredDistribution2D {
  public:
   /// texels: indices y * width + x, strictly ascending, inside the grid; weights: one per texel, sanitised like
   /// every weight (distribution.h). Texels whose weight is 0 are dropped. Throws Error for indices that are out of
@@ -26,6 +26,7 @@ class SparseDistribution2D final : public Distribution2D {
   explicit SparseDistribution2D(BlobReader& in);
 
   const char* method() const override { return "sparse"; }
+  BuiltinDistribution builtin() const override { return BuiltinDistribution::Sparse; }
   DistributionSample sample(Vec2 u) const override;
   TexelSample sample_texel(Vec2 u) const override;
   double pdf(Vec2 uv) const override;

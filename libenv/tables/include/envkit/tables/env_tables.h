@@ -50,6 +50,24 @@ namespace envkit {
 struct EnvMap;
 class SunSplit;
 
+/// A table: a spherical distribution over a 2D distribution that table files store (cdf, alias, hierarchical or
+/// sparse). What EnvTables and SunSplit hold and save.
+class StoredTable : public SphericalDistribution {
+ public:
+  /// See SphericalDistribution's constructors.
+  StoredTable(Kind grid, std::shared_ptr<const StoredDistribution2D> distribution)
+      : SphericalDistribution(grid, distribution), stored_(std::move(distribution)) {}
+  StoredTable(const SphericalDistribution& same_grid, std::shared_ptr<const StoredDistribution2D> distribution)
+      : SphericalDistribution(same_grid, distribution), stored_(std::move(distribution)) {}
+
+  /// distribution(), as the table file stores it.
+  const StoredDistribution2D& stored() const { return *stored_; }
+  std::shared_ptr<const StoredDistribution2D> stored_ptr() const { return stored_; }
+
+ private:
+  std::shared_ptr<const StoredDistribution2D> stored_;
+};
+
 /// How a texel's colour becomes one scalar.
 enum class ImportanceMode { Luminance, Average, Max };
 const char* importance_name(ImportanceMode mode);
@@ -128,7 +146,7 @@ class EnvTables {
   void save(const std::string& path) const;
 
   /// The distribution of a method, or nullptr when it was not baked.
-  const SphericalDistribution* distribution(SamplingMethod method, bool compensated = false) const;
+  const StoredTable* distribution(SamplingMethod method, bool compensated = false) const;
   /// The sun split of that distribution as a bake with BakeOptions::sun stored it: nullopt when none was stored for
   /// it (SunSplit::make builds one), a null pointer when the bake found no sun in the map.
   std::optional<std::shared_ptr<const SunSplit>> stored_sun_split(SamplingMethod method, bool compensated) const;
@@ -192,7 +210,7 @@ class EnvTables {
   std::string descriptor_;
   std::vector<TableWarning> warnings_;
   // [compensated][method]
-  std::array<std::array<std::unique_ptr<SphericalDistribution>, 3>, 2> distributions_;
+  std::array<std::array<std::unique_ptr<StoredTable>, 3>, 2> distributions_;
   bool sun_looked_for_ = false;  // BakeOptions::sun; the splits below are null when the map has no sun
   std::array<std::array<std::shared_ptr<const SunSplit>, 3>, 2> sun_splits_;
 };
@@ -201,8 +219,8 @@ class EnvTables {
 /// per-texel importance (radiance-like, per steradian; row-major, width x height values): weights = importance x
 /// exact texel solid angle, the same weights a bake builds. For tables of importance derived from a bake's, such as
 /// sun_split.h's. Throws Error for a size that does not fit the grid.
-std::unique_ptr<SphericalDistribution> make_table(Kind grid, int width, int height, std::span<const float> importance,
-                                                  SamplingMethod method);
+std::unique_ptr<StoredTable> make_table(Kind grid, int width, int height, std::span<const float> importance,
+                                        SamplingMethod method);
 
 /// The sections of a table file held in memory (name, byte offset and size of each payload), read from its
 /// directory without verifying anything. Empty when `file` is too short or has no envkit table header.

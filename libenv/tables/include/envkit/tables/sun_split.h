@@ -38,8 +38,8 @@ class SunSplit {
   const SunEstimate& sun() const { return sun_; }
   /// The sun's texels, each drawn with probability importance x solid angle / the sun's total.
   const SphericalDistribution& sun_distribution() const { return *sun_distribution_; }
-  /// The rest of the map: importance 0 on the sun's texels.
-  const SphericalDistribution& residual() const { return *residual_; }
+  /// The rest of the map: importance 0 on the sun's texels. A table file stores it as a table of its own.
+  const StoredTable& residual() const { return *residual_; }
   /// Cosine of the half-angle of a cone about sun().direction that holds every direction of the sun's texels:
   /// sun_distribution()'s pdf is 0 outside it (a test before a texel search).
   double cos_bound() const { return cos_bound_; }
@@ -50,15 +50,15 @@ class SunSplit {
   /// A split from a save_sun() blob over a width x height `grid` and its residual table, as a table file holds them.
   /// Validates what it reads (a checksum says only that the bytes are as written): Error naming in.context().
   static SunSplit restore(BlobReader& in, Kind grid, int width, int height,
-                          std::shared_ptr<const SphericalDistribution> residual);
+                          std::shared_ptr<const StoredTable> residual);
 
  private:
   SunSplit() = default;
   /// The sun's part of make(): detection, the sun's texels' distribution and the bound; no residual.
   static std::optional<SunSplit> find(const EnvTables& tables, const SunOptions& options);
   SunEstimate sun_;
-  std::shared_ptr<const SphericalDistribution> sun_distribution_;
-  std::shared_ptr<const SphericalDistribution> residual_;
+  std::shared_ptr<const StoredTable> sun_distribution_;
+  std::shared_ptr<const StoredTable> residual_;
   double cos_bound_ = 1.0;
 };
 
