@@ -59,8 +59,9 @@ struct EnvNode {
 
 /// The pyramid's nodes at the level whose width is nearest (in log2) to `columns`.
 std::vector<EnvNode> env_nodes(const SphericalDistribution& env, int columns) {
-  const auto* pyramid = dynamic_cast<const HierarchicalDistribution2D*>(&env.distribution());
-  if (!pyramid) throw Error("product-wavelet: needs the hierarchical table (--light-method hierarchical)");
+  if (env.distribution().builtin() != BuiltinDistribution::Hierarchical)
+    throw Error("product-wavelet: needs the hierarchical table (--light-method hierarchical)");
+  const auto* pyramid = static_cast<const HierarchicalDistribution2D*>(&env.distribution());
   int level = 0;
   double best = 1e300;
   for (int k = 0; k <= pyramid->levels(); ++k) {
