@@ -71,7 +71,7 @@ struct LevelErrors {
 // Every level >= 1 against the brute-force sum, at every texel of a level or, past max_texels, at every stride-th
 // texel (a regular subset, so the relative RMS is that of the whole level up to sampling).
 inline LevelErrors compare_with_reference(const EnvMap& src, const PrefilteredChain& chain,
-                                   std::size_t max_texels = SIZE_MAX) {
+                                          std::size_t max_texels = SIZE_MAX) {
   const GgxReference reference(src.ref());
   LevelErrors e;
   for (std::size_t m = 1; m < chain.levels.size(); ++m) {

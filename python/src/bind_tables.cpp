@@ -69,9 +69,7 @@ const SphericalDistribution& distribution(const EnvTables& t, const std::string&
                                           const std::string& name) {
   const SamplingMethod m = parse_method(method);
   const SphericalDistribution* d = t.distribution(m, compensated);
-  if (!d)
-    throw Error(name + ": has no " + table_name(m, compensated) +
-                " table (re-bake with envbake --tables ...)");
+  if (!d) throw Error(name + ": has no " + table_name(m, compensated) + " table (re-bake with envbake --tables ...)");
   return *d;
 }
 
@@ -279,8 +277,7 @@ element instead of the batched one (the same results bit for bit, slower on larg
             std::vector<std::string> out;
             for (bool comp : {false, true})
               for (SamplingMethod sm : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical})
-                if (t.tables->distribution(sm, comp))
-                  out.push_back(table_name(sm, comp));
+                if (t.tables->distribution(sm, comp)) out.push_back(table_name(sm, comp));
             return out;
           },
           "Baked tables, e.g. ['cdf', 'hierarchical', 'hierarchical-compensated'] (the names of table files' "

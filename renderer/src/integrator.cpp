@@ -125,7 +125,8 @@ void validate(const IntegratorOptions& o) {
     refuse(F::Strategy, [](const Speller&) { return "strategy product-wavelet-mis needs at least one sample"; });
   if (wavelet && o.light_method != SamplingMethod::Hierarchical)
     refuse(F::LightMethod, [method = o.light_method](const Speller& n) {
-      return n(F::LightMethod) + " " + method_name(method) + ": the product-wavelet strategies read the hierarchical table";
+      return n(F::LightMethod) + " " + method_name(method) +
+             ": the product-wavelet strategies read the hierarchical table";
     });
   if (s == Strategy::Product && m_min < 1)
     refuse(F::LightSamples, [](const Speller& n) { return "strategy product needs " + n(F::LightSamples) + " >= 1"; });

@@ -445,8 +445,7 @@ TEST_F(RenderCli, MissingAndStaleTablesAreErrorsUnlessBaked) {
   EXPECT_EQ(fresh.code, 0) << fresh.err;
   fs::remove(out);
   fs::remove(dir_ / "baked.png");
-  expect_error(stale, {"sky.exr", "no hierarchical-compensated table", "--bake"},
-               {"--strategy", "mis-compensated"});
+  expect_error(stale, {"sky.exr", "no hierarchical-compensated table", "--bake"}, {"--strategy", "mis-compensated"});
 }
 
 // The same file read with another convention: the content hash matches, but the tables' directions are those of

@@ -499,8 +499,7 @@ std::vector<std::pair<std::string, std::size_t>> EnvTables::table_bytes() const 
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m)
       if (distributions_[set][m])
-        out.emplace_back(table_name(SamplingMethod(m), set != 0),
-                         distributions_[set][m]->distribution().bytes());
+        out.emplace_back(table_name(SamplingMethod(m), set != 0), distributions_[set][m]->distribution().bytes());
   for (int set = 0; set < 2; ++set)
     for (int m = 0; m < 3; ++m)
       if (sun_splits_[set][m])
