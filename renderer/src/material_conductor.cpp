@@ -33,14 +33,7 @@ class ConductorMaterial final : public Material {
 
   bool sample(const Vec3& wo, Vec2 u2, double /*u_lobe*/, BsdfSample& out) const override {
     if (!detail::above(wo)) return false;
-    const Vec3 m = detail::sample_vndf(alpha_, wo, u2);
-    const Vec3 wi = detail::reflect(wo, m).normalized();
-    if (!(wi.z > 0.0)) return false;  // reflected below the horizon: the sample is lost
-    out.wi = wi;
-    out.f_cos = eval(wo, wi);
-    out.pdf = pdf(wo, wi);
-    out.is_delta = false;
-    return out.pdf > 0.0;
+    return detail::reflection_sample(*this, wo, detail::sample_vndf(alpha_, wo, u2), out);
   }
 
  private:

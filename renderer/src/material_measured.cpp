@@ -121,13 +121,7 @@ class MeasuredMaterial final : public Material {
     const double phi = (cell.x + cell.fx) * kHalfPhiStep;
     const Vec3 h = AzimuthFrame(wo).to_local(Vec3(r * std::cos(phi), r * std::sin(phi), z));
     if (!((wo ^ h) > 0.0)) return false;
-    const Vec3 wi = detail::reflect(wo, h).normalized();
-    if (!detail::above(wi)) return false;  // reflected below the horizon: the sample is lost
-    out.wi = wi;
-    out.f_cos = eval(wo, wi);
-    out.pdf = pdf(wo, wi);
-    out.is_delta = false;
-    return out.pdf > 0.0;
+    return detail::reflection_sample(*this, wo, h, out);
   }
 
  private:

@@ -4,6 +4,7 @@
 /// masking-shadowing, visible-normal sampling (Heitz 2018), Fresnel equations, cosine hemisphere sampling.
 /// All directions in the local shading frame (z = normal). Every function is finite for every finite input.
 #include <envkit/core/vec.h>
+#include <envkit/render/material.h>
 
 #include <algorithm>
 #include <cmath>
@@ -154,5 +155,18 @@ inline Vec3 sample_cosine_hemisphere(Vec2 u) {
 
 /// True when v is a finite direction strictly above the horizon.
 inline bool above(const Vec3& v) { return v.z > 0.0 && std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+/// The sample of a material that reflects wo about the half vector h (local frame): wi with the material's own
+/// f cos and pdf. False when wi falls below the horizon (out untouched: the sample is lost, and pdf() integrates to 1
+/// minus that loss) or its pdf is 0.
+inline bool reflection_sample(const Material& material, const Vec3& wo, const Vec3& h, BsdfSample& out) {
+  const Vec3 wi = reflect(wo, h).normalized();
+  if (!above(wi)) return false;
+  out.wi = wi;
+  out.f_cos = material.eval(wo, wi);
+  out.pdf = material.pdf(wo, wi);
+  out.is_delta = false;
+  return out.pdf > 0.0;
+}
 
 }  // namespace envkit::render::detail
