@@ -154,7 +154,9 @@ for name, _ in CONFIGS:
 nonfinite = sum(q["nonfinite"] for d in results.values() for v in d.values() for q in v)
 
 text = [f"## 3. Sampling strategies\n",
-        f"Scenes `scripts/report/scenes/sphere_{{diffuse,glossy,mirror}}_{{sunny,overcast}}.json`: one sphere filling a "
+        f"Scenes in scripts/report/scenes/ ("
+        + ", ".join(f"`sphere_{m}_{t}.json`" for m in MATERIALS for t in ("sunny", "overcast")) +
+        f"): one sphere filling a "
         f"{RES}x{RES} image (diffuse albedo 0.7; gold conductor, GGX roughness 0.1 and 0.01), lit by the built-in "
         f"default probe (sunny: sun of radius 0.27 deg at 35 deg elevation, seen in the spheres) or the same outdoor "
         f"model with cloud cover 1 and no sun (overcast), as {SKY_SIZE} lat-long images baked in memory (`--bake`), "
