@@ -250,24 +250,6 @@ LoadedScene default_scene_with(const std::string& probe_json, int width, int hei
   return load_scene_text(text, "wavelet-default.json", options);
 }
 
-/// Per-region mean of the green channel and its variance (sum of pixel variances / n^2).
-void region_stats(const Film& film, int rx, int ry, std::vector<double>& mean, std::vector<double>& var) {
-  mean.assign(std::size_t(rx * ry), 0.0);
-  var.assign(std::size_t(rx * ry), 0.0);
-  std::vector<int> count(std::size_t(rx * ry), 0);
-  for (int y = 0; y < film.height(); ++y)
-    for (int x = 0; x < film.width(); ++x) {
-      const std::size_t r = std::size_t((y * ry / film.height()) * rx + x * rx / film.width());
-      mean[r] += film.mean(x, y).y;
-      var[r] += film.variance(x, y).y;
-      ++count[r];
-    }
-  for (std::size_t r = 0; r < mean.size(); ++r) {
-    mean[r] /= count[r];
-    var[r] /= double(count[r]) * count[r];
-  }
-}
-
 }  // namespace
 
 TEST(ProductWavelet, RenderAgreesWithProductMis) {
@@ -282,7 +264,7 @@ TEST(ProductWavelet, RenderAgreesWithProductMis) {
     const Integrator integrator(*scene.scene, *scene.light, o);
     const Film film = render_image(scene.camera, integrator, ro);
     EXPECT_EQ(integrator.nonfinite_count(), 0u);
-    region_stats(film, 4, 2, means[std::size_t(s)], vars[std::size_t(s)]);
+    envkit::test::region_stats(film, 4, 2, means[std::size_t(s)], vars[std::size_t(s)]);
   }
   for (std::size_t r = 0; r < means[0].size(); ++r)
     for (int s = 1; s < 3; ++s) {

@@ -75,24 +75,6 @@ std::vector<Named> strategies(bool include_bsdf) {
   return list;
 }
 
-/// Per-region means (rx x ry regions) of the green channel with their variances (sum of pixel variances / n^2).
-void region_stats(const Film& film, int rx, int ry, std::vector<double>& mean, std::vector<double>& var) {
-  mean.assign(std::size_t(rx * ry), 0.0);
-  var.assign(std::size_t(rx * ry), 0.0);
-  std::vector<int> count(std::size_t(rx * ry), 0);
-  for (int y = 0; y < film.height(); ++y)
-    for (int x = 0; x < film.width(); ++x) {
-      const std::size_t r = std::size_t((y * ry / film.height()) * rx + x * rx / film.width());
-      mean[r] += film.mean(x, y).y;
-      var[r] += film.variance(x, y).y;
-      ++count[r];
-    }
-  for (std::size_t r = 0; r < mean.size(); ++r) {
-    mean[r] /= count[r];
-    var[r] /= double(count[r]) * count[r];
-  }
-}
-
 void check_agreement(const LoadedScene& scene, const std::vector<Named>& list, int spp, double max_z) {
   RenderOptions ro;
   ro.spp = spp;
@@ -103,7 +85,7 @@ void check_agreement(const LoadedScene& scene, const std::vector<Named>& list, i
     const Film film = render_image(scene.camera, integrator, ro);
     EXPECT_EQ(integrator.nonfinite_count(), 0u) << s.name;
     std::vector<double> m, v;
-    region_stats(film, rx, ry, m, v);
+    envkit::test::region_stats(film, rx, ry, m, v);
     means.push_back(m);
     vars.push_back(v);
   }
