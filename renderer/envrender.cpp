@@ -136,7 +136,7 @@ int run(const Args& a) {
   const auto setup_start = std::chrono::steady_clock::now();
   const Integrator integrator = [&] {
     try {
-      return Integrator(*scene.scene, *scene.light, io);
+      return Integrator(*scene.scene, *scene.light, io, &scene.camera);
     } catch (const IntegratorOptionsError& e) {
       throw envkit::Error(e.message(option_flag));  // the library names fields; the user typed options
     }
@@ -162,6 +162,16 @@ int run(const Args& a) {
     setup_notes.push_back("product tables for the scene's " + std::to_string(integrator.product_lobe_count()) +
                           " lobe shape(s) (" + tools::fmt(double(integrator.product_table_bytes()) / (1 << 20), 3) +
                           " MiB)");
+  if (io.strategy == Strategy::Auto && integrator.has_product_tables()) {
+    std::string chosen;
+    for (int m = 0; m < scene.scene->material_count(); ++m) {
+      const envkit::render::LightChoice c = integrator.light_choice(m);
+      if (scene.scene->material(m).is_pure_delta()) continue;
+      chosen += (chosen.empty() ? "" : ", ") + scene.scene->material_names()[std::size_t(m)] + ": " +
+                (c.product ? "product table" : "plain table") + (c.sun_apart ? " + sun" : "");
+    }
+    setup_notes.push_back("light per material (pilot): " + chosen);
+  }
   if (const envkit::render::ProductWavelet* w = integrator.product_wavelet())
     setup_notes.push_back("wavelet product tables, " + std::to_string(w->options().resolution) + "^2 cells (" +
                           tools::fmt(double(w->bytes()) / (1 << 20), 3) + " MiB)");
@@ -234,10 +244,12 @@ int main(int argc, char** argv) {
   app.add_option("--time", a.time, "render for this many seconds instead of --spp (passes of 1 spp)")
       ->check(tools::number_in(0.0, 1e6, true));
   app.add_option("--strategy", a.strategy,
-                 "bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis "
-                 "(product-wavelet: Clarberg et al. 2005's wavelet product of lighting and BSDF, the whole map)")
-      ->check(CLI::IsMember({"bsdf", "light", "mis", "mis-compensated", "product", "product-mis", "product-wavelet",
-                             "product-wavelet-mis"}))
+                 "auto|bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis "
+                 "(auto: as product-mis, with each material's table, product or plain, and the sun apart or not "
+                 "chosen by a short pilot; product-wavelet: Clarberg et al. 2005's wavelet product of lighting and "
+                 "BSDF, the whole map)")
+      ->check(CLI::IsMember({"auto", "bsdf", "light", "mis", "mis-compensated", "product", "product-mis",
+                             "product-wavelet", "product-wavelet-mis"}))
       ->capture_default_str();
   app.add_option("--light-method", a.light_method,
                  "environment sampling table of light, mis and mis-compensated: cdf|alias|hierarchical (the product "

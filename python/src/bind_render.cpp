@@ -60,7 +60,7 @@ void bind_render(py::module_& m) {
           py::gil_scoped_release release;
           LoadedScene scene = path ? load_scene_file(*path, load)
                                    : (text ? load_scene_text(*text, base, load) : make_default_scene(load));
-          const Integrator integrator(*scene.scene, *scene.light, io);
+          const Integrator integrator(*scene.scene, *scene.light, io, &scene.camera);
           image = render_image(scene.camera, integrator, ro).mean_image();
         } catch (const RequestTooLarge& e) {
           // The scene's camera resolution (or one side of it overridden): the loader names the file and key.

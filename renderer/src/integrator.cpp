@@ -44,17 +44,19 @@ const char* strategy_name(Strategy s) {
       return "product-wavelet";
     case Strategy::ProductWaveletMis:
       return "product-wavelet-mis";
+    case Strategy::Auto:
+      return "auto";
   }
   return "?";
 }
 
 Strategy parse_strategy(const std::string& name) {
   for (Strategy s : {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
-                     Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis})
+                     Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis, Strategy::Auto})
     if (name == strategy_name(s)) return s;
   throw Error("unknown strategy '" + name +
               "' (valid: bsdf, light, mis, mis-compensated, product, product-mis, product-wavelet, "
-              "product-wavelet-mis)");
+              "product-wavelet-mis, auto)");
 }
 
 Heuristic parse_heuristic(const std::string& name) {
@@ -116,7 +118,7 @@ void validate(const IntegratorOptions& o) {
              " >= 1 (BSDF sampling covers what the compensated table leaves out)";
     });
   if (o.sun_samples < 0) refuse(F::SunSamples, [](const Speller& n) { return n(F::SunSamples) + " must be >= 0"; });
-  const bool product = s == Strategy::Product || s == Strategy::ProductMis;
+  const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
   const bool wavelet = s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis;
   if (s == Strategy::ProductWavelet && m_min < 1)
     refuse(F::LightSamples,
@@ -130,8 +132,9 @@ void validate(const IntegratorOptions& o) {
     });
   if (s == Strategy::Product && m_min < 1)
     refuse(F::LightSamples, [](const Speller& n) { return "strategy product needs " + n(F::LightSamples) + " >= 1"; });
-  if (s == Strategy::ProductMis && n_min + m_min < 1)
-    refuse(F::Strategy, [](const Speller&) { return "strategy product-mis needs at least one sample"; });
+  if ((s == Strategy::ProductMis || s == Strategy::Auto) && n_min + m_min < 1)
+    refuse(F::Strategy,
+           [s](const Speller&) { return std::string("strategy ") + strategy_name(s) + " needs at least one sample"; });
   if (product && o.light_method != SamplingMethod::Hierarchical)
     refuse(F::LightMethod, [method = o.light_method](const Speller& n) {
       return n(F::LightMethod) + " " + method_name(method) +
@@ -140,7 +143,8 @@ void validate(const IntegratorOptions& o) {
     });
 }
 
-Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
+Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options,
+                       const Camera* camera)
     : scene_(scene), light_(light), options_(options) {
   validate(options_);
   const Strategy s = options_.strategy;
@@ -166,7 +170,11 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
             : s == Strategy::ProductWavelet                  ? &Integrator::direct_product_wavelet
             : s == Strategy::ProductWaveletMis               ? &Integrator::direct_product_wavelet_mis
                                                              : &Integrator::direct_mis;
-  if (s == Strategy::Product || s == Strategy::ProductMis) build_product_tables();
+  const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
+  for (int m = 0; m < scene_.material_count(); ++m)
+    choices_.push_back({product, sun_ && takes_sun_samples(scene_.material(m))});
+  if (product) build_product_tables(s == Strategy::Auto && camera);
+  if (s == Strategy::Auto && camera) choose_by_pilot(*camera);
   if (s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis) build_product_wavelet();
 }
 
@@ -193,15 +201,18 @@ Vec3 Integrator::lobe_axis(const Lobe& lobe, const ShadingPoint& x) {
   return lobe.shape == Lobe::Shape::Cosine ? x.frame.n : x.frame.to_world(Vec3(-x.wo.x, -x.wo.y, x.wo.z));
 }
 
-void Integrator::build_product_tables() {
-  // The scene's lobes; with a sun, those of materials that take sun samples get tables over the rest of the map,
-  // the others over the whole map (techniques()).
+void Integrator::build_product_tables(bool every_lobe) {
+  // The scene's lobes; with a sun, those of materials that take it apart get tables over the rest of the map, the
+  // others over the whole map (techniques()).
   std::vector<Lobe> whole, split;
-  for (int m = 0; m < scene_.material_count(); ++m) {
-    const Material& material = scene_.material(m);
-    std::vector<Lobe>& set = sun_ && takes_sun_samples(material) ? split : whole;
+  const auto add = [](std::vector<Lobe>& set, const Material& material) {
     for (const std::optional<Lobe>& lobe : product_lobes(material))
       if (lobe && std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
+  };
+  for (int m = 0; m < scene_.material_count(); ++m) {
+    const Material& material = scene_.material(m);
+    if (every_lobe || !choices_[std::size_t(m)].sun_apart) add(whole, material);
+    if (sun_ && (every_lobe || choices_[std::size_t(m)].sun_apart)) add(split, material);
   }
   if (!whole.empty()) product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].table.first, whole);
   if (!split.empty()) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].table.first, split);
@@ -227,11 +238,17 @@ double Integrator::mis_weight(double a, double b) const {
   return sum > 0.0 && std::isfinite(sum) ? a / sum : (std::isinf(a) ? 1.0 : 0.0);
 }
 
-Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int light_samples) const {
-  const bool split = sun_ && takes_sun_samples(x.material);
+LightChoice Integrator::choice_for(const Material& material) const {
+  for (int m = 0; m < scene_.material_count(); ++m)
+    if (&scene_.material(m) == &material) return choices_[std::size_t(m)];
+  return {has_product_tables(), sun_ && takes_sun_samples(material)};
+}
+
+Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int light_samples, LightChoice choice) const {
+  const bool split = sun_ && choice.sun_apart;
   LightTechniques t = split ? split_ : whole_;
   t.parts[0].count = light_samples;
-  const LobeProductTables* tables = split ? product_split_.get() : product_whole_.get();
+  const LobeProductTables* tables = !choice.product ? nullptr : split ? product_split_.get() : product_whole_.get();
   if (!tables) return t;
   // By lobe, not by material: a material outside the scene (direct() is public) with a lobe of the scene's gets
   // its table too; one without keeps the plain table.
@@ -307,7 +324,7 @@ Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
-  const LightTechniques light = techniques(x, counts(x.material).light);
+  const LightTechniques light = techniques(x, counts(x.material).light, choice_for(x.material));
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
@@ -321,9 +338,13 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_mis_with(x, sampler, choice_for(x.material));
+}
+
+Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice) const {
   const SampleCounts n = counts(x.material);
   const int N = n.bsdf;
-  const LightTechniques light = techniques(x, n.light);
+  const LightTechniques light = techniques(x, n.light, choice);
   Vec3 sum(0, 0, 0);
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
   for (int k = 0; k < light.count; ++k) {

@@ -34,6 +34,16 @@
 ///           from the table of its lobe's axis, a plastic's from the mixture of its base's and its coat's tables in
 ///           the proportion in which its BSDF samples them. The table's (mixture's) pdf enters the weights as any
 ///           light table's. Uses the hierarchical table.
+///  - auto (the default): as mis, with each material's light technique chosen by a pilot when the integrator starts
+///           (light_pilot.cpp): its product table or the plain table, the sun apart or not (LightChoice). Shading
+///           points of each material are taken where a fixed grid of camera rays first hits it; at each, every
+///           candidate's estimate of D is drawn a fixed number of times. A point's score is its relative variance
+///           (over its mean squared) times the candidate's cost per shading point (rays, a product table's descent).
+///           MIS's own choice (the plain table, the sun by takes_sun_samples()) stands unless another candidate's
+///           mean score is lower by more than twice the standard error of the per-point differences. Deterministic
+///           (a fixed seed, per-point slots summed in order): the image depends on neither threads, tiles nor crop.
+///           Materials the camera does not see, and every material when there is no camera, take product-mis's
+///           choice.
 ///  - product-wavelet, product-wavelet-mis: as light and mis, with M light samples drawn from the shading point's
 ///           wavelet product of lighting and BSDF x cos (Clarberg et al. 2005; product_wavelet.h), built once when
 ///           the integrator starts for the scene's materials. The whole map, no sun split (S is not used); the
@@ -66,7 +76,7 @@
 
 namespace envkit::render {
 
-enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis, ProductWavelet, ProductWaveletMis };
+enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis, ProductWavelet, ProductWaveletMis, Auto };
 enum class Heuristic { Balance, Power };
 
 const char* strategy_name(Strategy s);
@@ -74,8 +84,8 @@ Strategy parse_strategy(const std::string& name);  ///< throws Error listing the
 Heuristic parse_heuristic(const std::string& name);
 
 struct IntegratorOptions {
-  /// Why this default: BENCHMARKS.md, "Product tables".
-  Strategy strategy = Strategy::ProductMis;
+  /// Why this default: BENCHMARKS.md, "The default: a pilot per material".
+  Strategy strategy = Strategy::Auto;
   SamplingMethod light_method = SamplingMethod::Hierarchical;
   Heuristic heuristic = Heuristic::Power;
   /// BSDF (N) and light (M) samples per shading point, for every material; unset: by the material's lobe
@@ -149,11 +159,20 @@ SampleCounts sample_counts(const IntegratorOptions& options, const Material& mat
 /// "The sun apart for lobes from GGX alpha 0.1".
 bool takes_sun_samples(const Material& material);
 
+/// How a material's shading points draw light: from the product table of their lobe or the plain table, and the
+/// sun apart from the rest of the map (when it has one) or not.
+struct LightChoice {
+  bool product = false;
+  bool sun_apart = false;
+  bool operator==(const LightChoice&) const = default;
+};
+
 class Integrator {
  public:
   /// Validates the options (validate(): IntegratorOptionsError) and them against the light (e.g. a missing
-  /// compensated table: Error).
-  Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options);
+  /// compensated table: Error). `camera`: where strategy auto's pilot looks from (only read while constructing).
+  Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options,
+             const Camera* camera = nullptr);
   ~Integrator();
 
   /// Radiance along a camera ray.
@@ -174,6 +193,8 @@ class Integrator {
   int product_lobe_count() const;
   std::size_t product_table_bytes() const;
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
+  /// The light technique of the scene's material `material` (index): the strategy's, or for auto the pilot's.
+  LightChoice light_choice(int material) const { return choices_.at(std::size_t(material)); }
   /// The product-wavelet strategies' sampler, or nullptr for other strategies.
   const ProductWavelet* product_wavelet() const { return wavelet_.get(); }
 
@@ -229,14 +250,21 @@ class Integrator {
   /// With product tables, the first part is the table of the material's lobe at this point's axis, or for two lobes
   /// (a plastic) the mixture of their tables in the proportion in which the BSDF samples them. The first part is
   /// drawn `light_samples` times (the material's count, sample_counts()).
-  LightTechniques techniques(const ShadingPoint& x, int light_samples) const;
+  LightTechniques techniques(const ShadingPoint& x, int light_samples, LightChoice choice) const;
+  /// The choice of the scene's material at `material`'s address; a material outside the scene gets its strategy's
+  /// rule (product tables when built, the sun apart by takes_sun_samples()).
+  LightChoice choice_for(const Material& material) const;
+  /// Strategy auto: each material's LightChoice from a pilot seen from `camera` (light_pilot.cpp).
+  void choose_by_pilot(const Camera& camera);
   /// The lobes the product tables use for a material: [0] its widest (the clamped cosine for materials with a
   /// Lambertian part, the GGX reflection lobe of the material's alpha for rough conductors), [1] its narrowest where
   /// that is another (a plastic's coat); none for pure delta materials.
   static std::array<std::optional<Lobe>, 2> product_lobes(const Material& material);
   /// A lobe's axis at a shading point, world frame: the normal for the cosine, the mirror direction for GGX.
   static Vec3 lobe_axis(const Lobe& lobe, const ShadingPoint& x);
-  void build_product_tables();
+  /// Tables for the lobes of the materials whose choice needs them; `every_lobe`: both sets for every lobe (the
+  /// pilot tries every choice).
+  void build_product_tables(bool every_lobe);
   /// Validates the product-wavelet options and builds the sampler.
   void build_product_wavelet();
   /// Density of the sun technique at a world direction (0 without a split).
@@ -249,7 +277,8 @@ class Integrator {
   // One estimator of D per strategy (see the file comment), chosen once by the constructor.
   Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_light(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;  ///< mis and mis-compensated
+  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;  ///< mis, mis-compensated, product-mis, auto
+  Vec3 direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice) const;
   Vec3 direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const;
   /// The shading point's wavelet product (product_wavelet.h), and one light sample drawn from it (as light_term()).
@@ -260,8 +289,9 @@ class Integrator {
   const EnvironmentLight& light_;
   IntegratorOptions options_;
   DirectFn direct_ = nullptr;
-  LightTechniques whole_;  ///< the strategy's table of the whole map
-  LightTechniques split_;  ///< the rest of the map and the sun, when it has one
+  std::vector<LightChoice> choices_;  ///< per scene material
+  LightTechniques whole_;             ///< the strategy's table of the whole map
+  LightTechniques split_;             ///< the rest of the map and the sun, when it has one
   std::shared_ptr<const SunSplit> sun_;
   Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
   /// Product strategies: tables of the scene's lobes over the whole map and over the rest of the map beside the sun
