@@ -281,8 +281,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--regularize", a.regularize,
                  "BIASED noise reduction for --max-depth > 1 (Cycles' Filter Glossy rule): after a diffuse or rough "
-                 "bounce, glossy and mirror lobes are widened to GGX alpha up to 0.5 (more for larger values), so "
-                 "the image converges to a slightly blurred one; 0 = unbiased")
+                 "bounce, glossy and mirror lobes are widened, up to GGX alpha 0.5 and the more the larger the "
+                 "value, so the image converges to a slightly blurred one (Cycles' default is 1); 0 = unbiased")
       ->check(tools::number_in(0.0, 1e6))
       ->capture_default_str();
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");

@@ -21,7 +21,7 @@ Tables: efficiency ratios (envrender unbiased vs Cycles Filter Glossy 0; each en
 and bias against noise for each regularization value.
 
   scripts/bench/bench_indirect.sh --quick     reduced run: sunrise, depth 3 only, 64x36, 16/64 spp, references
-                                              512 spp, regularize 0,0.5,1,2 (for a loaded machine)
+                                              1024 spp, regularize 0,0.5,1,2 (for a loaded machine)
   scripts/bench/bench_indirect.sh             full run: sunrise, forest, interior; depths 2, 3, 5; 16/64/256 spp;
                                               160x90; references 4096 spp
 """
@@ -223,15 +223,14 @@ def main():
     ap.add_argument("--filter-glossy", default="0,1", help="Cycles Filter Glossy values")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--quick", action="store_true",
-                    help="reduced run: sunrise, depth 3, 64x36, 16/64 spp, references 512 spp, regularize 0,0.5,1,2")
+                    help="reduced run: sunrise, depth 3, 64x36, 16/64 spp, references 1024 spp, regularize 0,0.5,1,2")
     ap.add_argument("--out", default="out/bench_indirect")
     ap.add_argument("--build", default="build")
     ap.add_argument("--blender", default="blender")
     ap.add_argument("--reuse", action="store_true", help="keep the EXRs already in --out (re-analyse)")
+    if ap.parse_known_args()[0].quick:  # the reduced run's values, unless given
+        ap.set_defaults(hdris="sunrise", depths="3", spp="16,64", size="64x36", ref_spp=1024, regularize="0,0.5,1,2")
     args = ap.parse_args()
-    if args.quick:
-        args.hdris, args.depths, args.spp, args.size, args.ref_spp = "sunrise", "3", "16,64", "64x36", 512
-        args.regularize = "0,0.5,1,2"
     args.bias_spp = args.bias_spp or max(args.ref_spp // 4, 1)
     args.envrender = os.path.join(args.build, "bin", "envrender")
     for tool in (args.envrender, shutil.which(args.blender) or "", shutil.which("oiiotool") or ""):

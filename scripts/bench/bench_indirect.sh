@@ -3,7 +3,7 @@
 # region, against each renderer's unbiased reference, and bias against noise per --regularize value.
 # Needs build/bin/envrender, blender + blender-data, oiiotool, numpy, matplotlib. Driver: bench_indirect.py.
 #
-#   scripts/bench/bench_indirect.sh --quick     reduced run (sunrise, depth 3, 64x36, references 512 spp)
+#   scripts/bench/bench_indirect.sh --quick     reduced run (sunrise, depth 3, 64x36, references 1024 spp)
 #   scripts/bench/bench_indirect.sh             full run (sunrise, forest, interior; depths 2, 3, 5; 160x90; 4096 spp)
 #
 # Output (default out/bench_indirect/): every EXR, results.json, results.md (tables), bias_noise.png.

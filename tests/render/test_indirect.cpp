@@ -26,8 +26,8 @@ Vec3 mul(const Vec3& a, const Vec3& b) { return Vec3(a.x * b.x, a.y * b.y, a.z *
 
 /// The integrator's path loop without Russian roulette and without regularization, written with its public parts
 /// (direct(), the scene and the materials), drawing the sampler's numbers in the same order.
-Vec3 radiance_without_roulette(const Integrator& integrator, const Scene& scene, const Ray& primary,
-                               Sampler& sampler, const Vec3& background) {
+Vec3 radiance_without_roulette(const Integrator& integrator, const Scene& scene, const Ray& primary, Sampler& sampler,
+                               const Vec3& background) {
   Vec3 result(0, 0, 0), throughput(1, 1, 1);
   Hit hit;
   if (!scene.intersect(primary, hit)) return background;
@@ -231,9 +231,9 @@ TEST(Indirect, RegularizationZeroWithoutRouletteIsBitIdenticalToThePlainLoop) {
         const Vec2 ja = a.next_2d(), jb = b.next_2d();
         const Ray ray = scene.camera.generate(px + ja.x, py + ja.y);
         const Vec3 got = integrator.radiance(ray, a);
-        const Vec3 want = radiance_without_roulette(
-            integrator, *scene.scene, scene.camera.generate(px + jb.x, py + jb.y), b,
-            scene.light->radiance(ray.direction));
+        const Vec3 want =
+            radiance_without_roulette(integrator, *scene.scene, scene.camera.generate(px + jb.x, py + jb.y), b,
+                                      scene.light->radiance(ray.direction));
         ASSERT_EQ(got, want) << px << "," << py << " sample " << i;
         ++compared;
       }
