@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 
 namespace envkit::render {
 
@@ -79,6 +80,8 @@ const char* integrator_field_name(IntegratorField field) {
       return "sun_samples";
     case IntegratorField::MaxDepth:
       return "max_depth";
+    case IntegratorField::Regularization:
+      return "regularization";
   }
   return "?";
 }
@@ -118,6 +121,9 @@ void validate(const IntegratorOptions& o) {
              " >= 1 (BSDF sampling covers what the compensated table leaves out)";
     });
   if (o.sun_samples < 0) refuse(F::SunSamples, [](const Speller& n) { return n(F::SunSamples) + " must be >= 0"; });
+  if (!(std::isfinite(o.regularization) && o.regularization >= 0.0))
+    refuse(F::Regularization,
+           [](const Speller& n) { return n(F::Regularization) + " must be a finite number >= 0 (0 = unbiased)"; });
   const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
   const bool wavelet = s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis;
   if (s == Strategy::ProductWavelet && m_min < 1)
@@ -170,6 +176,7 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
             : s == Strategy::ProductWavelet                  ? &Integrator::direct_product_wavelet
             : s == Strategy::ProductWaveletMis               ? &Integrator::direct_product_wavelet_mis
                                                              : &Integrator::direct_mis;
+  build_regularized_materials();
   const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
   for (int m = 0; m < scene_.material_count(); ++m)
     choices_.push_back({product, sun_ && takes_sun_samples(scene_.material(m))});
@@ -179,10 +186,8 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
 }
 
 void Integrator::build_product_wavelet() {
-  std::vector<const Material*> materials;
-  for (int m = 0; m < scene_.material_count(); ++m) materials.push_back(&scene_.material(m));
-  wavelet_ = std::make_unique<ProductWavelet>(light_.distribution(SamplingMethod::Hierarchical, false), materials,
-                                              options_.wavelet);
+  wavelet_ = std::make_unique<ProductWavelet>(light_.distribution(SamplingMethod::Hierarchical, false),
+                                              shaded_materials(), options_.wavelet);
 }
 
 std::array<std::optional<Lobe>, 2> Integrator::product_lobes(const Material& material) {
@@ -209,16 +214,49 @@ void Integrator::build_product_tables(bool every_lobe) {
     for (const std::optional<Lobe>& lobe : product_lobes(material))
       if (lobe && std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
   };
-  for (int m = 0; m < scene_.material_count(); ++m) {
-    const Material& material = scene_.material(m);
-    if (every_lobe || !choices_[std::size_t(m)].sun_apart) add(whole, material);
-    if (sun_ && (every_lobe || choices_[std::size_t(m)].sun_apart)) add(split, material);
+  for (const Material* shaded : shaded_materials()) {
+    const LightChoice choice = choice_for(*shaded);
+    if (every_lobe || !choice.sun_apart) add(whole, *shaded);
+    if (sun_ && (every_lobe || choice.sun_apart)) add(split, *shaded);
   }
   if (!whole.empty()) product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].table.first, whole);
   if (!split.empty()) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].table.first, split);
 }
 
 Integrator::~Integrator() = default;
+
+double regularization_floor(double regularization, double min_pdf) {
+  if (!(regularization > 0.0) || !(min_pdf < regularization)) return 0.0;
+  const double blur = 0.5 * std::sqrt(1.0 - std::max(min_pdf, 0.0) / regularization);
+  return std::min(std::floor(blur / kRegularizationStep) * kRegularizationStep, kRegularizationMaxFloor);
+}
+
+void Integrator::build_regularized_materials() {
+  // No vertex but the camera hit (never widened) without a continuation: nothing to build.
+  if (!(options_.regularization > 0.0) || options_.max_depth < 2) return;
+  const int levels = int(std::lround(kRegularizationMaxFloor / kRegularizationStep));
+  regularized_.resize(std::size_t(scene_.material_count()));
+  for (int m = 0; m < scene_.material_count(); ++m)
+    for (int k = 0; k < levels; ++k)
+      regularized_[std::size_t(m)].push_back(scene_.material(m).with_roughness_floor((k + 1) * kRegularizationStep));
+}
+
+const Material& Integrator::regularized(int index, double floor) const {
+  const int k = int(std::lround(floor / kRegularizationStep)) - 1;
+  if (k < 0 || std::size_t(index) >= regularized_.size()) return scene_.material(index);
+  const std::vector<std::unique_ptr<Material>>& copies = regularized_[std::size_t(index)];
+  const Material* widened = std::size_t(k) < copies.size() ? copies[std::size_t(k)].get() : nullptr;
+  return widened ? *widened : scene_.material(index);
+}
+
+std::vector<const Material*> Integrator::shaded_materials() const {
+  std::vector<const Material*> materials;
+  for (int m = 0; m < scene_.material_count(); ++m) materials.push_back(&scene_.material(m));
+  for (const std::vector<std::unique_ptr<Material>>& copies : regularized_)
+    for (const std::unique_ptr<Material>& widened : copies)
+      if (widened) materials.push_back(widened.get());
+  return materials;
+}
 
 int Integrator::product_lobe_count() const {
   return (product_whole_ ? int(product_whole_->lobes().size()) : 0) +
@@ -440,6 +478,8 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
     result = light_.radiance(primary.direction);
   } else {
     Ray ray = primary;
+    // The smallest pdf of the path's non-delta continuations (regularization: the file comment).
+    double min_pdf = std::numeric_limits<double>::infinity();
     for (int depth = 0; depth < options_.max_depth; ++depth) {
       const Vec3 wo_world = -ray.direction;
       Vec3 ng = hit.geometric_normal, ns = hit.shading_normal;
@@ -450,7 +490,7 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
       const Frame frame = Frame::from_normal(ns);
       const Vec3 wo = frame.to_local(wo_world);
       if (!(wo.z > 0.0)) break;
-      const Material& material = scene_.material(hit.material);
+      const Material& material = regularized(hit.material, regularization_floor(options_.regularization, min_pdf));
       result += mul(throughput, direct(hit.position, frame, ng, wo, material, sampler));
       if (depth + 1 >= options_.max_depth) break;
       // Continuation (indirect light): counts only when it hits a surface.
@@ -458,11 +498,18 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
       if (!material.sample(wo, sampler.next_2d(), sampler.next_1d(), bs) || !(bs.pdf > 0.0)) break;
       const Vec3 wi_world = frame.to_world(bs.wi);
       if ((wi_world ^ ng) <= 0.0) break;
+      throughput = mul(throughput, bs.f_cos / bs.pdf);
+      if (is_black(throughput) || !finite(throughput)) break;
+      if (!bs.is_delta) min_pdf = std::min(min_pdf, bs.pdf);
+      if (depth >= kRouletteStartVertex) {
+        const double survival =
+            std::clamp(std::max({throughput.x, throughput.y, throughput.z}), kRouletteMinSurvival, 1.0);
+        if (sampler.next_1d() >= survival) break;
+        throughput = throughput / survival;
+      }
       ray = Ray{Scene::offset_origin(hit.position, ng), wi_world};
       Hit next;
       if (!scene_.intersect(ray, next)) break;
-      throughput = mul(throughput, bs.f_cos / bs.pdf);
-      if (is_black(throughput) || !finite(throughput)) break;
       hit = next;
     }
   }

@@ -10,6 +10,28 @@
 /// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
 /// --max-depth 1 (the default) is direct illumination only.
 ///
+/// Russian roulette. The continuation ray leaving vertex d (d = 0: the camera ray's hit) is traced for certain when
+/// d < kRouletteStartVertex; from there on it survives with probability q = clamp(max RGB component of the path's
+/// throughput including this bounce's f cos / pdf, kRouletteMinSurvival, 1) and its throughput is divided by q
+/// (unbiased: E[1{u < q} / q] = 1). Its random number is the next 1D dimension of the pixel's sampler, drawn
+/// whenever the rule applies (d >= kRouletteStartVertex), so pixels stay independent of tiles, threads and crop.
+/// max_depth 2 never plays it.
+///
+/// Regularization (options.regularization = v, 0 = off and unbiased): Cycles' Filter Glossy rule. The path keeps
+/// min_pdf, the smallest solid-angle pdf of its non-delta continuation samples so far (infinite at the camera hit).
+/// At a later vertex whose min_pdf < v, every lobe narrower than GGX alpha
+///   floor = 0.5 sqrt(1 - min_pdf / v)   (Cycles' blur roughness, in alpha; <= 0.5),
+/// rounded DOWN to a multiple of kRegularizationStep (regularization_floor()), is widened to the floor, a delta
+/// lobe becomes a GGX lobe of the floor (Material::with_roughness_floor()): after a diffuse or rough bounce
+/// (small pdf) a near-specular surface is shaded as a rough one, for its direct light and its continuation alike.
+/// This is BIASED (the image converges to that of the widened materials: caustics seen through a diffuse bounce
+/// are blurred) and trades that bias for much less noise. The camera hit is never widened (min_pdf is infinite
+/// there), so directly seen surfaces keep their reflections; neither are measured BRDFs (no roughness to raise).
+/// The widened materials are built once when the integrator starts (one per material and floor), and the product
+/// tables hold their lobes, so that at a widened vertex every strategy draws exactly as it would for a material of
+/// that alpha and weighs by the densities of what it draws: each vertex's estimator is unbiased for the widened
+/// material.
+///
 /// Strategies for D (N BSDF, M light and S sun samples per shading point; N and M by the material's lobe unless the
 /// options set them: sample_counts()):
 ///  - bsdf:  (1/N) sum f cos L / p_bsdf over N BSDF samples.
@@ -99,10 +121,13 @@ struct IntegratorOptions {
   int sun_samples = 1;
   /// The product-wavelet strategies' resolution, bins and compression (product_wavelet.h).
   WaveletOptions wavelet;
+  /// Path regularization (the file comment): Cycles' Filter Glossy value, finite and >= 0; 0 = unbiased (off).
+  /// Biased when > 0.
+  double regularization = 0.0;
 };
 
 /// The IntegratorOptions field a refusal concerns.
-enum class IntegratorField { Strategy, LightMethod, BsdfSamples, LightSamples, SunSamples, MaxDepth };
+enum class IntegratorField { Strategy, LightMethod, BsdfSamples, LightSamples, SunSamples, MaxDepth, Regularization };
 
 /// The field's name in IntegratorOptions ("max_depth"): how the library's messages name options.
 const char* integrator_field_name(IntegratorField field);
@@ -123,8 +148,8 @@ class IntegratorOptionsError : public Error {
 };
 
 /// Throws IntegratorOptionsError unless the options go together: counts that are given are >= 0 and at least what
-/// the strategy draws from, max_depth >= 1, sun_samples >= 0, and the hierarchical table for the product
-/// strategies. The Integrator runs it first.
+/// the strategy draws from, max_depth >= 1, sun_samples >= 0, regularization finite and >= 0, and the hierarchical
+/// table for the product strategies. The Integrator runs it first.
 void validate(const IntegratorOptions& options);
 
 /// A lobe is wide when it is at least this GGX alpha (Lambertian counts as 1): it sees much of the sky from a
@@ -137,6 +162,20 @@ inline constexpr int kWideLightSamples = 4;
 /// A narrow lobe's BSDF and light samples when the options leave the counts unset.
 inline constexpr int kNarrowBsdfSamples = 4;
 inline constexpr int kNarrowLightSamples = 4;
+
+/// Russian roulette (the file comment): the first vertex whose continuation may be cut, and the smallest
+/// survival probability (bounds the weight 1 / q of a surviving path).
+inline constexpr int kRouletteStartVertex = 1;
+inline constexpr double kRouletteMinSurvival = 0.05;
+/// Regularization floors are multiples of this GGX alpha (at most kRegularizationMaxFloor, Cycles' largest blur
+/// roughness): a few widened materials and product tables instead of one per path.
+inline constexpr double kRegularizationStep = 0.125;
+inline constexpr double kRegularizationMaxFloor = 0.5;
+
+/// The roughness floor (GGX alpha) at a vertex whose path has min_pdf (the smallest pdf of its non-delta
+/// continuation samples, per steradian; infinite at the camera hit) under regularization v: 0.5 sqrt(1 - min_pdf / v)
+/// rounded down to a multiple of kRegularizationStep when min_pdf < v, else 0 (no floor). 0 for v = 0.
+double regularization_floor(double regularization, double min_pdf);
 
 /// BSDF (N) and light (M) samples per shading point.
 struct SampleCounts {
@@ -195,6 +234,9 @@ class Integrator {
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
   /// The light technique of the scene's material `material` (index): the strategy's, or for auto the pilot's.
   LightChoice light_choice(int material) const { return choices_.at(std::size_t(material)); }
+  /// The material a vertex shades with under a roughness floor (regularization_floor()): scene material `index`
+  /// widened to `floor`, or the scene's own when the floor is 0 or widens none of its lobes.
+  const Material& regularized(int index, double floor) const;
   /// The product-wavelet strategies' sampler, or nullptr for other strategies.
   const ProductWavelet* product_wavelet() const { return wavelet_.get(); }
 
@@ -262,8 +304,11 @@ class Integrator {
   static std::array<std::optional<Lobe>, 2> product_lobes(const Material& material);
   /// A lobe's axis at a shading point, world frame: the normal for the cosine, the mirror direction for GGX.
   static Vec3 lobe_axis(const Lobe& lobe, const ShadingPoint& x);
-  /// Tables for the lobes of the materials whose choice needs them; `every_lobe`: both sets for every lobe (the
-  /// pilot tries every choice).
+  /// The scene's materials and their widened copies (regularized()): every material a vertex may shade with.
+  std::vector<const Material*> shaded_materials() const;
+  void build_regularized_materials();
+  /// Tables for the lobes of the materials whose choice needs them (widened copies: by product-mis's rule);
+  /// `every_lobe`: both sets for every scene material's lobes (the pilot tries every choice).
   void build_product_tables(bool every_lobe);
   /// Validates the product-wavelet options and builds the sampler.
   void build_product_wavelet();
@@ -298,6 +343,8 @@ class Integrator {
   /// (each for the lobes of the materials that use that table; nullptr when none does).
   std::unique_ptr<LobeProductTables> product_whole_, product_split_;
   std::unique_ptr<ProductWavelet> wavelet_;
+  /// Per scene material, its copy widened to floor (k + 1) kRegularizationStep, or nullptr (regularized()).
+  std::vector<std::vector<std::unique_ptr<Material>>> regularized_;
   mutable std::atomic<std::size_t> nonfinite_{0};
 };
 
