@@ -1,5 +1,5 @@
 #include <envkit/core/error.h>
-#include <envkit/ibl/sh.h>
+#include <envkit/core/sh_basis.h>
 #include <envkit/render/basis_hierarchy.h>
 #include <envkit/render/product_wavelet.h>
 #include <envkit/sampling/distribution_hierarchical.h>
@@ -293,17 +293,17 @@ void BsdfLobeFit::coefficients(const Material& material, const Vec3& normal, con
     out[0] = std::sqrt(kFourPi);  // the constant 1 = sqrt(4 pi) Y_00
     return;
   }
-  const Vec3 r = normal * (2.0 * cos_o) - wo;
-  std::vector<double> yn(static_cast<std::size_t>(K)), yr(static_cast<std::size_t>(K));
-  sh_basis(order_, normal, yn.data());
-  sh_basis(order_, r / r.length(), yr.data());
+  // a_l P_l(a . w) is the zonal function of band coefficient z_l = sqrt(4 pi / (2l + 1)) a_l around a.
   for (int l = 0; l <= order_; ++l) {
-    const double scale = kFourPi / (2.0 * l + 1.0);
-    for (int m = -l; m <= l; ++m) {
-      const std::size_t i = std::size_t(l * (l + 1) + m);
-      out[i] = scale * (a[std::size_t(l)] * yn[i] + b[std::size_t(l)] * yr[i]);
-    }
+    const double z = std::sqrt(kFourPi / (2.0 * l + 1.0));
+    a[std::size_t(l)] *= z;
+    b[std::size_t(l)] *= z;
   }
+  const Vec3 r = normal * (2.0 * cos_o) - wo;
+  std::vector<double> turned(static_cast<std::size_t>(K));
+  sh_rotate_zonal(order_, a.data(), normal, out);
+  sh_rotate_zonal(order_, b.data(), r / r.length(), turned.data());
+  for (int i = 0; i < K; ++i) out[i] += turned[std::size_t(i)];
 }
 
 std::size_t BsdfLobeFit::bytes() const {

@@ -1,5 +1,5 @@
 #include <envkit/core/gauss_legendre.h>
-#include <envkit/ibl/sh.h>
+#include <envkit/core/sh_basis.h>
 #include <envkit/render/product_sh.h>
 #include <envkit/render/product_wavelet.h>
 #include <tbb/parallel_for.h>

@@ -1,4 +1,4 @@
-#include <envkit/ibl/sh.h>
+#include <envkit/core/sh_basis.h>
 #include <envkit/render/product_steerable.h>
 #include <envkit/render/product_wavelet.h>
 

@@ -3,7 +3,7 @@
 // every kind of material (measured included), the pdf's support and integral, renders that agree with product-mis,
 // the furnace, a 1e6 sun, and pixels independent of crop, tiles and threads.
 #include <envkit/envmap/envmap.h>
-#include <envkit/ibl/sh.h>
+#include <envkit/core/sh_basis.h>
 #include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
 #include <envkit/render/basis_hierarchy.h>
@@ -39,7 +39,7 @@ namespace {
 namespace fs = std::filesystem;
 
 /// The SH order the tests use (the samplers' default is larger; the tests' cost grows with K^2).
-constexpr int kTestOrder = 3;
+constexpr int kTestOrder = 6;
 
 BasisProductOptions test_options() {
   BasisProductOptions o;
@@ -221,7 +221,7 @@ TEST(BsdfLobeFit, LobesPointWhereTheBsdfReflects) {
   EXPECT_LT(std::abs(value(-n)), 0.1 * value(n));
   fit.coefficients(*glossy, n, wo, c.data());
   EXPECT_GT(value(r), 5.0 * value(n));
-  EXPECT_GT(value(r), 3.0 * std::abs(value(-r)));
+  EXPECT_GT(value(r), 5.0 * std::abs(value(-r)));
 }
 
 TEST(ProductSeed, SamplesFollowThePdfForEveryMaterial) {
