@@ -323,13 +323,16 @@ BasisProductPoint::BasisProductPoint(const BasisHierarchy& hierarchy, std::vecto
 
 DirectionSample BasisProductPoint::sample(Vec2 u) const {
   const double d = defensive_;
-  DirectionSample s;
   if (u.x < d) {
-    s = env_->sample(Vec2(std::min(u.x / d, std::nextafter(1.0, 0.0)), u.y));
-  } else {
-    s = hierarchy_->sample(coefficients_.data(), Vec2(std::min((u.x - d) / (1.0 - d), std::nextafter(1.0, 0.0)), u.y));
+    DirectionSample s = env_->sample(Vec2(std::min(u.x / d, std::nextafter(1.0, 0.0)), u.y));
+    s.pdf = pdf(s.direction);
+    return s;
   }
-  s.pdf = pdf(s.direction);
+  // The warping's own density is the one its descent multiplied: only the table's is looked up.
+  DirectionSample s =
+      hierarchy_->sample(coefficients_.data(), Vec2(std::min((u.x - d) / (1.0 - d), std::nextafter(1.0, 0.0)), u.y));
+  const double p = d * env_->pdf(s.direction) + (1.0 - d) * s.pdf;
+  s.pdf = std::isfinite(p) ? p : 0.0;
   return s;
 }
 
