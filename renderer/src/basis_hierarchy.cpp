@@ -101,10 +101,18 @@ const float* BasisHierarchy::node(int level, int x, int y) const {
 
 namespace {
 
+/// Four partial sums: the additions of one sum would wait on each other.
 double dot(const double* c, const float* v, int K) {
-  double s = 0.0;
-  for (int i = 0; i < K; ++i) s += c[i] * double(v[i]);
-  return s;
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+  int i = 0;
+  for (; i + 4 <= K; i += 4) {
+    s0 += c[i] * double(v[i]);
+    s1 += c[i + 1] * double(v[i + 1]);
+    s2 += c[i + 2] * double(v[i + 2]);
+    s3 += c[i + 3] * double(v[i + 3]);
+  }
+  for (; i < K; ++i) s0 += c[i] * double(v[i]);
+  return (s0 + s1) + (s2 + s3);
 }
 
 }  // namespace
