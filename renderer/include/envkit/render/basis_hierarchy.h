@@ -12,8 +12,8 @@
 /// every cell of an R x R grid covers 4 pi / R^2 steradians. The quadtree's level k (0..log2 R) has 2^k x 2^k
 /// nodes; a node's integrals are the sums of its four children's, the finest level's are given.
 ///
-/// Sampling a point's coefficients c (Jarosz, Carr and Jensen 2009, section 4: hierarchical sample warping over a
-/// spherical mip-map of the SH function's integrals). Below a node, each child's mass is max(c . integrals, 0): an
+/// Sampling a point's coefficients c (Jarosz, Carr and Jensen 2009: hierarchical sample warping over a spherical
+/// mip-map of the SH function's integrals). Below a node, each child's mass is max(c . integrals, 0): an
 /// approximation can be negative (ringing), and the clamp keeps a density. The first coordinate of u picks the
 /// left or right column of children in proportion to their masses and is rescaled, the second picks the child in
 /// that column; at the finest level the direction is uniform in the cell. The pdf of a direction is the product of

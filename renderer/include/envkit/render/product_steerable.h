@@ -20,6 +20,9 @@
 /// formula), a cell's mass c . T(cell) ~ the integral of BSDF x cos x L over the cell, clamped at 0 and sampled by
 /// hierarchical warping (uniform inside a finest cell), mixed with a defensive share of the plain table
 /// (BasisProductPoint): the returned pdf is that mixture's, exact.
+/// The resolution limit: inside a finest cell (4 pi / R^2 sr, 3.2 degrees across at R = 64) directions are uniform, so
+/// a light much smaller than a cell (a sun) is drawn with its cell's probability spread over the cell, and is found
+/// exactly only by the defensive share. A larger R narrows the cells (two more levels per factor of 4 in memory).
 ///
 /// Cost, defaults (order 8: K 81, R 64, 32 wo bins): memory K x (4 R^2 - 1) / 3 floats = 1.7 MiB per map and
 /// 2 (order + 1) x wo_bins doubles per material (4.6 KiB); precomputation K per pyramid node (0.13 M nodes at
