@@ -224,6 +224,25 @@ TEST(BsdfLobeFit, LobesPointWhereTheBsdfReflects) {
   EXPECT_GT(value(r), 5.0 * std::abs(value(-r)));
 }
 
+TEST(BsdfLobeFit, AMeasuredBsdfFitsAsItsAnalyticTwin) {
+  // The MERL file holds a white GGX conductor of alpha 0.3 (F = 1): through eval(), pdf() and sample() alone its
+  // fit is the analytic material's, up to the table's resolution and the fit's sampling.
+  const auto measured = measured_ggx();
+  const auto analytic = make_conductor(Vec3(0.0), Vec3(1.0), 0.3);
+  const BsdfLobeFit fit({measured.get(), analytic.get()}, kTestOrder, 8);
+  for (double cos_o : {0.95, 0.6, 0.3}) {
+    std::vector<double> am, bm, aa, ba;
+    ASSERT_TRUE(fit.lobes(*measured, cos_o, am, bm));
+    ASSERT_TRUE(fit.lobes(*analytic, cos_o, aa, ba));
+    double diff = 0.0, norm = 0.0;
+    for (std::size_t l = 0; l < am.size(); ++l) {
+      diff += (am[l] - aa[l]) * (am[l] - aa[l]) + (bm[l] - ba[l]) * (bm[l] - ba[l]);
+      norm += aa[l] * aa[l] + ba[l] * ba[l];
+    }
+    EXPECT_LT(std::sqrt(diff / norm), 0.1) << "cos theta_o " << cos_o;
+  }
+}
+
 TEST(ProductSeed, SamplesFollowThePdfForEveryMaterial) {
   const SphericalDistribution env = test_environment();
   const std::vector<NamedMaterial> materials = every_kind();
