@@ -180,6 +180,14 @@ int run(const Args& a) {
   if (const envkit::render::ProductWavelet* w = integrator.product_wavelet())
     setup_notes.push_back("wavelet product tables, " + std::to_string(w->options().resolution) + "^2 cells (" +
                           tools::fmt(double(w->bytes()) / (1 << 20), 3) + " MiB)");
+  if (const envkit::render::ProductSteerable* p = integrator.product_steerable())
+    setup_notes.push_back("steerable product tables, SH order " + std::to_string(p->options().order) + ", " +
+                          std::to_string(p->options().resolution) + "^2 cells (" +
+                          tools::fmt(double(p->bytes()) / (1 << 20), 3) + " MiB)");
+  if (const envkit::render::ProductSh* p = integrator.product_sh())
+    setup_notes.push_back("SH product tables, order " + std::to_string(p->options().order) + ", " +
+                          std::to_string(p->options().resolution) + "^2 cells (" +
+                          tools::fmt(double(p->bytes()) / (1 << 20), 3) + " MiB)");
   if (!setup_notes.empty() && !a.quiet) {
     setup_notes.back() += " (built in " + tools::fmt(setup_ms, 3) + " ms)";
     for (const std::string& note : setup_notes) tools::info(note);
@@ -250,12 +258,15 @@ int main(int argc, char** argv) {
   app.add_option("--time", a.time, "render for this many seconds instead of --spp (passes of 1 spp)")
       ->check(tools::number_in(0.0, 1e6, true));
   app.add_option("--strategy", a.strategy,
-                 "auto|bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis "
+                 "auto|bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis|"
+                 "product-steerable|product-steerable-mis|product-sh|product-sh-mis "
                  "(auto: as product-mis, with each material's table, product or plain, and the sun apart or not "
                  "chosen by a short pilot; product-wavelet: Clarberg et al. 2005's wavelet product of lighting and "
-                 "BSDF, the whole map)")
+                 "BSDF; product-steerable: Subr and Arvo 2007's per-basis lighting tables; product-sh: Jarosz et al. "
+                 "2009's SH product; each the whole map)")
       ->check(CLI::IsMember({"auto", "bsdf", "light", "mis", "mis-compensated", "product", "product-mis",
-                             "product-wavelet", "product-wavelet-mis"}))
+                             "product-wavelet", "product-wavelet-mis", "product-steerable", "product-steerable-mis",
+                             "product-sh", "product-sh-mis"}))
       ->capture_default_str();
   app.add_option("--light-method", a.light_method,
                  "environment sampling table of light, mis and mis-compensated: cdf|alias|hierarchical (the product "

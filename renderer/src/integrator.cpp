@@ -47,17 +47,27 @@ const char* strategy_name(Strategy s) {
       return "product-wavelet-mis";
     case Strategy::Auto:
       return "auto";
+    case Strategy::ProductSteerable:
+      return "product-steerable";
+    case Strategy::ProductSteerableMis:
+      return "product-steerable-mis";
+    case Strategy::ProductSh:
+      return "product-sh";
+    case Strategy::ProductShMis:
+      return "product-sh-mis";
   }
   return "?";
 }
 
 Strategy parse_strategy(const std::string& name) {
-  for (Strategy s : {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
-                     Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis, Strategy::Auto})
+  for (Strategy s :
+       {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
+        Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis, Strategy::ProductSteerable,
+        Strategy::ProductSteerableMis, Strategy::ProductSh, Strategy::ProductShMis, Strategy::Auto})
     if (name == strategy_name(s)) return s;
   throw Error("unknown strategy '" + name +
-              "' (valid: bsdf, light, mis, mis-compensated, product, product-mis, product-wavelet, "
-              "product-wavelet-mis, auto)");
+              "' (valid: auto, bsdf, light, mis, mis-compensated, product, product-mis, product-wavelet, "
+              "product-wavelet-mis, product-steerable, product-steerable-mis, product-sh, product-sh-mis)");
 }
 
 Heuristic parse_heuristic(const std::string& name) {
@@ -136,6 +146,21 @@ void validate(const IntegratorOptions& o) {
       return n(F::LightMethod) + " " + method_name(method) +
              ": the product-wavelet strategies read the hierarchical table";
     });
+  const bool basis = s == Strategy::ProductSteerable || s == Strategy::ProductSteerableMis ||
+                     s == Strategy::ProductSh || s == Strategy::ProductShMis;
+  const bool basis_mis = s == Strategy::ProductSteerableMis || s == Strategy::ProductShMis;
+  if (basis && !basis_mis && m_min < 1)
+    refuse(F::LightSamples, [s](const Speller& n) {
+      return std::string("strategy ") + strategy_name(s) + " needs " + n(F::LightSamples) + " >= 1";
+    });
+  if (basis_mis && n_min + m_min < 1)
+    refuse(F::Strategy,
+           [s](const Speller&) { return std::string("strategy ") + strategy_name(s) + " needs at least one sample"; });
+  if (basis && o.light_method != SamplingMethod::Hierarchical)
+    refuse(F::LightMethod, [s, method = o.light_method](const Speller& n) {
+      return n(F::LightMethod) + " " + method_name(method) + ": the " + strategy_name(s) +
+             " strategy reads the hierarchical table";
+    });
   if (s == Strategy::Product && m_min < 1)
     refuse(F::LightSamples, [](const Speller& n) { return "strategy product needs " + n(F::LightSamples) + " >= 1"; });
   if ((s == Strategy::ProductMis || s == Strategy::Auto) && n_min + m_min < 1)
@@ -158,7 +183,10 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
     const bool compensated = s == Strategy::MisCompensated;
     // The light counts are the shading point's (techniques()).
     whole_ = {{LightTechnique{light_.distribution(options_.light_method, compensated), 0}}, 1};
-    if (options_.sun_samples > 0 && s != Strategy::ProductWavelet && s != Strategy::ProductWaveletMis) {
+    const bool whole_map = s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis ||
+                           s == Strategy::ProductSteerable || s == Strategy::ProductSteerableMis ||
+                           s == Strategy::ProductSh || s == Strategy::ProductShMis;
+    if (options_.sun_samples > 0 && !whole_map) {
       // A table file may hold the split (envbake --tables ...,sun); else it is built here.
       if (auto stored = light_.tables().stored_sun_split(options_.light_method, compensated))
         sun_ = std::move(*stored);
@@ -175,6 +203,10 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
             : s == Strategy::Light || s == Strategy::Product ? &Integrator::direct_light
             : s == Strategy::ProductWavelet                  ? &Integrator::direct_product_wavelet
             : s == Strategy::ProductWaveletMis               ? &Integrator::direct_product_wavelet_mis
+            : s == Strategy::ProductSteerable                ? &Integrator::direct_product_steerable
+            : s == Strategy::ProductSteerableMis             ? &Integrator::direct_product_steerable_mis
+            : s == Strategy::ProductSh                       ? &Integrator::direct_product_sh
+            : s == Strategy::ProductShMis                    ? &Integrator::direct_product_sh_mis
                                                              : &Integrator::direct_mis;
   build_regularized_materials();
   const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
@@ -183,6 +215,12 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
   if (product) build_product_tables(s == Strategy::Auto && camera);
   if (s == Strategy::Auto && camera) choose_by_pilot(*camera);
   if (s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis) build_product_wavelet();
+  if (s == Strategy::ProductSteerable || s == Strategy::ProductSteerableMis)
+    steerable_ = std::make_unique<ProductSteerable>(light_.distribution(SamplingMethod::Hierarchical, false),
+                                                    shaded_materials(), options_.steerable);
+  if (s == Strategy::ProductSh || s == Strategy::ProductShMis)
+    sh_ = std::make_unique<ProductSh>(light_.distribution(SamplingMethod::Hierarchical, false), shaded_materials(),
+                                      options_.sh);
 }
 
 void Integrator::build_product_wavelet() {
@@ -408,11 +446,15 @@ Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightC
   return sum;
 }
 
+Vec3 Integrator::table_normal(const ShadingPoint& x) const { return light_.to_table(x.frame.n); }
+Vec3 Integrator::table_wo(const ShadingPoint& x) const { return light_.to_table(x.frame.to_world(x.wo)); }
+
 ProductWavelet::Point Integrator::wavelet_point(const ShadingPoint& x) const {
-  return wavelet_->at(light_.to_table(x.frame.n), light_.to_table(x.frame.to_world(x.wo)), x.material);
+  return wavelet_->at(table_normal(x), table_wo(x), x.material);
 }
 
-Integrator::LightTerm Integrator::wavelet_term(const ShadingPoint& x, const ProductWavelet::Point& p, Vec2 u) const {
+template <class Point>
+Integrator::LightTerm Integrator::point_term(const ShadingPoint& x, const Point& p, Vec2 u) const {
   LightTerm t;
   const DirectionSample s = p.sample(u);
   t.pdf = s.pdf;
@@ -427,26 +469,26 @@ Integrator::LightTerm Integrator::wavelet_term(const ShadingPoint& x, const Prod
   return t;
 }
 
-Vec3 Integrator::direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const {
+template <class Point>
+Vec3 Integrator::direct_point(const ShadingPoint& x, Sampler& sampler, const Point& p) const {
   const int M = counts(x.material).light;
-  const ProductWavelet::Point p = wavelet_point(x);
   const std::uint32_t dimension = sampler.reserve(1);
   Vec3 sum(0, 0, 0);
   for (int j = 0; j < M; ++j) {
-    const LightTerm l = wavelet_term(x, p, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(M)));
+    const LightTerm l = point_term(x, p, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(M)));
     if (!is_black(l.value)) sum += l.value / (l.pdf * M);
   }
   return sum + delta_lobe_term(x, sampler);  // product samples cannot reach a delta lobe
 }
 
-Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const {
+template <class Point>
+Vec3 Integrator::direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p) const {
   const SampleCounts n = counts(x.material);
   const int N = n.bsdf, M = n.light;
-  const ProductWavelet::Point p = wavelet_point(x);
   Vec3 sum(0, 0, 0);
   const std::uint32_t light_dimension = sampler.reserve(1);
   for (int j = 0; j < M; ++j) {
-    const LightTerm l = wavelet_term(x, p, sampler.point_2d(light_dimension, std::uint32_t(j), std::uint32_t(M)));
+    const LightTerm l = point_term(x, p, sampler.point_2d(light_dimension, std::uint32_t(j), std::uint32_t(M)));
     if (is_black(l.value)) continue;
     sum += l.value * (mis_weight(M * l.pdf, N * x.material.pdf(x.wo, l.wi_local)) / (M * l.pdf));
   }
@@ -461,6 +503,30 @@ Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& samp
     sum += b.value * (mis_weight(N * b.pdf, M * p.pdf(light_.to_table(b.wi_world))) / N);
   }
   return sum;
+}
+
+Vec3 Integrator::direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point(x, sampler, wavelet_point(x));
+}
+
+Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point_mis(x, sampler, wavelet_point(x));
+}
+
+Vec3 Integrator::direct_product_steerable(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point(x, sampler, steerable_->at(table_normal(x), table_wo(x), x.material));
+}
+
+Vec3 Integrator::direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point_mis(x, sampler, steerable_->at(table_normal(x), table_wo(x), x.material));
+}
+
+Vec3 Integrator::direct_product_sh(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point(x, sampler, sh_->at(table_normal(x), table_wo(x), x.material));
+}
+
+Vec3 Integrator::direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point_mis(x, sampler, sh_->at(table_normal(x), table_wo(x), x.material));
 }
 
 Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng, const Vec3& wo,

@@ -70,6 +70,14 @@
 ///           wavelet product of lighting and BSDF x cos (Clarberg et al. 2005; product_wavelet.h), built once when
 ///           the integrator starts for the scene's materials. The whole map, no sun split (S is not used); the
 ///           weights are product-mis's. Uses the hierarchical table.
+///  - product-steerable, product-steerable-mis: the same with M light samples drawn from the steerable product
+///           (Subr and Arvo 2007; product_steerable.h): one lighting table per SH basis function up to band order
+///           (8) over a quadtree of R x R (64 x 64) equal-area cells of the sphere, combined with the point's fitted
+///           BSDF x cos coefficients, clamped at 0, warped down the quadtree, mixed with 10% of the plain table.
+///  - product-sh, product-sh-mis: the same with the SH product of the lighting (projected to SH once) and the
+///           point's fitted BSDF x cos (Jarosz, Carr and Jensen 2009; product_sh.h), sampled through the quadtree
+///           of its integrals over the cells, with the same mixture. Both: basis_hierarchy.h; options `steerable`
+///           and `sh` (BasisProductOptions); built once when the integrator starts; the whole map, no sun split.
 /// Random numbers: the M samples of a light technique (and the N BSDF samples) at a shading point draw points k =
 /// 0 .. M - 1 of one dimension pair at index sample x M + k (Sampler::point_2d), so that over a pixel's samples
 /// they are one stratified sequence of spp x M points.
@@ -80,6 +88,8 @@
 #include <envkit/render/camera.h>
 #include <envkit/render/env_light.h>
 #include <envkit/render/frame.h>
+#include <envkit/render/product_sh.h>
+#include <envkit/render/product_steerable.h>
 #include <envkit/render/product_wavelet.h>
 #include <envkit/render/sampler.h>
 #include <envkit/render/scene.h>
@@ -98,7 +108,21 @@
 
 namespace envkit::render {
 
-enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis, ProductWavelet, ProductWaveletMis, Auto };
+enum class Strategy {
+  Bsdf,
+  Light,
+  Mis,
+  MisCompensated,
+  Product,
+  ProductMis,
+  ProductWavelet,
+  ProductWaveletMis,
+  ProductSteerable,
+  ProductSteerableMis,
+  ProductSh,
+  ProductShMis,
+  Auto
+};
 enum class Heuristic { Balance, Power };
 
 const char* strategy_name(Strategy s);
@@ -124,6 +148,9 @@ struct IntegratorOptions {
   /// Path regularization (the file comment): Cycles' Filter Glossy value, finite and >= 0; 0 = unbiased (off).
   /// Biased when > 0.
   double regularization = 0.0;
+  /// The product-steerable and product-sh strategies' SH order, quadtree, fits and defensive share (basis_hierarchy.h).
+  BasisProductOptions steerable;
+  BasisProductOptions sh;
 };
 
 /// The IntegratorOptions field a refusal concerns.
@@ -239,6 +266,9 @@ class Integrator {
   const Material& regularized(int index, double floor) const;
   /// The product-wavelet strategies' sampler, or nullptr for other strategies.
   const ProductWavelet* product_wavelet() const { return wavelet_.get(); }
+  /// The product-steerable (product-sh) strategies' sampler, or nullptr for other strategies.
+  const ProductSteerable* product_steerable() const { return steerable_.get(); }
+  const ProductSh* product_sh() const { return sh_.get(); }
 
  private:
   /// What every strategy knows of the point it shades (see direct()).
@@ -326,9 +356,25 @@ class Integrator {
   Vec3 direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice) const;
   Vec3 direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const;
-  /// The shading point's wavelet product (product_wavelet.h), and one light sample drawn from it (as light_term()).
+  Vec3 direct_product_steerable(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_product_sh(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler) const;
+  /// The shading point's wavelet product (product_wavelet.h).
   ProductWavelet::Point wavelet_point(const ShadingPoint& x) const;
-  LightTerm wavelet_term(const ShadingPoint& x, const ProductWavelet::Point& p, Vec2 u) const;
+  /// Normal and wo of a shading point in the tables' frame, what the product samplers take.
+  Vec3 table_normal(const ShadingPoint& x) const;
+  Vec3 table_wo(const ShadingPoint& x) const;
+  /// One light sample drawn from a point's product distribution (sample(u) and pdf(direction) in the tables' frame),
+  /// as light_term().
+  template <class Point>
+  LightTerm point_term(const ShadingPoint& x, const Point& p, Vec2 u) const;
+  /// M samples of a point's product distribution (and a delta lobe's BSDF sample), or with N BSDF samples under MIS:
+  /// the estimators of every product sampler that returns a point.
+  template <class Point>
+  Vec3 direct_point(const ShadingPoint& x, Sampler& sampler, const Point& p) const;
+  template <class Point>
+  Vec3 direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p) const;
 
   const Scene& scene_;
   const EnvironmentLight& light_;
@@ -345,6 +391,8 @@ class Integrator {
   std::unique_ptr<ProductWavelet> wavelet_;
   /// Per scene material, its copy widened to floor (k + 1) kRegularizationStep, or nullptr (regularized()).
   std::vector<std::vector<std::unique_ptr<Material>>> regularized_;
+  std::unique_ptr<ProductSteerable> steerable_;
+  std::unique_ptr<ProductSh> sh_;
   mutable std::atomic<std::size_t> nonfinite_{0};
 };
 
