@@ -23,6 +23,9 @@ constexpr double kSignificance = 1.5;
 /// choice and the refined descent), in units of one shadow ray and BSDF evaluation: BENCHMARKS.md, "The default: a
 /// pilot per material".
 constexpr double kProductDescentCost = 0.25;
+/// relMSE's floor under the squared mean, in the image's units: the one the benchmarks and the report use, so that
+/// dark points weigh as they do there.
+constexpr double kRelMseFloor = 1e-2;
 constexpr std::uint32_t kPilotSeed = 0x9e3779b9u;
 
 double luminance(const Vec3& v) { return 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z; }
@@ -83,16 +86,14 @@ void Integrator::choose_by_pilot(const Camera& camera) {
           mo.sum_sq += std::isfinite(e) ? e * e : 0.0;
         }
     });
-    // Relative variance, as the images are judged: each point's variance over its mean squared (the mean over
-    // every candidate: they estimate the same value), with a floor of 1% of the mean square for dark points.
+    // Relative variance, as the images are judged (relMSE): each point's variance over its mean squared plus
+    // kRelMseFloor, the mean over every candidate (they estimate the same value).
     std::vector<double> mean_sq(points.size());
-    double mean_sq_all = 0.0;
     for (std::size_t p = 0; p < points.size(); ++p) {
       double mean = 0.0;
       for (std::size_t c = 0; c < candidates.size(); ++c) mean += moments[p * candidates.size() + c].mean();
       mean /= double(candidates.size());
       mean_sq[p] = mean * mean;
-      mean_sq_all += mean_sq[p] / double(points.size());
     }
     // Each point's relative variance times the candidate's cost per shading point.
     const SampleCounts n = counts(material);
@@ -100,7 +101,7 @@ void Integrator::choose_by_pilot(const Camera& camera) {
       const LightChoice& k = candidates[c];
       const double cost = 1.0 + n.bsdf + n.light * (1.0 + (k.product ? kProductDescentCost : 0.0)) +
                           (k.sun_apart ? options_.sun_samples : 0);
-      return moments[p * candidates.size() + c].variance() / (mean_sq[p] + 1e-2 * mean_sq_all + 1e-300) * cost;
+      return moments[p * candidates.size() + c].variance() / (mean_sq[p] + kRelMseFloor) * cost;
     };
     // MIS's own choice stands unless a candidate's mean score is lower by more than kSignificance standard errors
     // of the per-point differences: the pilot changes the technique only where it measured a gain. Of several such
