@@ -74,11 +74,9 @@ LoadedScene load_scene(const std::optional<std::string>& path, const std::option
                        const std::string& base, const SceneLoadOptions& load) {
   try {
     py::gil_scoped_release release;
-    return path ? load_scene_file(*path, load)
-                : (text ? load_scene_text(*text, base, load) : make_default_scene(load));
+    return path ? load_scene_file(*path, load) : (text ? load_scene_text(*text, base, load) : make_default_scene(load));
   } catch (const RequestTooLarge& e) {
-    throw py::value_error((load.width > 0 || load.height > 0 ? "width, height: " : "scene: ") +
-                          std::string(e.what()));
+    throw py::value_error((load.width > 0 || load.height > 0 ? "width, height: " : "scene: ") + std::string(e.what()));
   }
 }
 
@@ -169,7 +167,8 @@ void bind_farm(py::module_& m) {
       .def_property_readonly("environment_files",
                              [](const RenderJob& j) { return face_paths(j.scene.environment_description); })
       // The options' names as envrender records them in its EXR's metadata.
-      .def_property_readonly("strategy", [](const RenderJob& j) { return std::string(strategy_name(j.options.strategy)); })
+      .def_property_readonly("strategy",
+                             [](const RenderJob& j) { return std::string(strategy_name(j.options.strategy)); })
       .def_property_readonly("light_method",
                              [](const RenderJob& j) { return std::string(method_name(j.options.light_method)); })
       .def_property_readonly("has_sun_split", [](const RenderJob& j) { return j.integrator->sun_split() != nullptr; })
@@ -234,8 +233,8 @@ void bind_render(py::module_& m) {
         ro.seed = static_cast<std::uint32_t>(integer_arg(seed, "seed", 0, 0xffffffffLL));
         const SceneLoadOptions load = load_options(width, height, bake);
         if (!crop.is_none()) ro.crop = crop_arg(crop);
-        const IntegratorOptions io = integrator_options(strategy, light_method, heuristic, bsdf_samples,
-                                                        light_samples, sun_samples, max_depth);
+        const IntegratorOptions io =
+            integrator_options(strategy, light_method, heuristic, bsdf_samples, light_samples, sun_samples, max_depth);
         const LoadedScene scene = load_scene(path, text, base, load);
         Image image;
         {
