@@ -111,7 +111,7 @@ def frames(scenes=(), rotations=None):
             raise FarmError("%s: cannot read: %s" % (path, e.strerror or e)) from None
         base = os.path.abspath(path)
     try:
-        scene = json.loads(text)
+        scene = json.loads(_without_comments(text))
         env = scene["environment"]
         yaw, pitch, roll = env.get("rotation", [0, 0, 0])
     except (ValueError, KeyError, TypeError):
@@ -129,6 +129,12 @@ def frames(scenes=(), rotations=None):
         out.append({"path": None, "text": json.dumps(scene), "base": base,
                     "name": "%s, environment yaw %+g deg" % (path or DEFAULT_SCENE, angle)})
     return out
+
+
+def _without_comments(text):
+    """Scene JSON without the // and /* */ comments the scene loader accepts."""
+    text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
+    return re.sub(r"(^|[^:])//[^\n]*", r"\1", text)
 
 
 def tile_grid(width, height, tiles=None, tile_size=None):
@@ -543,7 +549,7 @@ def main(argv=None):
     try:
         with client_for(a.scheduler, a.workers, a.threads_per_worker) as client:
             run(client, job, force=a.force, keep_work=a.keep_work, progress=progress)
-    except (FarmError, OutputError) as e:
+    except (FarmError, OutputError, Error) as e:
         print("%s: %s" % (LABEL, e), file=sys.stderr)
         return 1
     if not a.quiet:

@@ -3,6 +3,7 @@ run resumes with only its missing tiles, frame sequences run as one job, bad opt
 work."""
 import json
 import os
+import signal
 import subprocess
 import sys
 
@@ -119,6 +120,29 @@ def test_resume_renders_only_missing_tiles(client, scene, reference, tmp_path):
     assert len(farm.run(client, other, keep_work=True)["rendered"]) == 5
     assert len(farm.run(client, other, force=True)["rendered"]) == 5
     assert not os.path.exists(job.work_dir)
+
+
+def test_a_worker_that_dies_has_its_tiles_rerun(scene, reference, tmp_path):
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    client = distributed.Client(cluster)
+    try:
+        pids = sorted(client.run(os.getpid).values())
+        job = farm.Job(farm.frames([scene]), [str(tmp_path / "farm.exr")], options(), tile_size=(4, 2))
+        killed = []
+
+        def progress(event):
+            # SIGKILL (no clean-up) one worker process as soon as the first tile is in.
+            if event["event"] == "tile" and not killed:
+                os.kill(pids[0], signal.SIGKILL)
+                killed.append(event["done"])
+
+        r = farm.run(client, job, keep_work=True, progress=progress)
+        assert killed and killed[0] < len(job.crops)
+        assert sorted(r["rendered"]) == sorted(tile_paths(job))
+        assert_same_sums(farm.merge(tile_paths(job), job.crops, W, H), reference)
+    finally:
+        client.close()
+        cluster.close()
 
 
 def run_farm(*args, timeout=120):
