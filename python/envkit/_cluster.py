@@ -47,10 +47,12 @@ class OutputError(Exception):
     """An output folder cannot be created or written (exit status 1)."""
 
 
-def write_atomic(path, write, mode="wb"):
-    """Calls write(f) on a temporary file next to `path`, flushes it to disk and renames it to `path`: a reader (or
-    a run killed at any point) sees the old file or the complete new one, never a part. The temporary file has the
-    permissions of a new file (mkstemp's 0600 would hide it from other users)."""
+def write_atomic(path, write, mode="wb", durable=True):
+    """Calls write(f) on a temporary file next to `path`, flushes it (to disk when durable) and renames it to `path`:
+    a reader (or a process killed at any point) sees the old file or the complete new one, never a part. Without
+    durable, a crash of the machine may leave an empty or partial file: for files whose content is checked when
+    read (a hash recorded elsewhere). The temporary file has the permissions of a new file (mkstemp's 0600 would
+    hide it from other users)."""
     d = os.path.dirname(path) or "."
     fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".tmp-", dir=d)
     try:
@@ -60,7 +62,8 @@ def write_atomic(path, write, mode="wb"):
         with os.fdopen(fd, mode) as f:
             write(f)
             f.flush()
-            os.fsync(f.fileno())
+            if durable:
+                os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -70,8 +73,8 @@ def write_atomic(path, write, mode="wb"):
         raise
 
 
-def write_json_atomic(path, data):
-    write_atomic(path, lambda f: json.dump(data, f, indent=1, sort_keys=True), mode="w")
+def write_json_atomic(path, data, durable=True):
+    write_atomic(path, lambda f: json.dump(data, f, indent=1, sort_keys=True), mode="w", durable=durable)
 
 
 def check_out_dir(out_dir, what="OUT_DIR"):

@@ -22,6 +22,8 @@ replaced by the frame index from 0.
 
 import argparse
 import collections
+import hashlib
+import io
 import json
 import os
 import re
@@ -176,16 +178,34 @@ def _cached_job(frame, options):
         return job
 
 
+def _digest(data):
+    return hashlib.blake2b(data, digest_size=16).hexdigest()
+
+
+def content_digest(path):
+    """BLAKE2b-128 of a file's bytes (hex), or None when it cannot be read: what the manifest records of the tiles
+    and the input files."""
+    h = hashlib.blake2b(digest_size=16)
+    try:
+        with open(path, "rb") as f:
+            for chunk in iter(lambda: f.read(1 << 20), b""):
+                h.update(chunk)
+    except OSError:
+        return None
+    return h.hexdigest()
+
+
 def render_tile(frame, options, crop, path):
     """Renders the window crop of the frame and writes its film sums to `path` (atomically, .npz: sum, sum_sq,
-    count, crop). Returns {"path", "hash", "seconds"}. Runs on a worker."""
-    from . import _envkit
-
+    count, crop). Returns {"path", "hash" (content_digest of the file), "seconds"}. Runs on a worker."""
     start = time.monotonic()
     sums = _cached_job(frame, options).render(crop, options["spp"], options["seed"], options["threads"])
-    write_atomic(path, lambda f: np.savez(f, sum=sums["sum"], sum_sq=sums["sum_sq"], count=sums["count"],
-                                          crop=np.asarray(crop, dtype=np.int64)))
-    return {"path": path, "hash": _envkit.file_content_hash(path), "seconds": time.monotonic() - start}
+    buffer = io.BytesIO()
+    np.savez(buffer, sum=sums["sum"], sum_sq=sums["sum_sq"], count=sums["count"], crop=np.asarray(crop, np.int64))
+    data = buffer.getvalue()
+    # Not synced to disk: a tile is kept only while its file has the hash the manifest records.
+    write_atomic(path, lambda f: f.write(data), durable=False)
+    return {"path": path, "hash": _digest(data), "seconds": time.monotonic() - start}
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -239,15 +259,6 @@ def _metadata(frame, job, options, seconds, tiles):
     }
 
 
-def _hash_or_none(path):
-    from . import _envkit
-
-    try:
-        return _envkit.file_content_hash(path)
-    except Exception:
-        return None
-
-
 class Job:
     """A farm job: frames (frames()), their outputs, the render options and the tiles, checked on the client
     before any work (the scenes are loaded once here: a bad scene or option fails now, with its one-line
@@ -297,7 +308,7 @@ class Job:
         return {
             "version": MANIFEST_VERSION,
             "frames": self.frames,
-            "inputs": {p: _hash_or_none(p) for p in self.inputs()},
+            "inputs": {p: content_digest(p) for p in self.inputs()},
             "options": _recorded(self.options),
             "size": [self.width, self.height],
             "crops": [list(c) for c in self.crops],
@@ -330,40 +341,46 @@ def clear_work_dir(work_dir, remove=False):
             pass
 
 
-def finished_tiles(job):
-    """{tile path: hash} of the tiles the work folder's manifest records for this job and whose files still have
-    their hash; a manifest of another job (or none) gives {} and its tiles are removed."""
+def finished_tiles(job, identity):
+    """{tile name: {"hash", "seconds"}} of the tiles the work folder's manifest records for this job (identity:
+    job.identity()) whose files still have their hash; a manifest of another job (or none) gives {} and its tiles
+    are removed."""
     try:
         with open(os.path.join(job.work_dir, MANIFEST)) as f:
             m = json.load(f)
-    except (OSError, ValueError):
-        m = None
-    if not isinstance(m, dict) or m.get("job") != job.identity() or not isinstance(m.get("tiles"), dict):
+        if m["job"] != identity:
+            raise ValueError("another job")
+        return {n: t for n, t in m["tiles"].items()
+                if os.path.isfile(os.path.join(job.work_dir, n))
+                and content_digest(os.path.join(job.work_dir, n)) == t["hash"]}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         clear_work_dir(job.work_dir)
         return {}
-    return {p: h for p, h in m["tiles"].items() if os.path.isfile(p) and _hash_or_none(p) == h}
 
 
 def run(client, job, force=False, keep_work=False, progress=None):
     """Renders every tile of every frame that the work folder does not hold yet on `client`, and writes each frame
     once its tiles are there. progress(event) is called on the client with {"event": "resumed" | "tile" |
-    "frame", ...}. Returns {"rendered": [tile paths], "resumed": [tile paths], "seconds": {frame: merge+write s}}.
-    Raises FarmError naming the first tile that failed (finished tiles stay for a re-run)."""
+    "frame", ...}. Returns {"rendered": [tile paths], "resumed": [tile paths], "merge_seconds": {frame: s},
+    "write_seconds": {frame: s}} (merge: reading the tiles and assembling the film; write: the EXR and PNG). Raises FarmError naming the first tile that failed (finished tiles stay for a re-run)."""
     check_out_dir(job.work_dir, "--work")
     if force:
         clear_work_dir(job.work_dir)
     identity = job.identity()
-    done = finished_tiles(job)
+    done = finished_tiles(job, identity)
     manifest_file = os.path.join(job.work_dir, MANIFEST)
-    write_json_atomic(manifest_file, {"job": identity, "tiles": done})
+    # Not synced to disk either: a manifest cut short by a crash does not parse, and the job starts over.
+    write_json_atomic(manifest_file, {"job": identity, "tiles": done}, durable=False)
     n_tiles = len(job.crops)
     tiles = [(f, t) for f in range(len(job.frames)) for t in range(n_tiles)]
-    todo = [(f, t) for f, t in tiles if job.tile_path(f, t) not in done]
-    resumed = [job.tile_path(f, t) for f, t in tiles if job.tile_path(f, t) in done]
+    todo = [(f, t) for f, t in tiles if tile_name(f, t) not in done]
+    resumed = [job.tile_path(f, t) for f, t in tiles if tile_name(f, t) in done]
     if progress and resumed:
         progress({"event": "resumed", "tiles": len(resumed), "of": len(tiles)})
     missing = collections.Counter(f for f, _ in todo)
-    render_seconds = collections.Counter()
+    render_seconds = collections.Counter()  # per frame, the resumed tiles' seconds included
+    for f, t in tiles:
+        render_seconds[f] += done.get(tile_name(f, t), {}).get("seconds", 0.0)
     result = {"rendered": [], "resumed": resumed, "merge_seconds": {}, "write_seconds": {}}
 
     def finish(f):
@@ -396,8 +413,8 @@ def run(client, job, force=False, keep_work=False, progress=None):
                     other.cancel()
                 message = str(e) or type(e).__name__
                 raise FarmError("%s tile %d %s: %s" % (job.frames[f]["name"], t, job.crops[t], message))
-            done[r["path"]] = r["hash"]
-            write_json_atomic(manifest_file, {"job": identity, "tiles": done})
+            done[tile_name(f, t)] = {"hash": r["hash"], "seconds": r["seconds"]}
+            write_json_atomic(manifest_file, {"job": identity, "tiles": done}, durable=False)
             result["rendered"].append(r["path"])
             render_seconds[f] += r["seconds"]
             missing[f] -= 1
