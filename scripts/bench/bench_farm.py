@@ -67,17 +67,18 @@ def cli_pair(args, work):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--resolution", default="480x240")
-    p.add_argument("--spp", type=int, default=64)
-    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--resolution", help="default 480x240 (--quick 240x120)")
+    p.add_argument("--spp", type=int, help="default 64 (--quick 16)")
+    p.add_argument("--repeats", type=int, help="default 5 (--quick 3)")
     p.add_argument("--tiles", default="bands2,128x128,64x64,32x32",
                    help="tilings to time: bandsN (N bands of rows) or WxH tiles")
-    p.add_argument("--quick", action="store_true", help="240x120, 16 spp, 3 repeats")
+    p.add_argument("--quick", action="store_true", help="smaller defaults: 240x120, 16 spp, 3 repeats")
     p.add_argument("--cli", action="store_true", help="also one end-to-end pair of command lines")
     p.add_argument("--build", default=os.path.join(ROOT, "build"))
     args = p.parse_args()
-    if args.quick:
-        args.resolution, args.spp, args.repeats = "240x120", 16, 3
+    for name, full, quick in (("resolution", "480x240", "240x120"), ("spp", 64, 16), ("repeats", 5, 3)):
+        if getattr(args, name) is None:
+            setattr(args, name, quick if args.quick else full)
     sys.path.insert(0, os.path.join(args.build, "python"))
     import distributed
     from envkit import farm
