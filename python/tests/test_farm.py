@@ -122,10 +122,28 @@ def test_resume_renders_only_missing_tiles(client, scene, reference, tmp_path):
     assert not os.path.exists(job.work_dir)
 
 
-def test_a_worker_that_dies_has_its_tiles_rerun(scene, reference, tmp_path):
+def test_a_tile_that_fails_is_reported_and_nothing_is_written(client, scene, tmp_path):
+    # The scene checked on the client, then gone before the workers load it.
+    moved = tmp_path / "scene.json"
+    moved.write_text(open(scene).read())
+    out = tmp_path / "farm.exr"
+    job = farm.Job(farm.frames([str(moved)]), [str(out)], options(spp=SPP + 2), tiles=2)
+    moved.unlink()
+    with pytest.raises(farm.FarmError, match="scene.json"):
+        farm.run(client, job)
+    assert not out.exists() and not (tmp_path / "farm.png").exists()
+
+
+@pytest.fixture(scope="module")
+def processes():
+    """A LocalCluster of 2 worker processes (with nannies, which restart a worker that dies)."""
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
-    client = distributed.Client(cluster)
-    try:
+    yield cluster
+    cluster.close()
+
+
+def test_a_worker_that_dies_has_its_tiles_rerun(processes, scene, reference, tmp_path):
+    with distributed.Client(processes) as client:
         pids = sorted(client.run(os.getpid).values())
         job = farm.Job(farm.frames([scene]), [str(tmp_path / "farm.exr")], options(), tile_size=(4, 2))
         killed = []
@@ -137,12 +155,9 @@ def test_a_worker_that_dies_has_its_tiles_rerun(scene, reference, tmp_path):
                 killed.append(event["done"])
 
         r = farm.run(client, job, keep_work=True, progress=progress)
-        assert killed and killed[0] < len(job.crops)
-        assert sorted(r["rendered"]) == sorted(tile_paths(job))
-        assert_same_sums(farm.merge(tile_paths(job), job.crops, W, H), reference)
-    finally:
-        client.close()
-        cluster.close()
+    assert killed and killed[0] < len(job.crops)
+    assert sorted(r["rendered"]) == sorted(tile_paths(job))
+    assert_same_sums(farm.merge(tile_paths(job), job.crops, W, H), reference)
 
 
 def run_farm(*args, timeout=120):
@@ -150,10 +165,10 @@ def run_farm(*args, timeout=120):
                           timeout=timeout)
 
 
-def test_rotation_sequence_on_the_command_line(scene, tmp_path):
+def test_rotation_sequence_on_the_command_line(processes, scene, tmp_path):
     out = tmp_path / "frames" / "turn.%02d.exr"
     p = run_farm(scene, "-o", out, "--rotations", "0,90", "--resolution", "%dx%d" % (W, H), "--spp", SPP, "--seed", SEED,
-                 "--tiles", "2", "--workers", "1")
+                 "--tiles", "2", "--scheduler", processes.scheduler_address)
     assert p.returncode == 0, p.stderr
     assert "[4/4]" in p.stderr and "wrote" in p.stderr
     frames = [exr_array(tmp_path / "frames" / ("turn.%02d.exr" % i)) for i in range(2)]
