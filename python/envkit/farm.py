@@ -22,6 +22,7 @@ replaced by the frame index from 0.
 
 import argparse
 import collections
+import contextlib
 import hashlib
 import io
 import json
@@ -358,11 +359,32 @@ def finished_tiles(job, identity):
         return {}
 
 
+def _rendered_tiles(client, job, todo):
+    """Yields (frame, tile, render_tile's result) as the tiles `todo` ([(frame, tile)]) finish on `client`; raises
+    FarmError naming the first that failed, the others cancelled."""
+    # By reference to the importable module, also when this one runs as __main__ (python3 -m envkit.farm), whose
+    # functions cloudpickle would copy by value with their globals.
+    from .farm import render_tile as task
+
+    futures = [client.submit(task, job.frames[f], job.options, job.crops[t], job.tile_path(f, t), pure=False,
+                             retries=1) for f, t in todo]
+    for k, r, e in completed(futures):
+        f, t = todo[k]
+        if e is not None:
+            for other in futures:
+                other.cancel()
+            raise FarmError("%s tile %d %s: %s" % (job.frames[f]["name"], t, job.crops[t], str(e) or type(e).__name__))
+        yield f, t, r
+
+
 def run(client, job, force=False, keep_work=False, progress=None):
     """Renders every tile of every frame that the work folder does not hold yet on `client`, and writes each frame
     once its tiles are there. progress(event) is called on the client with {"event": "resumed" | "tile" |
     "frame", ...}. Returns {"rendered": [tile paths], "resumed": [tile paths], "merge_seconds": {frame: s},
-    "write_seconds": {frame: s}} (merge: reading the tiles and assembling the film; write: the EXR and PNG). Raises FarmError naming the first tile that failed (finished tiles stay for a re-run)."""
+    "write_seconds": {frame: s}} (merge: reading the tiles and assembling the film; write: the EXR and PNG). Raises
+    FarmError naming the first tile that failed (finished tiles stay for a re-run). client: a distributed Client,
+    or a function returning a context manager that gives one, called only when a tile is missing (the command
+    line starts no cluster for a job whose tiles are all there)."""
     check_out_dir(job.work_dir, "--work")
     if force:
         clear_work_dir(job.work_dir)
@@ -399,30 +421,18 @@ def run(client, job, force=False, keep_work=False, progress=None):
         if not missing[f]:
             finish(f)
     if todo:
-        # By reference to the importable module, also when this one runs as __main__ (python3 -m envkit.farm),
-        # whose functions cloudpickle would copy by value with their globals.
-        from .farm import render_tile as task
-
-        futures = [client.submit(task, job.frames[f], job.options, job.crops[t], job.tile_path(f, t),
-                                 pure=False, retries=1)
-                   for f, t in todo]
-        for k, r, e in completed(futures):
-            f, t = todo[k]
-            if e is not None:
-                for other in futures:
-                    other.cancel()
-                message = str(e) or type(e).__name__
-                raise FarmError("%s tile %d %s: %s" % (job.frames[f]["name"], t, job.crops[t], message))
-            done[tile_name(f, t)] = {"hash": r["hash"], "seconds": r["seconds"]}
-            write_json_atomic(manifest_file, {"job": identity, "tiles": done}, durable=False)
-            result["rendered"].append(r["path"])
-            render_seconds[f] += r["seconds"]
-            missing[f] -= 1
-            if progress:
-                progress({"event": "tile", "frame": f, "tile": t, "seconds": r["seconds"],
-                          "done": len(resumed) + len(result["rendered"]), "of": len(tiles)})
-            if missing[f] == 0:
-                finish(f)
+        with client() if callable(client) else contextlib.nullcontext(client) as c:
+            for f, t, r in _rendered_tiles(c, job, todo):
+                done[tile_name(f, t)] = {"hash": r["hash"], "seconds": r["seconds"]}
+                write_json_atomic(manifest_file, {"job": identity, "tiles": done}, durable=False)
+                result["rendered"].append(r["path"])
+                render_seconds[f] += r["seconds"]
+                missing[f] -= 1
+                if progress:
+                    progress({"event": "tile", "frame": f, "tile": t, "seconds": r["seconds"],
+                              "done": len(resumed) + len(result["rendered"]), "of": len(tiles)})
+                if missing[f] == 0:
+                    finish(f)
     if not keep_work:
         clear_work_dir(job.work_dir, remove=True)
     return result
@@ -564,8 +574,8 @@ def main(argv=None):
         print("%s: %s" % (LABEL, msg), file=sys.stderr)
 
     try:
-        with client_for(a.scheduler, a.workers, a.threads_per_worker) as client:
-            run(client, job, force=a.force, keep_work=a.keep_work, progress=progress)
+        run(lambda: client_for(a.scheduler, a.workers, a.threads_per_worker), job, force=a.force,
+            keep_work=a.keep_work, progress=progress)
     except (FarmError, OutputError, Error) as e:
         print("%s: %s" % (LABEL, e), file=sys.stderr)
         return 1
