@@ -579,6 +579,10 @@ def main(argv=None):
     except (FarmError, OutputError, Error) as e:
         print("%s: %s" % (LABEL, e), file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("%s: interrupted; the finished tiles stay in %s for the next run" % (LABEL, job.work_dir),
+              file=sys.stderr)
+        return 130
     if not a.quiet:
         print("%s: %d frame(s) in %.2f s" % (LABEL, len(frame_list), time.monotonic() - start), file=sys.stderr)
     return 0
