@@ -77,11 +77,24 @@ def write_json_atomic(path, data, durable=True):
     write_atomic(path, lambda f: json.dump(data, f, indent=1, sort_keys=True), mode="w", durable=durable)
 
 
+def check_out_dirs(folders):
+    """check_out_dir of every (folder, what) pair; a path that is not a folder is refused before any folder is
+    made."""
+    for out_dir, what in folders:
+        _refuse_non_directory(out_dir, what)
+    for out_dir, what in folders:
+        check_out_dir(out_dir, what)
+
+
+def _refuse_non_directory(out_dir, what):
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise UsageError("%s %s: exists and is not a directory" % (what, out_dir))
+
+
 def check_out_dir(out_dir, what="OUT_DIR"):
     """Refuses, before any work, an output folder that is not a folder (UsageError) or cannot be created or written
     (OutputError), each with a one-line message naming it as `what`."""
-    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
-        raise UsageError("%s %s: exists and is not a directory" % (what, out_dir))
+    _refuse_non_directory(out_dir, what)
     try:
         os.makedirs(out_dir, exist_ok=True)
         # A probe file: permissions alone do not tell (root ignores them, a read-only mount does not show).

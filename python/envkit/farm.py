@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from ._cluster import OutputError, Parser, UsageError, add_cluster_options, check_out_dir, client_for, completed
-from ._cluster import count, write_atomic, write_json_atomic
+from ._cluster import check_out_dirs, count, write_atomic, write_json_atomic
 
 LABEL = "envkit.farm"
 MANIFEST_VERSION = 1
@@ -552,8 +552,8 @@ def main(argv=None):
             job = Job(frame_list, outputs, options, a.tiles, a.tile_size, a.work, preview=not a.no_preview)
         except (Error, ValueError, TypeError) as e:
             raise FarmError(str(e)) from None
-        for d in sorted({os.path.dirname(os.path.abspath(o)) for o in outputs}):
-            check_out_dir(d, "-o")
+        check_out_dirs([(d, "-o") for d in sorted({os.path.dirname(os.path.abspath(o)) for o in outputs})]
+                       + [(job.work_dir, "--work")])
     except UsageError as e:
         print("%s: %s (see --help)" % (LABEL, e), file=sys.stderr)
         return 2

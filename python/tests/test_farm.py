@@ -202,12 +202,13 @@ def one_line_error(p, code, *words):
     (["--rotations", "0,90"], 2, ["integer field"]),
     (["missing.json"], 1, ["missing.json"]),
     (["broken.json"], 1, ["broken.json"]),
+    (["--work", "broken.json"], 2, ["--work", "broken.json", "not a directory"]),
 ], ids=lambda v: " ".join(v) if isinstance(v, list) else str(v))
 def test_bad_input_is_refused_before_any_work(scene, tmp_path, args, code, words):
     (tmp_path / "broken.json").write_text('{"camera": {"fov": }')
     out = tmp_path / "out" / "x.exr"
     args = [str(tmp_path / a) if a.endswith(".json") else a for a in args]
-    if not any(a.endswith(".json") for a in args):
+    if "--work" in args or not any(a.endswith(".json") for a in args):
         args.insert(0, scene)
     p = run_farm(*args, "-o", out, "--resolution", "%dx%d" % (W, H), "--spp" if "--spp" not in args else "--seed",
                  "1", timeout=60)
