@@ -24,12 +24,15 @@ the others (dask's allowed-failures, 3 by default).
 import argparse
 import fnmatch
 import glob
-import hashlib
 import json
 import os
 import sys
-import tempfile
 import time
+
+from ._cluster import OutputError, UsageError, client_for, completed, count, write_json_atomic
+from ._cluster import Parser as _ClusterParser
+from ._cluster import add_cluster_options
+from ._cluster import check_out_dir as _check_out_dir
 
 EXTENSIONS = (".exr", ".hdr", ".pfm", ".tif", ".tiff", ".png", ".jpg", ".jpeg")
 MANIFEST_VERSION = 1
@@ -97,24 +100,7 @@ def content_hash(path):
     return _envkit().file_content_hash(path)
 
 
-def _write_json_atomic(path, data):
-    d = os.path.dirname(path) or "."
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".tmp-", dir=d)
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide the manifest from other users
-        with os.fdopen(fd, "w") as f:
-            json.dump(data, f, indent=1, sort_keys=True)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+_write_json_atomic = write_json_atomic
 
 
 def manifest_path(out_dir, stem):
@@ -284,16 +270,10 @@ def run(inputs, out_dir, client, options, progress=None):
     os.makedirs(out_dir, exist_ok=True)
     out_dir = os.path.abspath(out_dir)
     inputs = [os.path.abspath(p) for p in inputs]
-    from distributed import as_completed
-
     futures = client.map(process_file, inputs, out_dir=out_dir, options=options, pure=False)
-    index = {f.key: i for i, f in enumerate(futures)}
     results = [None] * len(inputs)
-    for future in as_completed(futures):
-        i = index[future.key]
-        try:
-            r = future.result()
-        except Exception as e:
+    for i, r, e in completed(futures):
+        if e is not None:
             r = {"input": inputs[i], "status": "failed", "outputs": [], "error": "%s: %s" % (type(e).__name__, e),
                  "seconds": 0.0}
         results[i] = r
@@ -302,51 +282,18 @@ def run(inputs, out_dir, client, options, progress=None):
     return results
 
 
-class _Parser(argparse.ArgumentParser):
+def _Parser(**kwargs):
     """argparse with one-line usage errors: "envkit.batch: <message> (see --help)", exit status 2."""
-
-    def error(self, message):
-        sys.stderr.write("envkit.batch: %s (see --help)\n" % message)
-        sys.exit(2)
+    return _ClusterParser(label="envkit.batch", **kwargs)
 
 
-def _count(lo, hi):
-    """An argparse type: an integer in [lo, hi], refused with the range otherwise."""
-
-    def parse(text):
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError("'%s' is not an integer" % text) from None
-        if not lo <= v <= hi:
-            raise argparse.ArgumentTypeError("%d is outside [%d, %d]" % (v, lo, hi))
-        return v
-
-    parse.__name__ = "integer"
-    return parse
-
-
-class UsageError(Exception):
-    """A problem with the command line found after parsing (exit status 2)."""
-
-
-class OutputError(Exception):
-    """OUT_DIR cannot be created or written (exit status 1)."""
+_count = count
 
 
 def check_out_dir(out_dir):
     """Refuses, before any work, an OUT_DIR that is not a folder (UsageError) or cannot be created or written
     (OutputError), each with a one-line message."""
-    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
-        raise UsageError("OUT_DIR %s: exists and is not a directory" % out_dir)
-    try:
-        os.makedirs(out_dir, exist_ok=True)
-        # A probe file: permissions alone do not tell (root ignores them, a read-only mount does not show).
-        fd, probe = tempfile.mkstemp(prefix=".envkit-batch-probe-", dir=out_dir)
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as e:
-        raise OutputError("OUT_DIR %s: cannot write: %s" % (out_dir, e.strerror or e)) from None
+    _check_out_dir(out_dir, "OUT_DIR")
 
 
 def _parse_args(argv):
@@ -364,12 +311,7 @@ and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 u
     )
     p.add_argument("in_dir", metavar="IN_DIR")
     p.add_argument("out_dir", metavar="OUT_DIR")
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--scheduler", metavar="ADDR", help="address of a running dask scheduler")
-    g.add_argument("--workers", type=_count(1, 1024), default=2, metavar="N",
-                   help="LocalCluster worker processes, 1 to 1024 (default 2)")
-    p.add_argument("--threads-per-worker", type=_count(1, 1024), default=1, metavar="T",
-                   help="dask threads per LocalCluster worker (each file still uses oneTBB inside)")
+    add_cluster_options(p, "dask threads per LocalCluster worker (each file still uses oneTBB inside)")
     p.add_argument("--pattern", action="append", metavar="GLOB",
                    help="input file names to take (default: .exr .hdr .pfm .tif .png .jpg)")
     p.add_argument("--to", default="latlong", metavar="KIND", help="output parameterization (default latlong)")
@@ -420,16 +362,7 @@ def main(argv=None):
     if not inputs:
         print("envkit.batch: %s: no input maps" % a.in_dir, file=sys.stderr)
         return 1
-    from distributed import Client, LocalCluster
-
     start = time.monotonic()
-    if a.scheduler:
-        cluster = None
-        client = Client(a.scheduler)
-    else:
-        cluster = LocalCluster(n_workers=a.workers, threads_per_worker=a.threads_per_worker, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
     done = [0]
 
     def progress(r):
@@ -441,12 +374,8 @@ def main(argv=None):
             print("envkit.batch: [%d/%d] %s %s (%.2f s)" % (done[0], len(inputs), r["status"], r["input"],
                                                            r["seconds"]), file=sys.stderr)
 
-    try:
+    with client_for(a.scheduler, a.workers, a.threads_per_worker) as client:
         results = run(inputs, a.out_dir, client, options, progress)
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
     counts = {s: sum(r["status"] == s for r in results) for s in ("done", "skipped", "failed")}
     print("envkit.batch: %d done, %d skipped, %d failed in %.2f s" % (counts["done"], counts["skipped"],
                                                                      counts["failed"], time.monotonic() - start))

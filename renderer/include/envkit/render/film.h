@@ -21,13 +21,22 @@ struct Crop {
 
 class Film {
  public:
+  /// What a pixel's outputs are computed from: the sum and the sum of squares of its samples, and their count.
+  /// A pixel's samples do not depend on the window rendered (render.h), so films of windows rendered apart (a
+  /// farm's tiles) merge exactly by copying these into a film of the whole.
+  struct Pixel {
+    Vec3 sum{0, 0, 0};
+    Vec3 sum_sq{0, 0, 0};
+    std::uint64_t count = 0;
+  };
+
   Film() = default;
   /// A film covering `crop` of a full_width x full_height image.
   Film(int full_width, int full_height, Crop crop);
 
   /// Adds one sample to pixel (x, y) of the FILM (crop-relative). Not thread-safe for the same pixel.
   void add(int x, int y, const Vec3& value) {
-    Pixel& p = pixels_[std::size_t(y) * crop_.width() + x];
+    Pixel& p = pixel(x, y);
     p.sum += value;
     p.sum_sq += Vec3(value.x * value.x, value.y * value.y, value.z * value.z);
     ++p.count;
@@ -36,7 +45,10 @@ class Film {
   Vec3 mean(int x, int y) const;
   /// Variance of the pixel mean per channel (sample variance / n).
   Vec3 variance(int x, int y) const;
-  std::uint64_t count(int x, int y) const { return pixels_[std::size_t(y) * crop_.width() + x].count; }
+  std::uint64_t count(int x, int y) const { return pixel(x, y).count; }
+  /// The sums of pixel (x, y) of the FILM (crop-relative).
+  const Pixel& pixel(int x, int y) const { return pixels_[std::size_t(y) * crop_.width() + x]; }
+  Pixel& pixel(int x, int y) { return pixels_[std::size_t(y) * crop_.width() + x]; }
 
   int width() const { return crop_.width(); }
   int height() const { return crop_.height(); }
@@ -55,11 +67,6 @@ class Film {
   void write_preview(const std::string& path, const std::string& view = "ACES 1.0 - SDR Video") const;
 
  private:
-  struct Pixel {
-    Vec3 sum{0, 0, 0};
-    Vec3 sum_sq{0, 0, 0};
-    std::uint64_t count = 0;
-  };
   int full_width_ = 0, full_height_ = 0;
   Crop crop_;
   std::vector<Pixel> pixels_;
