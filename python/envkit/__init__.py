@@ -66,6 +66,11 @@ __all__ = [
 
 has_renderer = _envkit.has_renderer
 
+from . import _faces  # noqa: E402  (py360convert's 'list' / 'dict' cube formats, on EnvMap)
+
+EnvMap.faces = _faces.faces
+EnvMap.from_faces = staticmethod(_faces.from_faces)
+
 
 def read(path, **kwargs):
     """Reads an environment map (EnvMap(path, ...))."""

@@ -56,7 +56,7 @@ std::shared_ptr<PyIbl> prefilter(const PyEnvMap& p, const py::object& size_arg, 
   po.kind = ibl_kind(octahedral);
   po.size = size;
   po.levels = levels;
-  po.mapping = parse_roughness_mapping(mapping);
+  po.mapping = argument_value([&] { return parse_roughness_mapping(mapping); });
   po.accuracy = accuracy;
   set_ibl_cube_faces(for_path, po);
   const MapRef src = source_ref(p, rotate);
@@ -96,17 +96,19 @@ std::shared_ptr<PyIbl> irradiance(const PyEnvMap& p, const py::object& size_arg,
 /// Writes the chain (or irradiance map) as envprefilter -o (--irradiance) does. Every writer is atomic (temp file,
 /// then rename); the group defers those renames so that all files of a chain appear together or none does.
 void write(const PyIbl& ibl, const std::string& path, const std::string& format) {
-  const GpuFormat f = parse_gpu_format(format);
+  const GpuFormat f = argument_value([&] { return parse_gpu_format(format); });
   const std::vector<IblFile> files = ibl.irradiance
                                          ? std::vector<IblFile>{irradiance_file(path, ibl.chain.levels.at(0), ibl.kind)}
                                          : ggx_chain_files(path, ibl.chain, ibl.kind, ibl.source);
   std::vector<std::pair<ClampReport, std::string>> clamped;
   {
     py::gil_scoped_release release;
-    OutputGroup group;
-    for (const IblFile& file : files)
-      clamped.emplace_back(write_ibl_file(file.path, file, ibl.kind == Kind::CubeMap, f), file.path);
-    group.commit();
+    file_operation([&] {
+      OutputGroup group;
+      for (const IblFile& file : files)
+        clamped.emplace_back(write_ibl_file(file.path, file, ibl.kind == Kind::CubeMap, f), file.path);
+      group.commit();
+    });
   }
   for (const auto& [report, file] : clamped) warn_clamped(report, file);
 }
@@ -114,10 +116,10 @@ void write(const PyIbl& ibl, const std::string& path, const std::string& format)
 py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& kind, bool lambertian,
              const std::string& window, const py::object& rotate) {
   const int order = int_arg(order_arg, "order", 1, 3);  // envprefilter --sh-order
-  if (kind != "radiance" && kind != "irradiance") throw Error("sh: kind must be radiance or irradiance, not " + kind);
-  const ShWindow w = parse_sh_window(window);
+  if (kind != "radiance" && kind != "irradiance") throw ArgumentError("sh: kind must be radiance or irradiance, not " + kind);
+  const ShWindow w = argument_value([&] { return parse_sh_window(window); });
   if (kind == "radiance" && (lambertian || w != ShWindow::None))
-    throw Error(
+    throw ArgumentError(
         "sh: lambertian and window apply to irradiance (radiance coefficients are unwindowed, as in "
         "envprefilter's JSON)");
   const MapRef src = source_ref(p, rotate);
@@ -213,7 +215,7 @@ with lambertian=True divided by pi (irradiance_over_pi). window: none, hanning, 
         check_request_arg("size", [&] { check_dfg_lut_size(size); });  // envprefilter --lut-size
         DfgOptions d;
         d.width = d.height = size;
-        d.layout = parse_dfg_layout(layout);
+        d.layout = argument_value([&] { return parse_dfg_layout(layout); });
         Image lut;
         {
           py::gil_scoped_release release;
