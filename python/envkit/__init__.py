@@ -26,9 +26,11 @@ import os as _os
 
 from . import _envkit
 from ._envkit import (
+    ArgumentError,
     ConversionError,
     EnvMap,
     Error,
+    FileError,
     PrefilteredChain,
     Tables,
     conventions,
@@ -43,7 +45,9 @@ from ._envkit import (
 )
 
 __all__ = [
+    "ArgumentError",
     "ConversionError",
+    "FileError",
     "EnvMap",
     "Error",
     "Tables",

@@ -320,6 +320,8 @@ py::dict stats_dict(const PyEnvMap& p) {
 
 py::dict diff_dict(const PyEnvMap& a, const PyEnvMap& b, const std::string& filter, const std::string& metric) {
   const Filter f = argument_value([&] { return parse_filter(filter); });
+  if (metric != "relmse" && metric != "rmse" && metric != "max" && metric != "power")
+    throw ArgumentError("metric: '" + metric + "' is not relmse, rmse, max or power");
   MapComparison c;
   {
     py::gil_scoped_release release;
@@ -350,7 +352,7 @@ py::dict diff_dict(const PyEnvMap& a, const PyEnvMap& b, const std::string& filt
   out["power"] = power;
   out["power_max_relative_difference"] = c.power_max_rel;
   out["metric"] = metric;
-  out["value"] = argument_value([&] { return comparison_metric(c, metric); });
+  out["value"] = comparison_metric(c, metric);
   return out;
 }
 

@@ -146,6 +146,15 @@ an irradiance map (EnvMap.irradiance): a sequence of H x W x C float32 arrays, l
 strip of six faces in the GL basis, as the KTX2/DDS face table; octahedral: N x N). Arrays share the chain's
 memory (no copy). write(path) writes what envprefilter -o (or --irradiance) writes.)")
       .def("__len__", [](const PyIbl& c) { return c.chain.levels.size(); })
+      .def("__repr__",
+           [](const PyIbl& c) {
+             const Image& level0 = c.chain.levels.at(0).image;
+             const std::string what = c.irradiance ? "irradiance map" : std::to_string(c.chain.levels.size()) +
+                                                                            " GGX levels, mapping " +
+                                                                            roughness_mapping_name(c.chain.mapping);
+             return "<envkit.PrefilteredChain " + kind_name(c.kind) + ", " + what + ", level 0 " +
+                    std::to_string(level0.width) + "x" + std::to_string(level0.height) + ">";
+           })
       .def("__getitem__",
            [](py::object self, py::ssize_t k) {
              const PyIbl& c = self.cast<const PyIbl&>();

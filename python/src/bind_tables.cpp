@@ -81,7 +81,7 @@ struct PyTables {
 /// An output array given by the caller: C-contiguous, writable, of the dtype and shape sample() would return.
 template <class T>
 py::array_t<T> output(const py::handle& given, const std::vector<py::ssize_t>& shape, const char* what) {
-  if (!py::isinstance<py::array_t<T>>(given)) throw py::type_error(std::string("sample: out ") + what + " has the wrong dtype");
+  if (!py::isinstance<py::array_t<T>>(given)) throw ArgumentError(std::string("sample: out ") + what + " has the wrong dtype");
   py::array_t<T> a = py::reinterpret_borrow<py::array_t<T>>(given);
   const bool ok = a.ndim() == py::ssize_t(shape.size()) && std::equal(shape.begin(), shape.end(), a.shape()) &&
                   (a.flags() & py::array::c_style) && a.writeable();
@@ -253,6 +253,16 @@ element instead of the batched one (the same results bit for bit, slower on larg
           },
           "Importance per texel (H x W float32, read-only view of the tables' "
           "memory).")
+      .def("__repr__",
+           [](const PyTables& t) {
+             std::string methods;
+             for (bool comp : {false, true})
+               for (SamplingMethod sm : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical})
+                 if (t.tables->distribution(sm, comp)) methods += std::string(methods.empty() ? "" : ",") + table_name(sm, comp);
+             return "<envkit.Tables " + kind_name(t.tables->grid()) + " " + std::to_string(t.tables->width()) + "x" +
+                    std::to_string(t.tables->height()) + ", " + importance_name(t.tables->importance_mode()) +
+                    ", tables " + methods + ", from " + t.name + ">";
+           })
       .def_property_readonly("grid", [](const PyTables& t) { return kind_name(t.tables->grid()); })
       .def_property_readonly("width", [](const PyTables& t) { return t.tables->width(); })
       .def_property_readonly("height", [](const PyTables& t) { return t.tables->height(); })
