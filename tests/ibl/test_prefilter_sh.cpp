@@ -2,6 +2,7 @@
 // a constant map (E = pi L), a sky gradient (exact in bands 0-1), a single sun
 // (E = F max(0, n.s) and its SH truncation by Legendre sums).
 #include <envkit/core/error.h>
+#include <envkit/core/gauss_legendre.h>
 #include <envkit/ibl/prefilter.h>
 #include <envkit/ibl/sh.h>
 #include <gtest/gtest.h>
@@ -121,7 +122,35 @@ TEST(PrefilterSh, JsonSpellsOutTheNormalisation) {
   const double c0_pi = j.at("irradiance_over_pi").at("coefficients").at("G")[0];
   EXPECT_NEAR(c0, kPi * c0_pi, 1e-12);
   EXPECT_DOUBLE_EQ(j.at("cosine_lobe_A_l")[3], 0.0);
-  EXPECT_THROW(project_sh(map.ref(), 4), Error);
+  EXPECT_THROW(project_sh(map.ref(), kMaxShOrder + 1), Error);
+  EXPECT_THROW(project_sh(map.ref(), 0), Error);
+}
+
+TEST(PrefilterSh, HighOrderProjectionReconstructsABandLimitedMap) {
+  // A map that is a sum of band-6 and band-2 functions comes back as its coefficients, and eval_radiance rebuilds it.
+  const int order = 6;
+  auto f = [](const Vec3& d) {
+    double y[sh_count(6)];
+    sh_basis(6, d, y);
+    return Vec3(0.3 * y[sh_index(6, -5)] + 0.2 * y[sh_index(2, 1)] + 0.1 * y[0]);
+  };
+  const EnvMap map = latlong_env(512, f);
+  const ShCoefficients sh = project_sh(map.ref(), order);
+  for (int i = 0; i < sh_count(order); ++i) {
+    const double expected = i == sh_index(6, -5) ? 0.3 : i == sh_index(2, 1) ? 0.2 : i == 0 ? 0.1 : 0.0;
+    EXPECT_NEAR(sh.radiance[0][i], expected, 2e-4) << i;
+  }
+  for (const Vec3& n : {Vec3(0, 1, 0), Vec3(0.6, 0.0, 0.8), Vec3(-0.48, 0.6, -0.64)})
+    EXPECT_NEAR(sh.eval_radiance(0, n), f(n).x, 2e-3);
+}
+
+TEST(PrefilterSh, CosineLobeFactorsMatchTheirIntegrals) {
+  // A_l = 2 pi integral_0^1 z P_l(z) dz (the clamped cosine's zonal coefficients, times sqrt(4 pi / (2l + 1))).
+  for (int l = 0; l <= kMaxShOrder; ++l) {
+    double a = 0.0;
+    detail::for_nodes(0.0, 1.0, 24, [&](double z, double w) { a += 2.0 * kPi * w * z * std::legendre(l, z); });
+    EXPECT_NEAR(sh_cosine_lobe(l), a, 1e-12) << l;
+  }
 }
 
 TEST(PrefilterSh, IndependentOfThreadCount) {

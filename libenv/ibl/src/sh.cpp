@@ -30,59 +30,6 @@ ShWindow parse_sh_window(const std::string& name) {
   throw Error("unknown SH window '" + name + "' (expected none, hanning or lanczos)");
 }
 
-namespace {
-
-/// The real SH basis up to band kOrder at the unit direction d, into out[(kOrder + 1)^2]. A template, inline in the
-/// projection's loop: the band count is then a constant and the values stay in registers.
-template <int kOrder>
-[[gnu::always_inline]] inline void basis(const Vec3& d, double* out) {
-  const double x = d.x, y = d.y, z = d.z;
-  out[0] = 0.28209479177387814;  // 1 / (2 sqrt(pi))
-  if constexpr (kOrder >= 1) {
-    const double c1 = 0.4886025119029199;  // sqrt(3 / (4 pi))
-    out[1] = c1 * y;
-    out[2] = c1 * z;
-    out[3] = c1 * x;
-  }
-  if constexpr (kOrder >= 2) {
-    const double c2 = 1.0925484305920792;  // sqrt(15 / (4 pi))
-    out[4] = c2 * x * y;
-    out[5] = c2 * y * z;
-    out[6] = 0.31539156525252005 * (3.0 * z * z - 1.0);  // sqrt(5 / (16 pi))
-    out[7] = c2 * x * z;
-    out[8] = 0.5462742152960396 * (x * x - y * y);  // sqrt(15 / (16 pi))
-  }
-  if constexpr (kOrder >= 3) {
-    const double a = 0.5900435899266435;  // sqrt(35 / (32 pi))
-    const double b = 2.890611442640554;   // sqrt(105 / (4 pi))
-    const double c = 0.4570457994644658;  // sqrt(21 / (32 pi))
-    const double e = 0.3731763325901154;  // sqrt(7 / (16 pi))
-    const double f = 1.445305721320277;   // sqrt(105 / (16 pi))
-    out[9] = a * y * (3.0 * x * x - y * y);
-    out[10] = b * x * y * z;
-    out[11] = c * y * (4.0 * z * z - x * x - y * y);
-    out[12] = e * z * (2.0 * z * z - 3.0 * x * x - 3.0 * y * y);
-    out[13] = c * x * (4.0 * z * z - x * x - y * y);
-    out[14] = f * z * (x * x - y * y);
-    out[15] = a * x * (x * x - 3.0 * y * y);
-  }
-}
-
-}  // namespace
-
-void sh_basis(int order, const Vec3& d, double* out) {
-  switch (order) {
-    case 1:
-      return basis<1>(d, out);
-    case 2:
-      return basis<2>(d, out);
-    case 3:
-      return basis<3>(d, out);
-    default:
-      return basis<0>(d, out);  // order < 1: band 0 only; order > 3 is refused by project_sh
-  }
-}
-
 double sh_cosine_lobe(int l) {
   switch (l) {
     case 0:
@@ -91,9 +38,14 @@ double sh_cosine_lobe(int l) {
       return 2.0 * kPi / 3.0;
     case 2:
       return kPi / 4.0;
-    default:
-      return 0.0;  // l = 3 (and every odd l > 1)
   }
+  if (l < 0 || l % 2 == 1) return 0.0;
+  // Even l (Ramamoorthi and Hanrahan 2001, eq. 8): 2 pi (-1)^(l/2 - 1) / ((l + 2)(l - 1)) l! / (2^l ((l/2)!)^2),
+  // the last factor C(l, l/2) / 2^l built as a product so that no factorial overflows.
+  double binomial = 1.0;
+  for (int k = 1; k <= l / 2; ++k) binomial *= double(l / 2 + k) / (4.0 * k);
+  const double sign = (l / 2) % 2 == 1 ? 1.0 : -1.0;
+  return 2.0 * kPi * sign / ((l + 2.0) * (l - 1.0)) * binomial;
 }
 
 double sh_window_factor(ShWindow window, int l, int order) {
@@ -125,7 +77,7 @@ std::vector<std::vector<double>> ShCoefficients::irradiance_over_pi() const {
 }
 
 double ShCoefficients::eval_irradiance(int channel, const Vec3& n) const {
-  std::array<double, 16> y{};
+  std::vector<double> y(sh_count(order));
   sh_basis(order, n, y.data());
   double e = 0.0;
   for (int l = 0; l <= order; ++l)
@@ -136,6 +88,14 @@ double ShCoefficients::eval_irradiance(int channel, const Vec3& n) const {
   return e / kPi;
 }
 
+double ShCoefficients::eval_radiance(int channel, const Vec3& n) const {
+  std::vector<double> y(sh_count(order));
+  sh_basis(order, n, y.data());
+  double l = 0.0;
+  for (int i = 0; i < sh_count(order); ++i) l += radiance[channel][i] * y[i];
+  return l;
+}
+
 nlohmann::json ShCoefficients::to_json() const {
   nlohmann::json j;
   j["order"] = order;
@@ -144,22 +104,27 @@ nlohmann::json ShCoefficients::to_json() const {
       "real spherical harmonics, orthonormal on the sphere, no "
       "Condon-Shortley phase, index l*(l+1)+m, in the world "
       "direction (x, y, z); envkit/GL world: +Y up";
-  j["basis_functions"] = {"0.282095",
-                          "0.488603 y",
-                          "0.488603 z",
-                          "0.488603 x",
-                          "1.092548 xy",
-                          "1.092548 yz",
-                          "0.315392 (3z^2-1)",
-                          "1.092548 xz",
-                          "0.546274 (x^2-y^2)",
-                          "0.590044 y(3x^2-y^2)",
-                          "2.890611 xyz",
-                          "0.457046 y(4z^2-x^2-y^2)",
-                          "0.373176 z(2z^2-3x^2-3y^2)",
-                          "0.457046 x(4z^2-x^2-y^2)",
-                          "1.445306 z(x^2-y^2)",
-                          "0.590044 x(x^2-3y^2)"};
+  if (order > 3) {
+    j["basis_functions"] =
+        "Y_lm = sqrt(2) K_lm P_lm(z) (cos m phi for m > 0, sin |m| phi for m < 0), Y_l0 = K_l0 P_l0(z), "
+        "K_lm = sqrt((2l+1)/(4 pi) (l-m)!/(l+m)!), P_lm without the (-1)^m phase, phi from +x to +y";
+  } else
+    j["basis_functions"] = {"0.282095",
+                            "0.488603 y",
+                            "0.488603 z",
+                            "0.488603 x",
+                            "1.092548 xy",
+                            "1.092548 yz",
+                            "0.315392 (3z^2-1)",
+                            "1.092548 xz",
+                            "0.546274 (x^2-y^2)",
+                            "0.590044 y(3x^2-y^2)",
+                            "2.890611 xyz",
+                            "0.457046 y(4z^2-x^2-y^2)",
+                            "0.373176 z(2z^2-3x^2-3y^2)",
+                            "0.457046 x(4z^2-x^2-y^2)",
+                            "1.445306 z(x^2-y^2)",
+                            "0.590044 x(x^2-3y^2)"};
   j["window"] = sh_window_name(window);
   j["window_factors"] = nlohmann::json::array();
   for (int l = 0; l <= order; ++l) j["window_factors"].push_back(sh_window_factor(window, l, order));
@@ -193,22 +158,34 @@ struct RowProjection {
   const TexelSource& coverage;
   const std::vector<int>& colour;
 
+  /// Adds row y with the closed-form basis of band count kOrder + 1 (a constant: the values stay in registers).
   template <int kOrder>
   void add(int y, double* acc) const {
-    constexpr int kCount = (kOrder + 1) * (kOrder + 1);
-    const Image& img = src.image;
+    constexpr int kCount = sh_count(kOrder);
     double b[kCount];
+    add_row(y, acc, kCount, b, [&](const Vec3& d) { sh_basis_closed_form<kOrder>(d, b); });
+  }
+
+  /// Adds row y with the basis of any order.
+  void add_any(int order, int y, double* acc) const {
+    std::vector<double> b(sh_count(order));
+    add_row(y, acc, int(b.size()), b.data(), [&](const Vec3& d) { sh_basis(order, d, b.data()); });
+  }
+
+  template <class Basis>
+  [[gnu::always_inline]] void add_row(int y, double* acc, int count, const double* b, Basis&& basis) const {
+    const Image& img = src.image;
     for (int x = 0; x < img.width; ++x) {
       Vec3 d;
       if (!coverage.covered(std::size_t(y) * img.width + x) || !dirs.centre(x, y, d)) continue;
       // Texel directions are unit and to_world is a rotation: no normalisation (its square root and divisions
       // were most of this loop's time).
-      basis<kOrder>(apply(src.to_world, d), b);
+      basis(apply(src.to_world, d));
       const double o = omega(x, y);
       const float* px = img.at(x, y);
       for (std::size_t k = 0; k < colour.size(); ++k) {
         const double v = double(px[colour[k]]) * o;
-        for (int i = 0; i < kCount; ++i) acc[k * kCount + i] += v * b[i];
+        for (int i = 0; i < count; ++i) acc[k * count + i] += v * b[i];
       }
     }
   }
@@ -217,7 +194,8 @@ struct RowProjection {
 }  // namespace
 
 ShCoefficients project_sh(const MapRef& src, int order, ShWindow window) {
-  if (order < 1 || order > 3) throw Error("SH order must be 1, 2 or 3, not " + std::to_string(order));
+  if (order < 1 || order > kMaxShOrder)
+    throw Error("SH order must be 1 to " + std::to_string(kMaxShOrder) + ", not " + std::to_string(order));
   const Image& img = src.image;
   const int count = sh_count(order);
   std::vector<int> colour;
@@ -243,8 +221,10 @@ ShCoefficients project_sh(const MapRef& src, int order, ShWindow window) {
         return projection.add<1>(y, rows[y].data());
       case 2:
         return projection.add<2>(y, rows[y].data());
-      default:
+      case 3:
         return projection.add<3>(y, rows[y].data());
+      default:
+        return projection.add_any(order, y, rows[y].data());
     }
   });
   sh.radiance.assign(colour.size(), std::vector<double>(count, 0.0));

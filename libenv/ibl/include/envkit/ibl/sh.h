@@ -4,11 +4,11 @@
 /// diffuse irradiance they give (Ramamoorthi and Hanrahan 2001), for real-time
 /// engines.
 ///
-/// Basis: real, orthonormal over the sphere (integral of Y_i Y_j d omega =
-/// delta_ij), WITHOUT the Condon-Shortley phase, index i = l (l + 1) + m,
-/// written in the world-frame components (x, y, z) of the unit direction
-/// (envkit and GL: +Y up; the polynomials use z as their axis, as in
-/// Ramamoorthi-Hanrahan and Sloan):
+/// Basis (core/sh_basis.h, any order): real, orthonormal over the sphere
+/// (integral of Y_i Y_j d omega = delta_ij), WITHOUT the Condon-Shortley
+/// phase, index i = l (l + 1) + m, written in the world-frame components
+/// (x, y, z) of the unit direction (envkit and GL: +Y up; the polynomials use
+/// z as their axis, as in Ramamoorthi-Hanrahan and Sloan). Up to band 3:
 ///   l=0: 0.282095
 ///   l=1: 0.488603 y, 0.488603 z, 0.488603 x
 ///   l=2: 1.092548 xy, 1.092548 yz, 0.315392 (3z^2 - 1), 1.092548 xz, 0.546274
@@ -20,7 +20,8 @@
 /// Radiance coefficients: L_lm = sum over texels of L Y_lm(centre) x exact
 /// texel solid angle (double sums). Irradiance: E(n) = sum A_l w_l L_lm Y_lm(n)
 /// with the clamped-cosine convolution A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4,
-/// A_3 = 0 (every odd l > 1 vanishes), w_l the optional window. Dividing by pi
+/// A_3 = 0 (every odd l > 1 vanishes), A_4 = -pi / 24, ..., w_l the optional
+/// window. Dividing by pi
 /// gives the outgoing radiance of a white Lambertian surface (the BRDF's 1/pi
 /// folded in), what engines multiply by the albedo.
 ///
@@ -29,6 +30,7 @@
 /// / w)) / 2; Lanczos w_l = sinc(pi l / w) = sin(pi l / w) / (pi l / w). The
 /// window multiplies the coefficients of band l; the unwindowed radiance
 /// coefficients are kept too.
+#include <envkit/core/sh_basis.h>
 #include <envkit/resample/resample.h>
 
 #include <nlohmann/json_fwd.hpp>
@@ -42,12 +44,8 @@ std::string sh_window_name(ShWindow window);
 /// "none", "hanning" (also "hann"), "lanczos". Throws Error.
 ShWindow parse_sh_window(const std::string& name);
 
-/// Number of coefficients of SH up to band `order` (order 2: 9, order 3: 16).
-inline int sh_count(int order) { return (order + 1) * (order + 1); }
-/// Evaluates the basis up to `order` (<= 3) at the unit direction d into
-/// out[sh_count(order)].
-void sh_basis(int order, const Vec3& d, double* out);
-/// Clamped-cosine convolution factor A_l (pi, 2 pi / 3, pi / 4, 0 for l = 3).
+/// Clamped-cosine convolution factor A_l (pi, 2 pi / 3, pi / 4, 0 for l = 3, -pi / 24, 0, pi / 64, ...; every
+/// odd l > 1 is 0).
 double sh_cosine_lobe(int l);
 /// Window factor of band l for a window of width order + 1.
 double sh_window_factor(ShWindow window, int l, int order);
@@ -64,13 +62,16 @@ struct ShCoefficients {
   std::vector<std::vector<double>> irradiance_over_pi() const;
   /// E(n) / pi for channel c at direction n (world frame).
   double eval_irradiance(int channel, const Vec3& n) const;
+  /// The radiance the (unwindowed) coefficients reconstruct for channel c at direction n (world frame):
+  /// sum L_lm Y_lm(n).
+  double eval_radiance(int channel, const Vec3& n) const;
   /// The coefficients as JSON with the normalisation spelled out (see
   /// docs/PREFILTER.md).
   nlohmann::json to_json() const;
 };
 
 /// Projects the colour channels of `src` (world frame) onto SH up to `order`
-/// (1..3). Deterministic and independent of the thread count.
+/// (1 .. kMaxShOrder). Deterministic and independent of the thread count.
 ShCoefficients project_sh(const MapRef& src, int order = 2, ShWindow window = ShWindow::None);
 
 }  // namespace envkit
