@@ -42,6 +42,7 @@ from ._envkit import (
     probes,
     read_image,
     sh,
+    sh_reconstruct,
 )
 
 __all__ = [
@@ -60,6 +61,7 @@ __all__ = [
     "merge",
     "prefilter",
     "sh",
+    "sh_reconstruct",
     "load",
     "probes",
     "read",

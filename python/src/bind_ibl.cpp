@@ -8,6 +8,8 @@
 #include <envkit/ibl/prefilter.h>
 #include <envkit/ibl/sh.h>
 #include <envkit/io/request_limits.h>
+#include <envkit/maps/param_factory.h>
+#include <envkit/maps/texel_directions.h>
 #include <pybind11/stl.h>
 
 #include <memory>
@@ -18,6 +20,7 @@
 #include "bindings.h"
 #include "envmap_object.h"
 #include "rotation_arg.h"
+#include "view_args.h"
 
 namespace envkit::python {
 
@@ -115,7 +118,7 @@ void write(const PyIbl& ibl, const std::string& path, const std::string& format)
 
 py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& kind, bool lambertian,
              const std::string& window, const py::object& rotate) {
-  const int order = int_arg(order_arg, "order", 1, 3);  // envprefilter --sh-order
+  const int order = int_arg(order_arg, "order", 1, kMaxShOrder);  // envprefilter --sh-order
   if (kind != "radiance" && kind != "irradiance") throw ArgumentError("sh: kind must be radiance or irradiance, not " + kind);
   const ShWindow w = argument_value([&] { return parse_sh_window(window); });
   if (kind == "radiance" && (lambertian || w != ShWindow::None))
@@ -135,6 +138,63 @@ py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& 
   auto o = out.mutable_unchecked<2>();
   for (py::ssize_t ch = 0; ch < channels; ++ch)
     for (py::ssize_t i = 0; i < n; ++i) o(i, ch) = v[ch][i];
+  return out;
+}
+
+/// A map of `parameterization` at natural size N whose texels hold sum_i coeffs[i][c] Y_i(d) at their centre
+/// direction d (world frame): SH coefficients (radiance, or irradiance) turned back into a map through libenv's
+/// basis (sh_basis.h), truncated to `order` when given.
+std::shared_ptr<PyEnvMap> sh_reconstruct(const py::object& coeffs_arg, const py::object& size_arg,
+                                         const std::string& parameterization, const std::string& convention,
+                                         const py::object& order_arg) {
+  const py::array a = real_array(coeffs_arg, "coeffs");
+  if (a.ndim() != 1 && a.ndim() != 2) throw py::value_error("coeffs: expected (n,) or (n, channels) coefficients");
+  const auto c = a.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+  const py::ssize_t n = c.shape(0), channels = a.ndim() == 2 ? c.shape(1) : 1;
+  int full = 0;
+  while (sh_count(full) < n && full < kMaxShOrder) ++full;
+  if (sh_count(full) != n)
+    throw py::value_error("coeffs: " + std::to_string(n) + " rows is not (order + 1)^2 for an order up to " +
+                          std::to_string(kMaxShOrder));
+  // Colour channels only, as EnvMap.sh returns them (alpha is never projected): Y or R, G, B.
+  if (channels != 1 && channels != 3)
+    throw py::value_error("coeffs: 1 or 3 colour channels (columns), got " + std::to_string(channels));
+  const int order = order_arg.is_none() ? full : int_arg(order_arg, "order", 0, full);
+  const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
+  const Kind kind = argument_value([&] { return parse_kind(parameterization); });
+  if (kind == Kind::Perspective || kind == Kind::Fisheye)
+    throw ArgumentError("parameterization: sh_reconstruct makes environment maps, not camera views");
+  const Convention& conv = argument_value([&]() -> const Convention& { return envkit::convention(convention); });
+  const ParamSpec spec = spec_for(kind, size, conv);
+  check_size_arg("size", kind_name(kind) + " map", spec.width, spec.height, double(channels) * sizeof(float));
+  auto out = std::make_shared<PyEnvMap>();
+  out->map.param = make_parameterization(spec);
+  out->map.convention = conv.name;
+  if (kind == Kind::CubeMap) out->layout = spec.layout;
+  const double* cd = c.data();
+  {
+    py::gil_scoped_release release;
+    Image img(spec.width, spec.height, int(channels));
+    const TexelDirections dirs(*out->map.param);
+    const Mat3 to_world = out->map.to_world();
+    const int count = sh_count(order);
+    parallel_chunks(std::size_t(spec.height), [&](std::size_t j0, std::size_t j1) {
+      std::vector<double> y(static_cast<std::size_t>(count));
+      for (std::size_t j = j0; j < j1; ++j)
+        for (int i = 0; i < spec.width; ++i) {
+          Vec3 d;
+          if (!dirs.centre(i, int(j), d)) continue;
+          sh_basis(order, apply(to_world, d).normalized(), y.data());
+          float* px = img.at(i, int(j));
+          for (py::ssize_t ch = 0; ch < channels; ++ch) {
+            double v = 0.0;
+            for (int k = 0; k < count; ++k) v += cd[k * channels + ch] * y[std::size_t(k)];
+            px[ch] = float(v);
+          }
+        }
+    });
+    out->map.image = std::move(img);
+  }
   return out;
 }
 
@@ -208,6 +268,13 @@ one-level PrefilteredChain.)");
 float64 array, row i = l (l + 1) + m, real orthonormal basis without the Condon-Shortley phase (docs/PREFILTER.md).
 kind 'radiance': L_lm (unwindowed, the JSON's radiance); 'irradiance': A_l w_l L_lm (the JSON's irradiance), or
 with lambertian=True divided by pi (irradiance_over_pi). window: none, hanning, lanczos (irradiance only).)");
+  m.def("sh_reconstruct", &sh_reconstruct, py::arg("coeffs"), py::arg("size") = 64,
+        py::arg("parameterization") = "latlong", py::arg("convention") = "envkit", py::arg("order") = py::none(),
+        R"(The map SH coefficients describe (skylibs' SphericalHarmonic.reconstruct): coeffs (n,) or (n, channels)
+as EnvMap.sh returns them (rows i = l (l + 1) + m, n = (order + 1)^2, order up to 16), evaluated at every texel
+centre of a `parameterization` map at natural size `size` (lat-long 2N x N) through libenv's basis (sh_basis.h):
+texel = sum_i coeffs[i] Y_i(direction). Radiance coefficients give the band-limited radiance, irradiance ones
+the irradiance (E, or E / pi for lambertian=True). order: keep bands 0 .. order only.)");
   // The same calls as methods of EnvMap (sky.prefilter(...), sky.sh(...)).
   auto envmap = py::reinterpret_borrow<py::class_<PyEnvMap, std::shared_ptr<PyEnvMap>>>(m.attr("EnvMap"));
   envmap.def("prefilter", &prefilter, py::arg("size") = 256, py::arg("levels") = 0, py::arg("mapping") = "gltf",
