@@ -100,7 +100,18 @@ std::optional<ViewParams> parsed_view(const ViewArgs& in, Kind kind) {
     }
   }
   ViewParams v;
-  v.fov_degrees = a.fov.is_none() ? default_fov_degrees(kind) : number(a.fov, "fov");
+  if (!a.fov.is_none() && py::isinstance<py::sequence>(a.fov) && !py::isinstance<py::str>(a.fov)) {
+    // (horizontal, vertical): a perspective view with pixels that need not be square.
+    const py::sequence hv = py::reinterpret_borrow<py::sequence>(a.fov);
+    if (py::len(hv) != 2) throw ArgumentError("fov: expected degrees or (horizontal, vertical) degrees");
+    if (kind != Kind::Perspective) throw ArgumentError("fov: (horizontal, vertical) applies to perspective views");
+    v.fov_degrees = number(hv[0], "fov");
+    v.fov_v_degrees = number(hv[1], "fov");
+    if (!(v.fov_v_degrees > 0.0)) throw ArgumentError("fov: the vertical field of view must be positive");
+    if (!a.fov_axis.is_none()) throw ArgumentError("fov_axis: (horizontal, vertical) fov names both axes");
+  } else {
+    v.fov_degrees = a.fov.is_none() ? default_fov_degrees(kind) : number(a.fov, "fov");
+  }
   if (!a.roll.is_none()) {
     v.roll_degrees = number(a.roll, "roll");
     if (std::abs(v.roll_degrees) > 1e6)
@@ -116,7 +127,8 @@ py::dict view_dict(const ViewParams& v) {
   py::dict d;
   d["view_dir"] = from_vec3(v.forward);
   d["roll"] = v.roll_degrees;
-  d["fov"] = v.fov_degrees;
+  d["fov"] = v.fov_v_degrees > 0.0 ? py::object(py::make_tuple(v.fov_degrees, v.fov_v_degrees))
+                                    : py::object(py::float_(v.fov_degrees));
   d["fov_axis"] = v.fov_axis == FovAxis::Vertical ? "v" : "h";
   d["lens"] = lens_name(v.lens);
   return d;
