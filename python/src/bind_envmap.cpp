@@ -241,7 +241,8 @@ Ptr blank(const py::object& size_arg, const std::string& parameterization, const
   const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
   const int channels = int_arg(channels_arg, "channels", 1, 4);
   const Kind kind = argument_value([&] { return parse_kind(parameterization); });
-  const Convention& conv = argument_value([&]() -> const Convention& { return envkit::convention(convention.value_or("envkit")); });
+  const Convention& conv =
+      argument_value([&]() -> const Convention& { return envkit::convention(convention.value_or("envkit")); });
   std::optional<CubeLayout> l;
   if (layout) l = argument_value([&] { return parse_layout(*layout); });
   const std::optional<ViewParams> v = argument_value([&] { return view_params(ViewArgs{view}, kind); });

@@ -32,8 +32,8 @@ using Ptr = std::shared_ptr<PyEnvMap>;
 /// World direction (envkit frame) and exact solid angle of every texel whose centre holds data.
 struct WorldTexels {
   int width = 0, height = 0;
-  std::vector<Vec3> dir;               ///< zero where the centre holds no data
-  std::vector<double> omega;           ///< steradians
+  std::vector<Vec3> dir;                ///< zero where the centre holds no data
+  std::vector<double> omega;            ///< steradians
   std::vector<unsigned char> has_data;  ///< the centre sees a direction
   double total_omega = 0.0;             ///< sum of omega over texels with data (4 pi for a full map)
 };
@@ -101,9 +101,9 @@ ChannelValues channel_values(const Image& image, const py::handle& value, const 
 
 /// A map on `p`'s grid, convention and orientation holding `image`.
 Ptr same_grid_map(const PyEnvMap& p, Image&& image) {
-  return std::make_shared<PyEnvMap>(PyEnvMap{
-      EnvMap{std::move(image), p.map.param->clone(), p.map.convention, p.map.rotation}, p.layout, p.filter, p.source,
-      p.name});
+  return std::make_shared<PyEnvMap>(
+      PyEnvMap{EnvMap{std::move(image), p.map.param->clone(), p.map.convention, p.map.rotation}, p.layout, p.filter,
+               p.source, p.name});
 }
 
 void fill_texel(float* px, const ChannelValues& v) {
@@ -224,9 +224,8 @@ py::array mean_light_vectors(const PyEnvMap& p, const py::object& normals, const
     const WorldTexels t = world_texels(p.map);
     std::vector<double> y(t.dir.size(), 0.0);
     for (std::size_t k = 0; k < y.size(); ++k)
-      if (t.has_data[k]) y[k] = texel_intensity(p.map.image, p.map.image.pixels.data() + k * p.map.image.channels,
-                                                weights) *
-                                t.omega[k];
+      if (t.has_data[k])
+        y[k] = texel_intensity(p.map.image, p.map.image.pixels.data() + k * p.map.image.channels, weights) * t.omega[k];
     const double norm = t.total_omega > 0.0 ? 1.0 / t.total_omega : 0.0;
     parallel_chunks(n, [&](std::size_t k0, std::size_t k1) {
       for (std::size_t k = k0; k < k1; ++k) {

@@ -119,7 +119,8 @@ void write(const PyIbl& ibl, const std::string& path, const std::string& format)
 py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& kind, bool lambertian,
              const std::string& window, const py::object& rotate) {
   const int order = int_arg(order_arg, "order", 1, kMaxShOrder);  // envprefilter --sh-order
-  if (kind != "radiance" && kind != "irradiance") throw ArgumentError("sh: kind must be radiance or irradiance, not " + kind);
+  if (kind != "radiance" && kind != "irradiance")
+    throw ArgumentError("sh: kind must be radiance or irradiance, not " + kind);
   const ShWindow w = argument_value([&] { return parse_sh_window(window); });
   if (kind == "radiance" && (lambertian || w != ShWindow::None))
     throw ArgumentError(
@@ -209,9 +210,9 @@ memory (no copy). write(path) writes what envprefilter -o (or --irradiance) writ
       .def("__repr__",
            [](const PyIbl& c) {
              const Image& level0 = c.chain.levels.at(0).image;
-             const std::string what = c.irradiance ? "irradiance map" : std::to_string(c.chain.levels.size()) +
-                                                                            " GGX levels, mapping " +
-                                                                            roughness_mapping_name(c.chain.mapping);
+             const std::string what = c.irradiance ? "irradiance map"
+                                                   : std::to_string(c.chain.levels.size()) + " GGX levels, mapping " +
+                                                         roughness_mapping_name(c.chain.mapping);
              return "<envkit.PrefilteredChain " + kind_name(c.kind) + ", " + what + ", level 0 " +
                     std::to_string(level0.width) + "x" + std::to_string(level0.height) + ">";
            })

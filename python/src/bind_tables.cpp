@@ -69,7 +69,8 @@ const SphericalDistribution& distribution(const EnvTables& t, const std::string&
                                           const std::string& name) {
   const SamplingMethod m = argument_value([&] { return parse_method(method); });
   const SphericalDistribution* d = t.distribution(m, compensated);
-  if (!d) throw ArgumentError(name + ": has no " + table_name(m, compensated) + " table (re-bake with envbake --tables ...)");
+  if (!d)
+    throw ArgumentError(name + ": has no " + table_name(m, compensated) + " table (re-bake with envbake --tables ...)");
   return *d;
 }
 
@@ -81,12 +82,14 @@ struct PyTables {
 /// An output array given by the caller: C-contiguous, writable, of the dtype and shape sample() would return.
 template <class T>
 py::array_t<T> output(const py::handle& given, const std::vector<py::ssize_t>& shape, const char* what) {
-  if (!py::isinstance<py::array_t<T>>(given)) throw ArgumentError(std::string("sample: out ") + what + " has the wrong dtype");
+  if (!py::isinstance<py::array_t<T>>(given))
+    throw ArgumentError(std::string("sample: out ") + what + " has the wrong dtype");
   py::array_t<T> a = py::reinterpret_borrow<py::array_t<T>>(given);
   const bool ok = a.ndim() == py::ssize_t(shape.size()) && std::equal(shape.begin(), shape.end(), a.shape()) &&
                   (a.flags() & py::array::c_style) && a.writeable();
   if (!ok)
-    throw ArgumentError(std::string("sample: out ") + what + " must be a writable C-contiguous array of the result's shape");
+    throw ArgumentError(std::string("sample: out ") + what +
+                        " must be a writable C-contiguous array of the result's shape");
   return a;
 }
 
@@ -162,8 +165,9 @@ py::array pdf(const PyTables& t, const py::object& dir_in, const std::string& me
 py::array invert(const PyTables& t, const py::object& dir_in, const std::string& method, bool compensated) {
   const SphericalDistribution& d = distribution(*t.tables, method, compensated, t.name);
   if (!d.can_invert())
-    throw ArgumentError(t.name + ": the " + std::string(method_name(argument_value([&] { return parse_method(method); }))) +
-                " table cannot be inverted (use cdf or hierarchical)");
+    throw ArgumentError(t.name + ": the " +
+                        std::string(method_name(argument_value([&] { return parse_method(method); }))) +
+                        " table cannot be inverted (use cdf or hierarchical)");
   std::size_t n = 0;
   const DoubleArray dirs = vectors(dir_in, 3, "directions", n);
   py::array_t<double> out(result_shape(dirs, 2));
@@ -215,7 +219,8 @@ read from (as envbake records), or of the pixels for a map made from an array.)"
             TablesPtr t;
             {
               py::gil_scoped_release release;
-              t = std::make_shared<const EnvTables>(file_operation([&] { return EnvTables::load(path, expected_source_hash); }));
+              t = std::make_shared<const EnvTables>(
+                  file_operation([&] { return EnvTables::load(path, expected_source_hash); }));
             }
             return std::make_shared<PyTables>(PyTables{t, path});
           },
@@ -258,7 +263,8 @@ element instead of the batched one (the same results bit for bit, slower on larg
              std::string methods;
              for (bool comp : {false, true})
                for (SamplingMethod sm : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical})
-                 if (t.tables->distribution(sm, comp)) methods += std::string(methods.empty() ? "" : ",") + table_name(sm, comp);
+                 if (t.tables->distribution(sm, comp))
+                   methods += std::string(methods.empty() ? "" : ",") + table_name(sm, comp);
              return "<envkit.Tables " + kind_name(t.tables->grid()) + " " + std::to_string(t.tables->width()) + "x" +
                     std::to_string(t.tables->height()) + ", " + importance_name(t.tables->importance_mode()) +
                     ", tables " + methods + ", from " + t.name + ">";

@@ -5,7 +5,6 @@
 #include <envkit/io/request_limits.h>
 
 #include "args.h"
-
 #include "bindings.h"
 
 namespace py = pybind11;

@@ -81,8 +81,10 @@ std::optional<ViewParams> parsed_view(const ViewArgs& in, Kind kind) {
     if (!in.view_dir.is_none() || !in.roll.is_none() || !in.fov.is_none() || !in.fov_axis.is_none() ||
         !in.lens.is_none())
       throw ArgumentError("view: give either view= or view_dir/roll/fov/fov_axis/lens, not both");
-    if (py::isinstance<py::str>(in.view)) return argument_value([&] { return parse_view(in.view.cast<std::string>()); });
-    if (!py::isinstance<py::dict>(in.view)) throw py::type_error("view: expected a dict (EnvMap.view) or envkit:view text");
+    if (py::isinstance<py::str>(in.view))
+      return argument_value([&] { return parse_view(in.view.cast<std::string>()); });
+    if (!py::isinstance<py::dict>(in.view))
+      throw py::type_error("view: expected a dict (EnvMap.view) or envkit:view text");
     for (const auto& [key, value] : in.view.cast<py::dict>()) {
       const std::string k = py::str(key);
       if (k == "view_dir")
@@ -128,7 +130,7 @@ py::dict view_dict(const ViewParams& v) {
   d["view_dir"] = from_vec3(v.forward);
   d["roll"] = v.roll_degrees;
   d["fov"] = v.fov_v_degrees > 0.0 ? py::object(py::make_tuple(v.fov_degrees, v.fov_v_degrees))
-                                    : py::object(py::float_(v.fov_degrees));
+                                   : py::object(py::float_(v.fov_degrees));
   d["fov_axis"] = v.fov_axis == FovAxis::Vertical ? "v" : "h";
   d["lens"] = lens_name(v.lens);
   return d;

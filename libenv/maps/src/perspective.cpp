@@ -57,8 +57,8 @@ std::string PerspectiveMap::describe() const {
   s.precision(4);
   const auto full_angle = [&](double t) { return 2.0 * (orthographic_ ? std::asin(t) : std::atan(t)) * 180.0 / kPi; };
   s << (orthographic_ ? "orthographic perspective " : "perspective ") << width_ << "x" << height_ << " ("
-    << full_angle(tx_) << " x " << full_angle(ty_) << " deg, forward " << basis_.forward.x << "," << basis_.forward.y << ","
-    << basis_.forward.z << ", roll " << view_.roll_degrees << ")";
+    << full_angle(tx_) << " x " << full_angle(ty_) << " deg, forward " << basis_.forward.x << "," << basis_.forward.y
+    << "," << basis_.forward.z << ", roll " << view_.roll_degrees << ")";
   return s.str();
 }
 
