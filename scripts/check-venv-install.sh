@@ -15,7 +15,11 @@ trap 'rm -rf "$work"' EXIT
 git clone -q "$root" "$work/src"
 /usr/bin/python3 -m venv --system-site-packages "$work/venv"
 cmake_args=""
-command -v ccache >/dev/null && cmake_args="-DCMAKE_CXX_COMPILER_LAUNCHER=ccache"
+if command -v ccache >/dev/null; then
+  # Paths relative to the clone: the next run's clone (another temporary folder) hits the same cache entries.
+  cmake_args="-DCMAKE_CXX_COMPILER_LAUNCHER=ccache"
+  export CCACHE_BASEDIR="$work/src" CCACHE_NOHASHDIR=1
+fi
 (cd "$work/src" && CMAKE_ARGS="$cmake_args" ENVKIT_JOBS="${ENVKIT_JOBS:-2}" \
   "$work/venv/bin/pip" install -q --no-build-isolation .)
 
