@@ -578,8 +578,10 @@ area filter conserves power.
 
 Camera views (to='perspective' or 'fisheye'): size N is the width, the height N / aspect (or size=(w, h));
 view_dir (x, y, z) or (yaw, pitch) in degrees (yaw about +Y from +Z towards +X), roll, fov (perspective: across
-the width, or the height with fov_axis='v'; fisheye: across the image circle, default 180), lens (equidistant,
-equisolid, orthographic, stereographic); or view= a dict as EnvMap.view returns. Directions the view does not
+the width, or the height with fov_axis='v'; (h, v): both, pixels need not be square; fisheye: across the image
+circle, default 180), lens (equidistant, equisolid, orthographic, stereographic; on a perspective view
+'orthographic' makes the planar orthographic projection); or view= a dict as EnvMap.view returns. A lat-long takes
+size=(w, h) of any aspect. Directions the view does not
 see come out with alpha 0. HEALPix: nside=N (image 4N x 3N), or size=N.)")
       .def(
           "rotate",
