@@ -265,8 +265,8 @@ here, as envprefilter -o name.exr does).)";
 one-level PrefilteredChain.)");
   m.def("sh", &sh, py::arg("map"), py::arg("order") = 2, py::arg("kind") = "radiance", py::arg("lambertian") = false,
         py::arg("window") = "none", py::arg("rotate") = py::none(),
-        R"(Spherical harmonics (envprefilter --sh --sh-order --sh-window) of any order 1 .. 16: an ((order + 1)^2 x colour channels)
-float64 array, row i = l (l + 1) + m, real orthonormal basis without the Condon-Shortley phase (docs/PREFILTER.md).
+        R"(Spherical harmonics (envprefilter --sh --sh-order --sh-window) of any order 1 .. 16: an
+((order + 1)^2 x colour channels) float64 array, row i = l (l + 1) + m, real orthonormal basis without the Condon-Shortley phase (docs/PREFILTER.md).
 kind 'radiance': L_lm (unwindowed, the JSON's radiance); 'irradiance': A_l w_l L_lm (the JSON's irradiance), or
 with lambertian=True divided by pi (irradiance_over_pi). window: none, hanning, lanczos (irradiance only).)");
   m.def("sh_reconstruct", &sh_reconstruct, py::arg("coeffs"), py::arg("size") = 64,
