@@ -33,6 +33,7 @@ Examples:
   envrender --strategy mis-compensated --time 10   render for 10 seconds
   envrender --crop 0,0,240,120 -o tile0.exr        one window of the image (for farms)
   envrender --max-depth 3                          two indirect bounces
+  envrender --max-depth 3 --regularize 1           less noise from caustic paths, biased (as Cycles' Filter Glossy 1)
 
 Output: a linear two-part EXR (part 0: R, G, B; part 1 "aov": variance.R/G/B = variance of each pixel's mean,
 samples) and a PNG preview through the OCIO display transform (sRGB, ACES 1.0 - SDR Video) next to it (.png).
@@ -54,6 +55,7 @@ struct Args {
   std::optional<int> light_samples;
   int sun_samples = envkit::render::IntegratorOptions{}.sun_samples;
   int max_depth = 1;
+  double regularize = envkit::render::IntegratorOptions{}.regularization;
   int threads = 0;
   unsigned seed = 0;
   bool bake = false;
@@ -90,6 +92,8 @@ std::string option_flag(envkit::render::IntegratorField field) {
       return "--sun-samples";
     case F::MaxDepth:
       return "--max-depth";
+    case F::Regularization:
+      return "--regularize";
   }
   return "?";
 }
@@ -127,6 +131,7 @@ int run(const Args& a) {
   io.light_samples = a.light_samples;
   io.sun_samples = a.sun_samples;
   io.max_depth = a.max_depth;
+  io.regularization = a.regularize;
   if (!a.quiet) {
     for (const std::string& note : scene.notes) tools::info(note);
     // A warning about the compensated tables matters only to the strategy that draws from them.
@@ -136,7 +141,7 @@ int run(const Args& a) {
   const auto setup_start = std::chrono::steady_clock::now();
   const Integrator integrator = [&] {
     try {
-      return Integrator(*scene.scene, *scene.light, io);
+      return Integrator(*scene.scene, *scene.light, io, &scene.camera);
     } catch (const IntegratorOptionsError& e) {
       throw envkit::Error(e.message(option_flag));  // the library names fields; the user typed options
     }
@@ -162,9 +167,27 @@ int run(const Args& a) {
     setup_notes.push_back("product tables for the scene's " + std::to_string(integrator.product_lobe_count()) +
                           " lobe shape(s) (" + tools::fmt(double(integrator.product_table_bytes()) / (1 << 20), 3) +
                           " MiB)");
+  if (io.strategy == Strategy::Auto && integrator.has_product_tables()) {
+    std::string chosen;
+    for (int m = 0; m < scene.scene->material_count(); ++m) {
+      const envkit::render::LightChoice c = integrator.light_choice(m);
+      if (scene.scene->material(m).is_pure_delta()) continue;
+      chosen += (chosen.empty() ? "" : ", ") + scene.scene->material_names()[std::size_t(m)] + ": " +
+                (c.product ? "product table" : "plain table") + (c.sun_apart ? " + sun" : "");
+    }
+    setup_notes.push_back("light per material (pilot): " + chosen);
+  }
   if (const envkit::render::ProductWavelet* w = integrator.product_wavelet())
     setup_notes.push_back("wavelet product tables, " + std::to_string(w->options().resolution) + "^2 cells (" +
                           tools::fmt(double(w->bytes()) / (1 << 20), 3) + " MiB)");
+  if (const envkit::render::ProductSteerable* p = integrator.product_steerable())
+    setup_notes.push_back("steerable product tables, SH order " + std::to_string(p->options().order) + ", " +
+                          std::to_string(p->options().resolution) + "^2 cells (" +
+                          tools::fmt(double(p->bytes()) / (1 << 20), 3) + " MiB)");
+  if (const envkit::render::ProductSh* p = integrator.product_sh())
+    setup_notes.push_back("SH product tables, order " + std::to_string(p->options().order) + ", " +
+                          std::to_string(p->options().resolution) + "^2 cells (" +
+                          tools::fmt(double(p->bytes()) / (1 << 20), 3) + " MiB)");
   if (!setup_notes.empty() && !a.quiet) {
     setup_notes.back() += " (built in " + tools::fmt(setup_ms, 3) + " ms)";
     for (const std::string& note : setup_notes) tools::info(note);
@@ -201,6 +224,7 @@ int run(const Args& a) {
       {"envkit:light_samples", a.light_samples ? std::to_string(*a.light_samples) : "by lobe"},
       {"envkit:sun_samples", std::to_string(integrator.sun_split() ? a.sun_samples : 0)},
       {"envkit:max_depth", std::to_string(a.max_depth)},
+      {"envkit:regularize", tools::fmt(a.regularize, 6)},
       {"envkit:spp", std::to_string(stats.spp)},
       {"envkit:seed", std::to_string(a.seed)},
       {"envkit:seconds", tools::fmt(stats.seconds, 4)},
@@ -234,10 +258,15 @@ int main(int argc, char** argv) {
   app.add_option("--time", a.time, "render for this many seconds instead of --spp (passes of 1 spp)")
       ->check(tools::number_in(0.0, 1e6, true));
   app.add_option("--strategy", a.strategy,
-                 "bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis "
-                 "(product-wavelet: Clarberg et al. 2005's wavelet product of lighting and BSDF, the whole map)")
-      ->check(CLI::IsMember({"bsdf", "light", "mis", "mis-compensated", "product", "product-mis", "product-wavelet",
-                             "product-wavelet-mis"}))
+                 "auto|bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis|"
+                 "product-steerable|product-steerable-mis|product-sh|product-sh-mis "
+                 "(auto: as product-mis, with each material's table, product or plain, and the sun apart or not "
+                 "chosen by a short pilot; product-wavelet: Clarberg et al. 2005's wavelet product of lighting and "
+                 "BSDF; product-steerable: Subr and Arvo 2007's per-basis lighting tables; product-sh: Jarosz et al. "
+                 "2009's SH product; each the whole map)")
+      ->check(CLI::IsMember({"auto", "bsdf", "light", "mis", "mis-compensated", "product", "product-mis",
+                             "product-wavelet", "product-wavelet-mis", "product-steerable", "product-steerable-mis",
+                             "product-sh", "product-sh-mis"}))
       ->capture_default_str();
   app.add_option("--light-method", a.light_method,
                  "environment sampling table of light, mis and mis-compensated: cdf|alias|hierarchical (the product "
@@ -272,6 +301,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--max-depth", a.max_depth, "scattering events per path (1 = direct light only)")
       ->transform(tools::integer_in(1, 64))
+      ->capture_default_str();
+  app.add_option("--regularize", a.regularize,
+                 "BIASED noise reduction for --max-depth > 1 (Cycles' Filter Glossy rule): after a diffuse or rough "
+                 "bounce, glossy and mirror lobes are widened, up to GGX alpha 0.5 and the more the larger the "
+                 "value, so the image converges to a slightly blurred one (Cycles' default is 1); 0 = unbiased")
+      ->check(tools::number_in(0.0, 1e6))
       ->capture_default_str();
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");
   app.add_option("--resolution", a.resolution, "override the camera resolution, WxH");

@@ -28,7 +28,9 @@ using envkit::Vec3;
 
 const char* kFooter = R"(KIND and size for --size N: latlong 2N x N, cube faces N x N, mirrorball N x N,
 angular N x N, octahedral N x N, paraboloid 2N x N, healpix 4N x 3N (N = N_side: the 12 base pixels as
-N x N squares, 4 per row: north, equatorial, south), perspective and fisheye N wide, N / --aspect high.
+N x N squares, 4 per row: north, equatorial, south), perspective and fisheye N wide, N / --aspect high,
+skylatlong 4N x N and skyangular N x N (skylibs' sky formats: the upper hemisphere only; directions below the
+horizon come out with alpha 0 when converting from them).
 Camera views (--to perspective|fisheye; or --from one when --to is a map): --view-dir x,y,z or yaw,pitch
 (degrees; yaw about +Y from +Z towards +X), --roll, --fov (perspective: across the width, or the height with
 --fov-axis v; fisheye: across the image circle, up to 360), --lens. A view is recorded in the output's
@@ -37,7 +39,8 @@ Cube layouts L: vstrip (N x 6N, faces +X -X +Y -Y +Z -Z top to bottom), hstrip (
 vcross (3N x 4N). A '%' in OUT writes six face files, '%' replaced by +X, -X, +Y, -Y, +Z, -Z (as exrenvmap
 does); a '%' in IN reads six faces.
 Without --from the input's parameterization comes from envkit or OpenEXR metadata, else from the aspect
-ratio (2:1 latlong, 1:1 angular or octahedral, 1:6 6:1 4:3 3:4 cube), and the guess is printed.
+ratio (2:1 latlong, 1:1 angular or octahedral, 1:6 6:1 4:3 3:4 cube), and the guess is printed; a 4:1
+skylatlong or a skyangular needs --from (or the metadata envconvert writes).
 Conventions (--convention, --from-convention): envkit (default), openexr (exrenvmap: corner-sampled,
 N x 6N cube; writes the envmap attribute), hdrshop, angmap-cal, blender, gl (GL/Vulkan/KTX cube faces; also
 Filament's cmgen), threejs, directx (DDS cubes), unity, mitsuba (Mitsuba 3 envmap), pbrt (pbrt-v4 equal-area
@@ -69,6 +72,10 @@ Examples:
       a 960 x 640 pinhole view 30 degrees left of +Z, 10 up, 60 degrees wide (area filter: no aliasing)
   envconvert fish.exr -o sky.exr --to latlong --from fisheye --lens equisolid --fov 185 --view-dir 0,90
       embed a fisheye photograph looking up into a lat-long (alpha 0 where the lens does not see)
+  envconvert sky.exr -o sky_top.exr --to skylatlong --size 256
+      the upper hemisphere as skylibs' 1024 x 256 sky lat-long (zenith on the top row)
+  envconvert sky_top.exr -o sky.exr --to latlong --from skylatlong
+      back to a full lat-long: alpha 0 below the horizon
 
 Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 usage error.)";
 

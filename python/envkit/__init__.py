@@ -120,13 +120,15 @@ def render(
     bake=False,
     crop=None,
     base_dir=None,
+    regularize=0.0,
 ):
     """Renders a scene with envrender's integrator and returns the mean image (H x W x 3 float32).
 
     scene: None (the built-in default scene), a path to a JSON scene file (docs/SCENE_FORMAT.md), or a dict in
     that format (relative paths inside it are relative to base_dir, default the current directory). The other
     arguments are envrender's options (strategy None: envrender's default; bsdf_samples and light_samples None: by
-    each material's lobe, as envrender without --bsdf-samples / --light-samples); crop = (x0, y0, x1, y1).
+    each material's lobe, as envrender without --bsdf-samples / --light-samples); crop = (x0, y0, x1, y1);
+    regularize: envrender's --regularize (0: unbiased; > 0 trades a bias for less noise when max_depth > 1).
     """
     if not has_renderer:
         raise Error("this envkit was built without the renderer (ENVKIT_BUILD_RENDERER=OFF)")
@@ -139,5 +141,5 @@ def render(
         path = _os.fspath(scene)
     return _envkit._render(
         path, text, base, spp, strategy, light_method, heuristic, bsdf_samples, light_samples, sun_samples,
-        max_depth, seed, width, height, bake, crop,
+        max_depth, seed, width, height, bake, crop, regularize,
     )

@@ -22,7 +22,7 @@ void bind_render(py::module_& m) {
          const py::object& spp, const std::optional<std::string>& strategy, const std::string& light_method,
          const std::string& heuristic, const py::object& bsdf_samples, const py::object& light_samples,
          const py::object& sun_samples, const py::object& max_depth, const py::object& seed, const py::object& width,
-         const py::object& height, bool bake, const py::object& crop) {
+         const py::object& height, bool bake, const py::object& crop, const py::object& regularize) {
         using namespace envkit::render;
         // envrender's ranges (--spp, --bsdf-samples, --light-samples, --sun-samples, --max-depth, --seed,
         // --resolution; 0: the scene's resolution) and its memory check of the image.
@@ -55,12 +55,13 @@ void bind_render(py::module_& m) {
         io.light_samples = optional_int_arg(light_samples, "light_samples", 0, 1024);
         io.sun_samples = int_arg(sun_samples, "sun_samples", 0, 1024);
         io.max_depth = int_arg(max_depth, "max_depth", 1, 64);
+        io.regularization = real_arg(regularize, "regularize", 0.0, 1e6);  // envrender's --regularize
         Image image;
         try {
           py::gil_scoped_release release;
           LoadedScene scene = path ? load_scene_file(*path, load)
                                    : (text ? load_scene_text(*text, base, load) : make_default_scene(load));
-          const Integrator integrator(*scene.scene, *scene.light, io);
+          const Integrator integrator(*scene.scene, *scene.light, io, &scene.camera);
           image = render_image(scene.camera, integrator, ro).mean_image();
         } catch (const RequestTooLarge& e) {
           // The scene's camera resolution (or one side of it overridden): the loader names the file and key.
@@ -71,7 +72,8 @@ void bind_render(py::module_& m) {
       },
       py::arg("path"), py::arg("text"), py::arg("base"), py::arg("spp"), py::arg("strategy"), py::arg("light_method"),
       py::arg("heuristic"), py::arg("bsdf_samples"), py::arg("light_samples"), py::arg("sun_samples"),
-      py::arg("max_depth"), py::arg("seed"), py::arg("width"), py::arg("height"), py::arg("bake"), py::arg("crop"));
+      py::arg("max_depth"), py::arg("seed"), py::arg("width"), py::arg("height"), py::arg("bake"), py::arg("crop"),
+      py::arg("regularize"));
 }
 
 }  // namespace envkit::python

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 
 namespace envkit::render {
 
@@ -44,17 +45,29 @@ const char* strategy_name(Strategy s) {
       return "product-wavelet";
     case Strategy::ProductWaveletMis:
       return "product-wavelet-mis";
+    case Strategy::Auto:
+      return "auto";
+    case Strategy::ProductSteerable:
+      return "product-steerable";
+    case Strategy::ProductSteerableMis:
+      return "product-steerable-mis";
+    case Strategy::ProductSh:
+      return "product-sh";
+    case Strategy::ProductShMis:
+      return "product-sh-mis";
   }
   return "?";
 }
 
 Strategy parse_strategy(const std::string& name) {
-  for (Strategy s : {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
-                     Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis})
+  for (Strategy s :
+       {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
+        Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis, Strategy::ProductSteerable,
+        Strategy::ProductSteerableMis, Strategy::ProductSh, Strategy::ProductShMis, Strategy::Auto})
     if (name == strategy_name(s)) return s;
   throw Error("unknown strategy '" + name +
-              "' (valid: bsdf, light, mis, mis-compensated, product, product-mis, product-wavelet, "
-              "product-wavelet-mis)");
+              "' (valid: auto, bsdf, light, mis, mis-compensated, product, product-mis, product-wavelet, "
+              "product-wavelet-mis, product-steerable, product-steerable-mis, product-sh, product-sh-mis)");
 }
 
 Heuristic parse_heuristic(const std::string& name) {
@@ -77,6 +90,8 @@ const char* integrator_field_name(IntegratorField field) {
       return "sun_samples";
     case IntegratorField::MaxDepth:
       return "max_depth";
+    case IntegratorField::Regularization:
+      return "regularization";
   }
   return "?";
 }
@@ -116,7 +131,10 @@ void validate(const IntegratorOptions& o) {
              " >= 1 (BSDF sampling covers what the compensated table leaves out)";
     });
   if (o.sun_samples < 0) refuse(F::SunSamples, [](const Speller& n) { return n(F::SunSamples) + " must be >= 0"; });
-  const bool product = s == Strategy::Product || s == Strategy::ProductMis;
+  if (!(std::isfinite(o.regularization) && o.regularization >= 0.0))
+    refuse(F::Regularization,
+           [](const Speller& n) { return n(F::Regularization) + " must be a finite number >= 0 (0 = unbiased)"; });
+  const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
   const bool wavelet = s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis;
   if (s == Strategy::ProductWavelet && m_min < 1)
     refuse(F::LightSamples,
@@ -128,10 +146,26 @@ void validate(const IntegratorOptions& o) {
       return n(F::LightMethod) + " " + method_name(method) +
              ": the product-wavelet strategies read the hierarchical table";
     });
+  const bool basis = s == Strategy::ProductSteerable || s == Strategy::ProductSteerableMis ||
+                     s == Strategy::ProductSh || s == Strategy::ProductShMis;
+  const bool basis_mis = s == Strategy::ProductSteerableMis || s == Strategy::ProductShMis;
+  if (basis && !basis_mis && m_min < 1)
+    refuse(F::LightSamples, [s](const Speller& n) {
+      return std::string("strategy ") + strategy_name(s) + " needs " + n(F::LightSamples) + " >= 1";
+    });
+  if (basis_mis && n_min + m_min < 1)
+    refuse(F::Strategy,
+           [s](const Speller&) { return std::string("strategy ") + strategy_name(s) + " needs at least one sample"; });
+  if (basis && o.light_method != SamplingMethod::Hierarchical)
+    refuse(F::LightMethod, [s, method = o.light_method](const Speller& n) {
+      return n(F::LightMethod) + " " + method_name(method) + ": the " + strategy_name(s) +
+             " strategy reads the hierarchical table";
+    });
   if (s == Strategy::Product && m_min < 1)
     refuse(F::LightSamples, [](const Speller& n) { return "strategy product needs " + n(F::LightSamples) + " >= 1"; });
-  if (s == Strategy::ProductMis && n_min + m_min < 1)
-    refuse(F::Strategy, [](const Speller&) { return "strategy product-mis needs at least one sample"; });
+  if ((s == Strategy::ProductMis || s == Strategy::Auto) && n_min + m_min < 1)
+    refuse(F::Strategy,
+           [s](const Speller&) { return std::string("strategy ") + strategy_name(s) + " needs at least one sample"; });
   if (product && o.light_method != SamplingMethod::Hierarchical)
     refuse(F::LightMethod, [method = o.light_method](const Speller& n) {
       return n(F::LightMethod) + " " + method_name(method) +
@@ -140,7 +174,8 @@ void validate(const IntegratorOptions& o) {
     });
 }
 
-Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options)
+Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options,
+                       const Camera* camera)
     : scene_(scene), light_(light), options_(options) {
   validate(options_);
   const Strategy s = options_.strategy;
@@ -148,7 +183,10 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
     const bool compensated = s == Strategy::MisCompensated;
     // The light counts are the shading point's (techniques()).
     whole_ = {{LightTechnique{light_.distribution(options_.light_method, compensated), 0}}, 1};
-    if (options_.sun_samples > 0 && s != Strategy::ProductWavelet && s != Strategy::ProductWaveletMis) {
+    const bool whole_map = s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis ||
+                           s == Strategy::ProductSteerable || s == Strategy::ProductSteerableMis ||
+                           s == Strategy::ProductSh || s == Strategy::ProductShMis;
+    if (options_.sun_samples > 0 && !whole_map) {
       // A table file may hold the split (envbake --tables ...,sun); else it is built here.
       if (auto stored = light_.tables().stored_sun_split(options_.light_method, compensated))
         sun_ = std::move(*stored);
@@ -165,16 +203,29 @@ Integrator::Integrator(const Scene& scene, const EnvironmentLight& light, const 
             : s == Strategy::Light || s == Strategy::Product ? &Integrator::direct_light
             : s == Strategy::ProductWavelet                  ? &Integrator::direct_product_wavelet
             : s == Strategy::ProductWaveletMis               ? &Integrator::direct_product_wavelet_mis
+            : s == Strategy::ProductSteerable                ? &Integrator::direct_product_steerable
+            : s == Strategy::ProductSteerableMis             ? &Integrator::direct_product_steerable_mis
+            : s == Strategy::ProductSh                       ? &Integrator::direct_product_sh
+            : s == Strategy::ProductShMis                    ? &Integrator::direct_product_sh_mis
                                                              : &Integrator::direct_mis;
-  if (s == Strategy::Product || s == Strategy::ProductMis) build_product_tables();
+  build_regularized_materials();
+  const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
+  for (int m = 0; m < scene_.material_count(); ++m)
+    choices_.push_back({product, sun_ && takes_sun_samples(scene_.material(m))});
+  if (product) build_product_tables(s == Strategy::Auto && camera);
+  if (s == Strategy::Auto && camera) choose_by_pilot(*camera);
   if (s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis) build_product_wavelet();
+  if (s == Strategy::ProductSteerable || s == Strategy::ProductSteerableMis)
+    steerable_ = std::make_unique<ProductSteerable>(light_.distribution(SamplingMethod::Hierarchical, false),
+                                                    shaded_materials(), options_.steerable);
+  if (s == Strategy::ProductSh || s == Strategy::ProductShMis)
+    sh_ = std::make_unique<ProductSh>(light_.distribution(SamplingMethod::Hierarchical, false), shaded_materials(),
+                                      options_.sh);
 }
 
 void Integrator::build_product_wavelet() {
-  std::vector<const Material*> materials;
-  for (int m = 0; m < scene_.material_count(); ++m) materials.push_back(&scene_.material(m));
-  wavelet_ = std::make_unique<ProductWavelet>(light_.distribution(SamplingMethod::Hierarchical, false), materials,
-                                              options_.wavelet);
+  wavelet_ = std::make_unique<ProductWavelet>(light_.distribution(SamplingMethod::Hierarchical, false),
+                                              shaded_materials(), options_.wavelet);
 }
 
 std::array<std::optional<Lobe>, 2> Integrator::product_lobes(const Material& material) {
@@ -193,21 +244,57 @@ Vec3 Integrator::lobe_axis(const Lobe& lobe, const ShadingPoint& x) {
   return lobe.shape == Lobe::Shape::Cosine ? x.frame.n : x.frame.to_world(Vec3(-x.wo.x, -x.wo.y, x.wo.z));
 }
 
-void Integrator::build_product_tables() {
-  // The scene's lobes; with a sun, those of materials that take sun samples get tables over the rest of the map,
-  // the others over the whole map (techniques()).
+void Integrator::build_product_tables(bool every_lobe) {
+  // The scene's lobes; with a sun, those of materials that take it apart get tables over the rest of the map, the
+  // others over the whole map (techniques()).
   std::vector<Lobe> whole, split;
-  for (int m = 0; m < scene_.material_count(); ++m) {
-    const Material& material = scene_.material(m);
-    std::vector<Lobe>& set = sun_ && takes_sun_samples(material) ? split : whole;
+  const auto add = [](std::vector<Lobe>& set, const Material& material) {
     for (const std::optional<Lobe>& lobe : product_lobes(material))
       if (lobe && std::find(set.begin(), set.end(), *lobe) == set.end()) set.push_back(*lobe);
+  };
+  for (const Material* shaded : shaded_materials()) {
+    const LightChoice choice = choice_for(*shaded);
+    if (every_lobe || !choice.sun_apart) add(whole, *shaded);
+    if (sun_ && (every_lobe || choice.sun_apart)) add(split, *shaded);
   }
   if (!whole.empty()) product_whole_ = std::make_unique<LobeProductTables>(*whole_.parts[0].table.first, whole);
   if (!split.empty()) product_split_ = std::make_unique<LobeProductTables>(*split_.parts[0].table.first, split);
 }
 
 Integrator::~Integrator() = default;
+
+double regularization_floor(double regularization, double min_pdf) {
+  if (!(regularization > 0.0) || !(min_pdf < regularization)) return 0.0;
+  const double blur = 0.5 * std::sqrt(1.0 - std::max(min_pdf, 0.0) / regularization);
+  return std::min(std::floor(blur / kRegularizationStep) * kRegularizationStep, kRegularizationMaxFloor);
+}
+
+void Integrator::build_regularized_materials() {
+  // No vertex but the camera hit (never widened) without a continuation: nothing to build.
+  if (!(options_.regularization > 0.0) || options_.max_depth < 2) return;
+  const int levels = int(std::lround(kRegularizationMaxFloor / kRegularizationStep));
+  regularized_.resize(std::size_t(scene_.material_count()));
+  for (int m = 0; m < scene_.material_count(); ++m)
+    for (int k = 0; k < levels; ++k)
+      regularized_[std::size_t(m)].push_back(scene_.material(m).with_roughness_floor((k + 1) * kRegularizationStep));
+}
+
+const Material& Integrator::regularized(int index, double floor) const {
+  const int k = int(std::lround(floor / kRegularizationStep)) - 1;
+  if (k < 0 || std::size_t(index) >= regularized_.size()) return scene_.material(index);
+  const std::vector<std::unique_ptr<Material>>& copies = regularized_[std::size_t(index)];
+  const Material* widened = std::size_t(k) < copies.size() ? copies[std::size_t(k)].get() : nullptr;
+  return widened ? *widened : scene_.material(index);
+}
+
+std::vector<const Material*> Integrator::shaded_materials() const {
+  std::vector<const Material*> materials;
+  for (int m = 0; m < scene_.material_count(); ++m) materials.push_back(&scene_.material(m));
+  for (const std::vector<std::unique_ptr<Material>>& copies : regularized_)
+    for (const std::unique_ptr<Material>& widened : copies)
+      if (widened) materials.push_back(widened.get());
+  return materials;
+}
 
 int Integrator::product_lobe_count() const {
   return (product_whole_ ? int(product_whole_->lobes().size()) : 0) +
@@ -227,11 +314,17 @@ double Integrator::mis_weight(double a, double b) const {
   return sum > 0.0 && std::isfinite(sum) ? a / sum : (std::isinf(a) ? 1.0 : 0.0);
 }
 
-Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int light_samples) const {
-  const bool split = sun_ && takes_sun_samples(x.material);
+LightChoice Integrator::choice_for(const Material& material) const {
+  for (int m = 0; m < scene_.material_count(); ++m)
+    if (&scene_.material(m) == &material) return choices_[std::size_t(m)];
+  return {has_product_tables(), sun_ && takes_sun_samples(material)};
+}
+
+Integrator::LightTechniques Integrator::techniques(const ShadingPoint& x, int light_samples, LightChoice choice) const {
+  const bool split = sun_ && choice.sun_apart;
   LightTechniques t = split ? split_ : whole_;
   t.parts[0].count = light_samples;
-  const LobeProductTables* tables = split ? product_split_.get() : product_whole_.get();
+  const LobeProductTables* tables = !choice.product ? nullptr : split ? product_split_.get() : product_whole_.get();
   if (!tables) return t;
   // By lobe, not by material: a material outside the scene (direct() is public) with a lobe of the scene's gets
   // its table too; one without keeps the plain table.
@@ -307,7 +400,7 @@ Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
-  const LightTechniques light = techniques(x, counts(x.material).light);
+  const LightTechniques light = techniques(x, counts(x.material).light, choice_for(x.material));
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
@@ -321,9 +414,13 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
 }
 
 Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_mis_with(x, sampler, choice_for(x.material));
+}
+
+Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice) const {
   const SampleCounts n = counts(x.material);
   const int N = n.bsdf;
-  const LightTechniques light = techniques(x, n.light);
+  const LightTechniques light = techniques(x, n.light, choice);
   Vec3 sum(0, 0, 0);
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
   for (int k = 0; k < light.count; ++k) {
@@ -349,11 +446,15 @@ Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
   return sum;
 }
 
+Vec3 Integrator::table_normal(const ShadingPoint& x) const { return light_.to_table(x.frame.n); }
+Vec3 Integrator::table_wo(const ShadingPoint& x) const { return light_.to_table(x.frame.to_world(x.wo)); }
+
 ProductWavelet::Point Integrator::wavelet_point(const ShadingPoint& x) const {
-  return wavelet_->at(light_.to_table(x.frame.n), light_.to_table(x.frame.to_world(x.wo)), x.material);
+  return wavelet_->at(table_normal(x), table_wo(x), x.material);
 }
 
-Integrator::LightTerm Integrator::wavelet_term(const ShadingPoint& x, const ProductWavelet::Point& p, Vec2 u) const {
+template <class Point>
+Integrator::LightTerm Integrator::point_term(const ShadingPoint& x, const Point& p, Vec2 u) const {
   LightTerm t;
   const DirectionSample s = p.sample(u);
   t.pdf = s.pdf;
@@ -368,26 +469,26 @@ Integrator::LightTerm Integrator::wavelet_term(const ShadingPoint& x, const Prod
   return t;
 }
 
-Vec3 Integrator::direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const {
+template <class Point>
+Vec3 Integrator::direct_point(const ShadingPoint& x, Sampler& sampler, const Point& p) const {
   const int M = counts(x.material).light;
-  const ProductWavelet::Point p = wavelet_point(x);
   const std::uint32_t dimension = sampler.reserve(1);
   Vec3 sum(0, 0, 0);
   for (int j = 0; j < M; ++j) {
-    const LightTerm l = wavelet_term(x, p, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(M)));
+    const LightTerm l = point_term(x, p, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(M)));
     if (!is_black(l.value)) sum += l.value / (l.pdf * M);
   }
   return sum + delta_lobe_term(x, sampler);  // product samples cannot reach a delta lobe
 }
 
-Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const {
+template <class Point>
+Vec3 Integrator::direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p) const {
   const SampleCounts n = counts(x.material);
   const int N = n.bsdf, M = n.light;
-  const ProductWavelet::Point p = wavelet_point(x);
   Vec3 sum(0, 0, 0);
   const std::uint32_t light_dimension = sampler.reserve(1);
   for (int j = 0; j < M; ++j) {
-    const LightTerm l = wavelet_term(x, p, sampler.point_2d(light_dimension, std::uint32_t(j), std::uint32_t(M)));
+    const LightTerm l = point_term(x, p, sampler.point_2d(light_dimension, std::uint32_t(j), std::uint32_t(M)));
     if (is_black(l.value)) continue;
     sum += l.value * (mis_weight(M * l.pdf, N * x.material.pdf(x.wo, l.wi_local)) / (M * l.pdf));
   }
@@ -402,6 +503,30 @@ Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& samp
     sum += b.value * (mis_weight(N * b.pdf, M * p.pdf(light_.to_table(b.wi_world))) / N);
   }
   return sum;
+}
+
+Vec3 Integrator::direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point(x, sampler, wavelet_point(x));
+}
+
+Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point_mis(x, sampler, wavelet_point(x));
+}
+
+Vec3 Integrator::direct_product_steerable(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point(x, sampler, steerable_->at(table_normal(x), table_wo(x), x.material));
+}
+
+Vec3 Integrator::direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point_mis(x, sampler, steerable_->at(table_normal(x), table_wo(x), x.material));
+}
+
+Vec3 Integrator::direct_product_sh(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point(x, sampler, sh_->at(table_normal(x), table_wo(x), x.material));
+}
+
+Vec3 Integrator::direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler) const {
+  return direct_point_mis(x, sampler, sh_->at(table_normal(x), table_wo(x), x.material));
 }
 
 Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng, const Vec3& wo,
@@ -419,6 +544,8 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
     result = light_.radiance(primary.direction);
   } else {
     Ray ray = primary;
+    // The smallest pdf of the path's non-delta continuations (regularization: the file comment).
+    double min_pdf = std::numeric_limits<double>::infinity();
     for (int depth = 0; depth < options_.max_depth; ++depth) {
       const Vec3 wo_world = -ray.direction;
       Vec3 ng = hit.geometric_normal, ns = hit.shading_normal;
@@ -429,7 +556,7 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
       const Frame frame = Frame::from_normal(ns);
       const Vec3 wo = frame.to_local(wo_world);
       if (!(wo.z > 0.0)) break;
-      const Material& material = scene_.material(hit.material);
+      const Material& material = regularized(hit.material, regularization_floor(options_.regularization, min_pdf));
       result += mul(throughput, direct(hit.position, frame, ng, wo, material, sampler));
       if (depth + 1 >= options_.max_depth) break;
       // Continuation (indirect light): counts only when it hits a surface.
@@ -437,11 +564,18 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
       if (!material.sample(wo, sampler.next_2d(), sampler.next_1d(), bs) || !(bs.pdf > 0.0)) break;
       const Vec3 wi_world = frame.to_world(bs.wi);
       if ((wi_world ^ ng) <= 0.0) break;
+      throughput = mul(throughput, bs.f_cos / bs.pdf);
+      if (is_black(throughput) || !finite(throughput)) break;
+      if (!bs.is_delta) min_pdf = std::min(min_pdf, bs.pdf);
+      if (depth >= kRouletteStartVertex) {
+        const double survival =
+            std::clamp(std::max({throughput.x, throughput.y, throughput.z}), kRouletteMinSurvival, 1.0);
+        if (sampler.next_1d() >= survival) break;
+        throughput = throughput / survival;
+      }
       ray = Ray{Scene::offset_origin(hit.position, ng), wi_world};
       Hit next;
       if (!scene_.intersect(ray, next)) break;
-      throughput = mul(throughput, bs.f_cos / bs.pdf);
-      if (is_black(throughput) || !finite(throughput)) break;
       hit = next;
     }
   }

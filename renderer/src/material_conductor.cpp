@@ -15,6 +15,10 @@ class ConductorMaterial final : public Material {
 
   const char* name() const override { return "conductor"; }
   double widest_lobe_alpha() const override { return alpha_; }
+  std::unique_ptr<Material> with_roughness_floor(double alpha) const override {
+    if (!(detail::clamp_alpha(alpha) > alpha_)) return nullptr;
+    return std::make_unique<ConductorMaterial>(eta_, k_, alpha, shadowing_);
+  }
 
   Vec3 eval(const Vec3& wo, const Vec3& wi) const override {
     Vec3 h;

@@ -36,6 +36,10 @@ class PlasticMaterial final : public Material {
   const char* name() const override { return "plastic"; }
   double widest_lobe_alpha() const override { return 1.0; }
   double narrowest_lobe_alpha() const override { return alpha_; }
+  std::unique_ptr<Material> with_roughness_floor(double alpha) const override {
+    if (!(detail::clamp_alpha(alpha) > alpha_)) return nullptr;
+    return std::make_unique<PlasticMaterial>(diffuse_, alpha, ior_);
+  }
   double narrowest_lobe_probability(const Vec3& wo) const override {
     return detail::above(wo) ? specular_probability(wo.z) : 0.0;
   }

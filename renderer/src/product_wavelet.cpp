@@ -1,5 +1,6 @@
 #include <envkit/core/error.h>
 #include <envkit/maps/octahedral.h>
+#include <envkit/render/basis_hierarchy.h>
 #include <envkit/render/product_wavelet.h>
 #include <envkit/sampling/haar.h>
 #include <tbb/parallel_for.h>
@@ -49,42 +50,6 @@ void check_options(const WaveletOptions& o) {
     throw Error("wavelet wo bins " + std::to_string(o.wo_bins) + ": must be in 1..64");
   if (o.kept_coefficients < 0)
     throw Error("wavelet kept coefficients " + std::to_string(o.kept_coefficients) + ": must be >= 0 (0 = all)");
-}
-
-/// A node of the environment's pyramid: its centre direction (tables' frame) and its importance x solid angle.
-struct EnvNode {
-  Vec3 centre;
-  double energy;
-};
-
-/// The pyramid's nodes at the level whose width is nearest (in log2) to `columns`.
-std::vector<EnvNode> env_nodes(const SphericalDistribution& env, int columns) {
-  if (env.distribution().builtin() != BuiltinDistribution::Hierarchical)
-    throw Error("product-wavelet: needs the hierarchical table (--light-method hierarchical)");
-  const auto* pyramid = static_cast<const HierarchicalDistribution2D*>(&env.distribution());
-  int level = 0;
-  double best = 1e300;
-  for (int k = 0; k <= pyramid->levels(); ++k) {
-    const double d = std::abs(std::log2(double(pyramid->level_width(k))) - std::log2(double(columns)));
-    if (d < best) {
-      best = d;
-      level = k;
-    }
-  }
-  const auto centre = [&](int i, int n) {
-    const double first = double(i << level), last = double(std::min((i + 1) << level, n));
-    return 0.5 * (first + last);
-  };
-  std::vector<EnvNode> nodes;
-  for (int j = 0; j < pyramid->level_height(level); ++j)
-    for (int i = 0; i < pyramid->level_width(level); ++i) {
-      const double e = pyramid->node(level, i, j);
-      if (!(e > 0.0)) continue;
-      const double px = centre(i, env.width()), py = centre(j, env.height());
-      const int x = std::min(int(px), env.width() - 1), y = std::min(int(py), env.height() - 1);
-      nodes.push_back({env.direction_in_texel(x, y, std::min(px - x, 0.5), std::min(py - y, 0.5)), e});
-    }
-  return nodes;
 }
 
 }  // namespace
@@ -153,7 +118,7 @@ ProductWavelet::ProductWavelet(const SphericalDistribution& env, const std::vect
   cap_ = 1.0 + std::sin(bin_radius_);
 
   // Lighting, per normal bin in its own tangent frame.
-  const std::vector<EnvNode> nodes = env_nodes(env, 8 * R);
+  const std::vector<EnvNode> nodes = environment_nodes(env, 8 * R, "product-wavelet");
   lighting_.resize(bin_frames_.size() * cells_);
   tbb::parallel_for(std::size_t(0), bin_frames_.size(), [&](std::size_t b) {
     const Frame& frame = bin_frames_[b];

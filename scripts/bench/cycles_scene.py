@@ -5,7 +5,9 @@ Run inside Blender (never imported by the system Python):
 
 JOB.json (written by scripts/bench/bench_cycles.py):
     {"scene": {...envkit-frame geometry, see bench_cycles.py...}, "hdri": "/path/x.exr", "threads": 2,
-     "renders": [{"spp": 16, "seed": 1, "output": "/path/out.exr"}, ...], "timings": "/path/timings.json"}
+     "renders": [{"spp": 16, "seed": 1, "output": "/path/out.exr"}, ...], "timings": "/path/timings.json",
+     "cycles_settings": {"max_bounces": 2, "blur_glossy": 1.0, ...}}   (optional: scene.cycles attributes that
+     replace the settings below; bench_indirect.py)
 
 Geometry is given in envkit's world frame (+Y up) and moved to Blender's with Blender (x, y, z) = envkit
 (x, -z, y), the axis change of envkit's `blender` convention (libenv/maps/include/envkit/maps/convention.h), so that the
@@ -217,6 +219,9 @@ def main():
     with open(argv[0]) as fh:
         job = json.load(fh)
     scene = build(job["scene"], job["hdri"], int(job.get("threads", 2)))
+    # Settings that replace build()'s, e.g. bounces and Filter Glossy (bench_indirect.py).
+    for key, value in job.get("cycles_settings", {}).items():
+        setattr(scene.cycles, key, value)
     warm = render(scene, 1, 12345)
     timings = {"warmup_seconds": warm, "renders": [], "blender": bpy.app.version_string,
                "sampling_pattern": scene.cycles.sampling_pattern}

@@ -72,6 +72,7 @@ std::vector<Named> strategies(bool include_bsdf) {
   add("mis-compensated", Strategy::MisCompensated, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   add("product", Strategy::Product, SamplingMethod::Hierarchical, Heuristic::Power, 0, 1);
   add("product-mis", Strategy::ProductMis, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
+  add("auto", Strategy::Auto, SamplingMethod::Hierarchical, Heuristic::Power, 1, 1);
   return list;
 }
 
@@ -81,7 +82,7 @@ void check_agreement(const LoadedScene& scene, const std::vector<Named>& list, i
   const int rx = 4, ry = 2;
   std::vector<std::vector<double>> means, vars;
   for (const Named& s : list) {
-    const Integrator integrator(*scene.scene, *scene.light, s.options);
+    const Integrator integrator(*scene.scene, *scene.light, s.options, &scene.camera);
     const Film film = render_image(scene.camera, integrator, ro);
     EXPECT_EQ(integrator.nonfinite_count(), 0u) << s.name;
     std::vector<double> m, v;
@@ -131,7 +132,7 @@ TEST(RenderStrategies, NoNonFiniteValuesUnderAMillionSun) {
   for (auto s : strategies(true)) {
     for (int depth : {1, 3}) {
       s.options.max_depth = depth;
-      const Integrator integrator(*scene.scene, *scene.light, s.options);
+      const Integrator integrator(*scene.scene, *scene.light, s.options, &scene.camera);
       RenderOptions ro;
       ro.spp = 4;
       const Film film = render_image(scene.camera, integrator, ro);
@@ -184,12 +185,13 @@ TEST(RenderStrategies, CropAndThreadCountDoNotChangePixels) {
   const LoadedScene scene = default_scene_replacing(
       R"("probe": "overcast", "size": [64, 32])", R"("ground":   {"type": "diffuse", "albedo": [0.45, 0.45, 0.42]})",
       R"("ground":   {"type": "conductor", "roughness": 0.3})", 24, 12, "glossy-ground.json");
-  IntegratorOptions mis, product;
+  IntegratorOptions mis, product, automatic;
   mis.strategy = Strategy::Mis;
   product.strategy = Strategy::ProductMis;
-  for (const IntegratorOptions& options : {mis, product}) {
+  automatic.strategy = Strategy::Auto;
+  for (const IntegratorOptions& options : {mis, product, automatic}) {
     SCOPED_TRACE(strategy_name(options.strategy));
-    const Integrator integrator(*scene.scene, *scene.light, options);
+    const Integrator integrator(*scene.scene, *scene.light, options, &scene.camera);
     RenderOptions ro;
     ro.spp = 3;
     ro.seed = 42;
@@ -200,7 +202,7 @@ TEST(RenderStrategies, CropAndThreadCountDoNotChangePixels) {
     {
       // One thread for the tables (the sun split, the product tables) as well as for the pixels.
       tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-      const Integrator serial(*scene.scene, *scene.light, options);
+      const Integrator serial(*scene.scene, *scene.light, options, &scene.camera);
       crop = render_image(scene.camera, serial, ro);
     }
     for (int y = 0; y < crop.height(); ++y)

@@ -106,9 +106,7 @@ CLI::Validator colorspace_validator() {
 
 std::string kind_choices() {
   std::vector<std::string> names;
-  for (Kind k : {Kind::LatLong, Kind::CubeMap, Kind::MirrorBall, Kind::AngularMap, Kind::Octahedral,
-                 Kind::DualParaboloid, Kind::HEALPix, Kind::Perspective, Kind::Fisheye})
-    names.push_back(kind_name(k));
+  for (Kind k : kAllKinds) names.push_back(kind_name(k));
   return choices(names);
 }
 

@@ -45,8 +45,11 @@ std::string size_mismatch(Kind kind, int w, int h, std::optional<CubeLayout> lay
     case Kind::LatLong:
     case Kind::DualParaboloid:
       return w == 2 * h ? "" : "expects 2:1";
+    case Kind::SkyLatLong:
+      return w == 4 * h ? "" : "expects 4:1";
     case Kind::Octahedral:
     case Kind::AngularMap:
+    case Kind::SkyAngular:
       return w == h ? "" : "expects 1:1";
     case Kind::MirrorBall:
       return (w == h || ball_given) ? "" : "expects 1:1 (or give the ball's centre and radius)";
@@ -161,15 +164,21 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
   } else if (w == h) {
     const bool disk = looks_like_disk(img, 0, w);
     d.kind = disk ? Kind::AngularMap : Kind::Octahedral;
-    d.reason = disk ? "from the 1:1 aspect ratio and its black corners (pass --from mirrorball for a ball photograph)"
+    d.reason = disk ? "from the 1:1 aspect ratio and its black corners (pass --from mirrorball for a ball photograph, "
+                      "--from skyangular for an upper hemisphere)"
                     : "from the 1:1 aspect ratio without black corners";
   } else if (auto l = layout_from_size(w, h)) {
     d.kind = Kind::CubeMap;
     d.layout = opt.layout.value_or(*l);
     d.reason = "from the " + ratio_text(w, h) + " aspect ratio (" + layout_name(d.layout) + ")";
+  } else if (w == 4 * h) {
+    // Only skylatlong has 4:1, but a sky is too rare a guess to make silently: the user says so.
+    fail(path, "cannot tell the parameterization of a " + size_text(w, h) +
+                   " image (aspect 4:1); pass --from skylatlong for an upper-hemisphere lat-long");
   } else {
-    fail(path, "cannot tell the parameterization of a " + size_text(w, h) + " image (aspect " + ratio_text(w, h) +
-                   "); pass --from latlong|cube|mirrorball|angular|octahedral|paraboloid|healpix");
+    fail(path,
+         "cannot tell the parameterization of a " + size_text(w, h) + " image (aspect " + ratio_text(w, h) +
+             "); pass --from latlong|cube|mirrorball|angular|octahedral|paraboloid|healpix|skylatlong|skyangular");
   }
   return d;
 }

@@ -16,17 +16,7 @@ std::string AngularMap::describe() const {
 double AngularMap::polar_angle(double r) const { return kPi * std::clamp(r, 0.0, 1.0); }
 double AngularMap::radius_of_angle(double theta) const { return std::clamp(theta, 0.0, kPi) / kPi; }
 
-// (1 - cos(pi r)) / r^2 = 2 sin^2(pi r / 2) / r^2, written to stay accurate near r = 0.
-double AngularMap::cap_density(double r) const {
-  if (r < 1e-4) return 0.5 * kPi * kPi * (1.0 - kPi * kPi * r * r / 12.0);
-  const double s = std::sin(0.5 * kPi * r) / r;
-  return 2.0 * s * s;
-}
-
-// pi sin(pi r) / r, which tends to pi^2 at the centre and to 0 at the rim.
-double AngularMap::area_density(double r) const {
-  if (r < 1e-6) return kPi * kPi;
-  return kPi * std::sin(kPi * std::min(r, 1.0)) / r;
-}
+double AngularMap::cap_density(double r) const { return equidistant_cap_density(r, kPi); }
+double AngularMap::area_density(double r) const { return equidistant_area_density(r, kPi); }
 
 }  // namespace envkit

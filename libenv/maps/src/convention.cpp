@@ -123,6 +123,11 @@ std::vector<Convention> build_presets() {
   rman.frames[static_cast<int>(Kind::CubeMap)] = Mat3(1, 0, 0, 0, 0, 1, 0, 1, 0);
   rman.cube_basis = CubeBasis::GL;
   presets.push_back(rman);
+  // The sky formats are the upper half of a lat-long (skylatlong.h, skyangular.h): under every convention they
+  // take its frame, so a convention's sky maps are the top half of its lat-longs.
+  for (Convention& c : presets)
+    c.frames[static_cast<int>(Kind::SkyLatLong)] = c.frames[static_cast<int>(Kind::SkyAngular)] =
+        c.frames[static_cast<int>(Kind::LatLong)];
   return presets;
 }
 

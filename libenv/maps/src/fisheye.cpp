@@ -95,11 +95,8 @@ double FisheyeMap::radius_of_angle(double theta) const {
 // (finite at r = 0).
 double FisheyeMap::cap_density(double r) const {
   switch (view_.lens) {
-    case Lens::Equidistant: {
-      if (r < 1e-8) return 0.5 * k_ * k_;
-      const double s = std::sin(0.5 * r * k_);
-      return 2.0 * s * s / (r * r);
-    }
+    case Lens::Equidistant:
+      return equidistant_cap_density(r, k_);
     case Lens::Equisolid:
       return 2.0 * k_ * k_;
     case Lens::Orthographic: {
@@ -116,7 +113,7 @@ double FisheyeMap::cap_density(double r) const {
 double FisheyeMap::area_density(double r) const {
   switch (view_.lens) {
     case Lens::Equidistant:
-      return r < 1e-8 ? k_ * k_ : k_ * std::sin(r * k_) / r;
+      return equidistant_area_density(r, k_);
     case Lens::Equisolid:
       return 4.0 * k_ * k_;
     case Lens::Orthographic: {

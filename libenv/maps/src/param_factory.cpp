@@ -8,6 +8,8 @@
 #include <envkit/maps/paraboloid.h>
 #include <envkit/maps/param_factory.h>
 #include <envkit/maps/perspective.h>
+#include <envkit/maps/skyangular.h>
+#include <envkit/maps/skylatlong.h>
 
 namespace envkit {
 
@@ -44,6 +46,10 @@ std::unique_ptr<Parameterization> make_parameterization(const ParamSpec& s) {
       return std::make_unique<PerspectiveMap>(s.width, s.height, s.view);
     case Kind::Fisheye:
       return std::make_unique<FisheyeMap>(s.width, s.height, s.view);
+    case Kind::SkyLatLong:
+      return std::make_unique<SkyLatLongMap>(s.width, s.height);
+    case Kind::SkyAngular:
+      return std::make_unique<SkyAngularMap>(s.width, s.height);
   }
   throw Error("unknown parameterization");
 }
@@ -53,6 +59,10 @@ void natural_image_size(Kind kind, int n, CubeLayout layout, int& width, int& he
     case Kind::LatLong:
     case Kind::DualParaboloid:
       width = 2 * n;
+      height = n;
+      return;
+    case Kind::SkyLatLong:
+      width = 4 * n;
       height = n;
       return;
     case Kind::CubeMap:

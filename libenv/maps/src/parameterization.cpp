@@ -27,6 +27,10 @@ std::string kind_name(Kind kind) {
       return "perspective";
     case Kind::Fisheye:
       return "fisheye";
+    case Kind::SkyLatLong:
+      return "skylatlong";
+    case Kind::SkyAngular:
+      return "skyangular";
   }
   return "unknown";
 }
@@ -44,9 +48,12 @@ Kind parse_kind(const std::string& name) {
   if (n == "healpix" || n == "hpx") return Kind::HEALPix;
   if (n == "perspective" || n == "pinhole" || n == "rectilinear") return Kind::Perspective;
   if (n == "fisheye") return Kind::Fisheye;
-  throw Error("unknown parameterization '" + name +
-              "' (expected latlong, mirrorball, angular, cube, octahedral, paraboloid, healpix, perspective or "
-              "fisheye)");
+  if (n == "skylatlong" || n == "sky-latlong") return Kind::SkyLatLong;
+  if (n == "skyangular" || n == "sky-angular") return Kind::SkyAngular;
+  std::string expected;
+  for (std::size_t k = 0; k < kAllKinds.size(); ++k)
+    expected += (k == 0 ? "" : k + 1 == kAllKinds.size() ? " or " : ", ") + kind_name(kAllKinds[k]);
+  throw Error("unknown parameterization '" + name + "' (expected " + expected + ")");
 }
 
 bool Parameterization::same_grid(const Parameterization&) const { return false; }

@@ -8,6 +8,14 @@
 
 namespace envkit {
 
+double equidistant_cap_density(double r, double k) {
+  if (r < 1e-8) return 0.5 * k * k;
+  const double s = std::sin(0.5 * r * k);
+  return 2.0 * s * s / (r * r);
+}
+
+double equidistant_area_density(double r, double k) { return r < 1e-8 ? k * k : k * std::sin(r * k) / r; }
+
 bool RadialMap::same_grid(const Parameterization& other) const {
   if (!same_kind_and_size(other)) return false;
   // Disks alone do not tell a fisheye's lens and field of view.

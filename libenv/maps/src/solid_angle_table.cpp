@@ -4,7 +4,7 @@ namespace envkit {
 
 SolidAngleTable::SolidAngleTable(const Parameterization& param) : width_(param.width()) {
   const int W = param.width(), H = param.height();
-  if (param.kind() == Kind::LatLong) {
+  if (param.latlong_geometry()) {  // a lat-long's texels share one solid angle per row
     per_row_.resize(H);
     halve_edge_columns_ = param.grid() == TexelGrid::Corner && W > 1;
     for (int j = 0; j < H; ++j) {

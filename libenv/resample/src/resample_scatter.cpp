@@ -152,7 +152,7 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
     });
   }
   // Lat-long texels of a row share one solid angle but the first and last of a corner-sampled grid.
-  const bool omega_per_row = sp.kind() == Kind::LatLong && W > 2;
+  const bool omega_per_row = sp.latlong_geometry() != nullptr && W > 2;
   const int stride = C + 1;
 
   // Stage 2 of the pipeline: project a chunk's texels and spread each one's flux over the output texels its

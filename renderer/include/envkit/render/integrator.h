@@ -10,6 +10,28 @@
 /// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
 /// --max-depth 1 (the default) is direct illumination only.
 ///
+/// Russian roulette. The continuation ray leaving vertex d (d = 0: the camera ray's hit) is traced for certain when
+/// d < kRouletteStartVertex; from there on it survives with probability q = clamp(max RGB component of the path's
+/// throughput including this bounce's f cos / pdf, kRouletteMinSurvival, 1) and its throughput is divided by q
+/// (unbiased: E[1{u < q} / q] = 1). Its random number is the next 1D dimension of the pixel's sampler, drawn
+/// whenever the rule applies (d >= kRouletteStartVertex), so pixels stay independent of tiles, threads and crop.
+/// max_depth 2 never plays it.
+///
+/// Regularization (options.regularization = v, 0 = off and unbiased): Cycles' Filter Glossy rule. The path keeps
+/// min_pdf, the smallest solid-angle pdf of its non-delta continuation samples so far (infinite at the camera hit).
+/// At a later vertex whose min_pdf < v, every lobe narrower than GGX alpha
+///   floor = 0.5 sqrt(1 - min_pdf / v)   (Cycles' blur roughness, in alpha; <= 0.5),
+/// rounded DOWN to a multiple of kRegularizationStep (regularization_floor()), is widened to the floor, a delta
+/// lobe becomes a GGX lobe of the floor (Material::with_roughness_floor()): after a diffuse or rough bounce
+/// (small pdf) a near-specular surface is shaded as a rough one, for its direct light and its continuation alike.
+/// This is BIASED (the image converges to that of the widened materials: caustics seen through a diffuse bounce
+/// are blurred) and trades that bias for much less noise. The camera hit is never widened (min_pdf is infinite
+/// there), so directly seen surfaces keep their reflections; neither are measured BRDFs (no roughness to raise).
+/// The widened materials are built once when the integrator starts (one per material and floor), and the product
+/// tables hold their lobes, so that at a widened vertex every strategy draws exactly as it would for a material of
+/// that alpha and weighs by the densities of what it draws: each vertex's estimator is unbiased for the widened
+/// material.
+///
 /// Strategies for D (N BSDF, M light and S sun samples per shading point; N and M by the material's lobe unless the
 /// options set them: sample_counts()):
 ///  - bsdf:  (1/N) sum f cos L / p_bsdf over N BSDF samples.
@@ -34,10 +56,28 @@
 ///           from the table of its lobe's axis, a plastic's from the mixture of its base's and its coat's tables in
 ///           the proportion in which its BSDF samples them. The table's (mixture's) pdf enters the weights as any
 ///           light table's. Uses the hierarchical table.
+///  - auto (the default): as mis, with each material's light technique chosen by a pilot when the integrator starts
+///           (light_pilot.cpp): its product table or the plain table, the sun apart or not (LightChoice). Shading
+///           points of each material are taken where a fixed grid of camera rays first hits it; at each, every
+///           candidate's estimate of D is drawn a fixed number of times. A point's score is its relative variance
+///           (over its mean squared) times the candidate's cost per shading point (rays, a product table's descent).
+///           MIS's own choice (the plain table, the sun by takes_sun_samples()) stands unless another candidate's
+///           mean score is lower by more than twice the standard error of the per-point differences. Deterministic
+///           (a fixed seed, per-point slots summed in order): the image depends on neither threads, tiles nor crop.
+///           Materials the camera does not see, and every material when there is no camera, take product-mis's
+///           choice.
 ///  - product-wavelet, product-wavelet-mis: as light and mis, with M light samples drawn from the shading point's
 ///           wavelet product of lighting and BSDF x cos (Clarberg et al. 2005; product_wavelet.h), built once when
 ///           the integrator starts for the scene's materials. The whole map, no sun split (S is not used); the
 ///           weights are product-mis's. Uses the hierarchical table.
+///  - product-steerable, product-steerable-mis: the same with M light samples drawn from the steerable product
+///           (Subr and Arvo 2007; product_steerable.h): one lighting table per SH basis function up to band order
+///           (8) over a quadtree of R x R (64 x 64) equal-area cells of the sphere, combined with the point's fitted
+///           BSDF x cos coefficients, clamped at 0, warped down the quadtree, mixed with 10% of the plain table.
+///  - product-sh, product-sh-mis: the same with the SH product of the lighting (projected to SH once) and the
+///           point's fitted BSDF x cos (Jarosz, Carr and Jensen 2009; product_sh.h), sampled through the quadtree
+///           of its integrals over the cells, with the same mixture. Both: basis_hierarchy.h; options `steerable`
+///           and `sh` (BasisProductOptions); built once when the integrator starts; the whole map, no sun split.
 /// Random numbers: the M samples of a light technique (and the N BSDF samples) at a shading point draw points k =
 /// 0 .. M - 1 of one dimension pair at index sample x M + k (Sampler::point_2d), so that over a pixel's samples
 /// they are one stratified sequence of spp x M points.
@@ -48,6 +88,8 @@
 #include <envkit/render/camera.h>
 #include <envkit/render/env_light.h>
 #include <envkit/render/frame.h>
+#include <envkit/render/product_sh.h>
+#include <envkit/render/product_steerable.h>
 #include <envkit/render/product_wavelet.h>
 #include <envkit/render/sampler.h>
 #include <envkit/render/scene.h>
@@ -66,7 +108,21 @@
 
 namespace envkit::render {
 
-enum class Strategy { Bsdf, Light, Mis, MisCompensated, Product, ProductMis, ProductWavelet, ProductWaveletMis };
+enum class Strategy {
+  Bsdf,
+  Light,
+  Mis,
+  MisCompensated,
+  Product,
+  ProductMis,
+  ProductWavelet,
+  ProductWaveletMis,
+  ProductSteerable,
+  ProductSteerableMis,
+  ProductSh,
+  ProductShMis,
+  Auto
+};
 enum class Heuristic { Balance, Power };
 
 const char* strategy_name(Strategy s);
@@ -74,8 +130,8 @@ Strategy parse_strategy(const std::string& name);  ///< throws Error listing the
 Heuristic parse_heuristic(const std::string& name);
 
 struct IntegratorOptions {
-  /// Why this default: BENCHMARKS.md, "Product tables".
-  Strategy strategy = Strategy::ProductMis;
+  /// Why this default: BENCHMARKS.md, "The default: a pilot per material".
+  Strategy strategy = Strategy::Auto;
   SamplingMethod light_method = SamplingMethod::Hierarchical;
   Heuristic heuristic = Heuristic::Power;
   /// BSDF (N) and light (M) samples per shading point, for every material; unset: by the material's lobe
@@ -89,10 +145,16 @@ struct IntegratorOptions {
   int sun_samples = 1;
   /// The product-wavelet strategies' resolution, bins and compression (product_wavelet.h).
   WaveletOptions wavelet;
+  /// Path regularization (the file comment): Cycles' Filter Glossy value, finite and >= 0; 0 = unbiased (off).
+  /// Biased when > 0.
+  double regularization = 0.0;
+  /// The product-steerable and product-sh strategies' SH order, quadtree, fits and defensive share (basis_hierarchy.h).
+  BasisProductOptions steerable;
+  BasisProductOptions sh;
 };
 
 /// The IntegratorOptions field a refusal concerns.
-enum class IntegratorField { Strategy, LightMethod, BsdfSamples, LightSamples, SunSamples, MaxDepth };
+enum class IntegratorField { Strategy, LightMethod, BsdfSamples, LightSamples, SunSamples, MaxDepth, Regularization };
 
 /// The field's name in IntegratorOptions ("max_depth"): how the library's messages name options.
 const char* integrator_field_name(IntegratorField field);
@@ -113,8 +175,8 @@ class IntegratorOptionsError : public Error {
 };
 
 /// Throws IntegratorOptionsError unless the options go together: counts that are given are >= 0 and at least what
-/// the strategy draws from, max_depth >= 1, sun_samples >= 0, and the hierarchical table for the product
-/// strategies. The Integrator runs it first.
+/// the strategy draws from, max_depth >= 1, sun_samples >= 0, regularization finite and >= 0, and the hierarchical
+/// table for the product strategies. The Integrator runs it first.
 void validate(const IntegratorOptions& options);
 
 /// A lobe is wide when it is at least this GGX alpha (Lambertian counts as 1): it sees much of the sky from a
@@ -127,6 +189,20 @@ inline constexpr int kWideLightSamples = 4;
 /// A narrow lobe's BSDF and light samples when the options leave the counts unset.
 inline constexpr int kNarrowBsdfSamples = 4;
 inline constexpr int kNarrowLightSamples = 4;
+
+/// Russian roulette (the file comment): the first vertex whose continuation may be cut, and the smallest
+/// survival probability (bounds the weight 1 / q of a surviving path).
+inline constexpr int kRouletteStartVertex = 1;
+inline constexpr double kRouletteMinSurvival = 0.05;
+/// Regularization floors are multiples of this GGX alpha (at most kRegularizationMaxFloor, Cycles' largest blur
+/// roughness): a few widened materials and product tables instead of one per path.
+inline constexpr double kRegularizationStep = 0.125;
+inline constexpr double kRegularizationMaxFloor = 0.5;
+
+/// The roughness floor (GGX alpha) at a vertex whose path has min_pdf (the smallest pdf of its non-delta
+/// continuation samples, per steradian; infinite at the camera hit) under regularization v: 0.5 sqrt(1 - min_pdf / v)
+/// rounded down to a multiple of kRegularizationStep when min_pdf < v, else 0 (no floor). 0 for v = 0.
+double regularization_floor(double regularization, double min_pdf);
 
 /// BSDF (N) and light (M) samples per shading point.
 struct SampleCounts {
@@ -149,11 +225,20 @@ SampleCounts sample_counts(const IntegratorOptions& options, const Material& mat
 /// "The sun apart for lobes from GGX alpha 0.1".
 bool takes_sun_samples(const Material& material);
 
+/// How a material's shading points draw light: from the product table of their lobe or the plain table, and the
+/// sun apart from the rest of the map (when it has one) or not.
+struct LightChoice {
+  bool product = false;
+  bool sun_apart = false;
+  bool operator==(const LightChoice&) const = default;
+};
+
 class Integrator {
  public:
   /// Validates the options (validate(): IntegratorOptionsError) and them against the light (e.g. a missing
-  /// compensated table: Error).
-  Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options);
+  /// compensated table: Error). `camera`: where strategy auto's pilot looks from (only read while constructing).
+  Integrator(const Scene& scene, const EnvironmentLight& light, const IntegratorOptions& options,
+             const Camera* camera = nullptr);
   ~Integrator();
 
   /// Radiance along a camera ray.
@@ -174,8 +259,16 @@ class Integrator {
   int product_lobe_count() const;
   std::size_t product_table_bytes() const;
   std::size_t nonfinite_count() const { return nonfinite_.load(); }
+  /// The light technique of the scene's material `material` (index): the strategy's, or for auto the pilot's.
+  LightChoice light_choice(int material) const { return choices_.at(std::size_t(material)); }
+  /// The material a vertex shades with under a roughness floor (regularization_floor()): scene material `index`
+  /// widened to `floor`, or the scene's own when the floor is 0 or widens none of its lobes.
+  const Material& regularized(int index, double floor) const;
   /// The product-wavelet strategies' sampler, or nullptr for other strategies.
   const ProductWavelet* product_wavelet() const { return wavelet_.get(); }
+  /// The product-steerable (product-sh) strategies' sampler, or nullptr for other strategies.
+  const ProductSteerable* product_steerable() const { return steerable_.get(); }
+  const ProductSh* product_sh() const { return sh_.get(); }
 
  private:
   /// What every strategy knows of the point it shades (see direct()).
@@ -229,14 +322,24 @@ class Integrator {
   /// With product tables, the first part is the table of the material's lobe at this point's axis, or for two lobes
   /// (a plastic) the mixture of their tables in the proportion in which the BSDF samples them. The first part is
   /// drawn `light_samples` times (the material's count, sample_counts()).
-  LightTechniques techniques(const ShadingPoint& x, int light_samples) const;
+  LightTechniques techniques(const ShadingPoint& x, int light_samples, LightChoice choice) const;
+  /// The choice of the scene's material at `material`'s address; a material outside the scene gets its strategy's
+  /// rule (product tables when built, the sun apart by takes_sun_samples()).
+  LightChoice choice_for(const Material& material) const;
+  /// Strategy auto: each material's LightChoice from a pilot seen from `camera` (light_pilot.cpp).
+  void choose_by_pilot(const Camera& camera);
   /// The lobes the product tables use for a material: [0] its widest (the clamped cosine for materials with a
   /// Lambertian part, the GGX reflection lobe of the material's alpha for rough conductors), [1] its narrowest where
   /// that is another (a plastic's coat); none for pure delta materials.
   static std::array<std::optional<Lobe>, 2> product_lobes(const Material& material);
   /// A lobe's axis at a shading point, world frame: the normal for the cosine, the mirror direction for GGX.
   static Vec3 lobe_axis(const Lobe& lobe, const ShadingPoint& x);
-  void build_product_tables();
+  /// The scene's materials and their widened copies (regularized()): every material a vertex may shade with.
+  std::vector<const Material*> shaded_materials() const;
+  void build_regularized_materials();
+  /// Tables for the lobes of the materials whose choice needs them (widened copies: by product-mis's rule);
+  /// `every_lobe`: both sets for every scene material's lobes (the pilot tries every choice).
+  void build_product_tables(bool every_lobe);
   /// Validates the product-wavelet options and builds the sampler.
   void build_product_wavelet();
   /// Density of the sun technique at a world direction (0 without a split).
@@ -249,25 +352,47 @@ class Integrator {
   // One estimator of D per strategy (see the file comment), chosen once by the constructor.
   Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_light(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;  ///< mis and mis-compensated
+  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;  ///< mis, mis-compensated, product-mis, auto
+  Vec3 direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice) const;
   Vec3 direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const;
   Vec3 direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const;
-  /// The shading point's wavelet product (product_wavelet.h), and one light sample drawn from it (as light_term()).
+  Vec3 direct_product_steerable(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_product_sh(const ShadingPoint& x, Sampler& sampler) const;
+  Vec3 direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler) const;
+  /// The shading point's wavelet product (product_wavelet.h).
   ProductWavelet::Point wavelet_point(const ShadingPoint& x) const;
-  LightTerm wavelet_term(const ShadingPoint& x, const ProductWavelet::Point& p, Vec2 u) const;
+  /// Normal and wo of a shading point in the tables' frame, what the product samplers take.
+  Vec3 table_normal(const ShadingPoint& x) const;
+  Vec3 table_wo(const ShadingPoint& x) const;
+  /// One light sample drawn from a point's product distribution (sample(u) and pdf(direction) in the tables' frame),
+  /// as light_term().
+  template <class Point>
+  LightTerm point_term(const ShadingPoint& x, const Point& p, Vec2 u) const;
+  /// M samples of a point's product distribution (and a delta lobe's BSDF sample), or with N BSDF samples under MIS:
+  /// the estimators of every product sampler that returns a point.
+  template <class Point>
+  Vec3 direct_point(const ShadingPoint& x, Sampler& sampler, const Point& p) const;
+  template <class Point>
+  Vec3 direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p) const;
 
   const Scene& scene_;
   const EnvironmentLight& light_;
   IntegratorOptions options_;
   DirectFn direct_ = nullptr;
-  LightTechniques whole_;  ///< the strategy's table of the whole map
-  LightTechniques split_;  ///< the rest of the map and the sun, when it has one
+  std::vector<LightChoice> choices_;  ///< per scene material
+  LightTechniques whole_;             ///< the strategy's table of the whole map
+  LightTechniques split_;             ///< the rest of the map and the sun, when it has one
   std::shared_ptr<const SunSplit> sun_;
   Vec3 sun_axis_{0, 1, 0};  ///< the sun's direction in the scene's world frame
   /// Product strategies: tables of the scene's lobes over the whole map and over the rest of the map beside the sun
   /// (each for the lobes of the materials that use that table; nullptr when none does).
   std::unique_ptr<LobeProductTables> product_whole_, product_split_;
   std::unique_ptr<ProductWavelet> wavelet_;
+  /// Per scene material, its copy widened to floor (k + 1) kRegularizationStep, or nullptr (regularized()).
+  std::vector<std::vector<std::unique_ptr<Material>>> regularized_;
+  std::unique_ptr<ProductSteerable> steerable_;
+  std::unique_ptr<ProductSh> sh_;
   mutable std::atomic<std::size_t> nonfinite_{0};
 };
 

@@ -35,7 +35,9 @@
 ///   (Fdr_ext integrated numerically). Reciprocal; the diffuse part alone has albedo <= 1 - F(cos_o).
 ///   Sampling: one lobe chosen with u_lobe, specular with probability F(cos_o) / (F(cos_o) + (1 - F(cos_o))
 ///   mean(diffuse)) (the estimated albedos), pdf = the mixture pdf.
-/// - mirror: a delta lobe wi = (-wo.x, -wo.y, wo.z) with constant reflectance (no Fresnel).
+/// - mirror: a delta lobe wi = (-wo.x, -wo.y, wo.z) with constant reflectance (no Fresnel). With a roughness floor
+///   (with_roughness_floor()): f = reflectance D G2 / (4 cos_o cos_i), GGX of the floor's alpha, height-correlated
+///   G2, no Fresnel, visible-normal sampling (a white conductor's lobe scaled by the reflectance).
 /// - measured: an isotropic BRDF read from a MERL binary file (Matusik et al. 2003; format and cells: merl.h in
 ///   renderer/src, docs/SCENE_FORMAT.md). f is interpolated TRILINEARLY between the cells' centres in the
 ///   format's own coordinates (sqrt(theta_half) index, theta_diff, phi_diff; clamped at the ends of the theta axes,
@@ -94,6 +96,14 @@ class Material {
   virtual double narrowest_lobe_probability(const Vec3& wo) const {
     (void)wo;
     return 1.0;
+  }
+  /// This material with a roughness floor (path regularization, integrator.h): every GGX lobe at least `alpha`
+  /// wide, a delta lobe replaced by a GGX lobe of alpha `alpha` with the same reflectance; nullptr when no lobe is
+  /// narrower than `alpha` (the material itself serves). Lambertian lobes have none; a measured BRDF keeps its data
+  /// (it has no roughness to raise: nullptr).
+  virtual std::unique_ptr<Material> with_roughness_floor(double alpha) const {
+    (void)alpha;
+    return nullptr;
   }
 };
 

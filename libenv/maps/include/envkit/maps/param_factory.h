@@ -25,8 +25,9 @@ struct ParamSpec {
 /// Throws Error when the size does not fit the kind (e.g. a cube layout whose faces are not square).
 std::unique_ptr<Parameterization> make_parameterization(const ParamSpec& spec);
 
-/// Image size of `kind` for the "natural size" N: lat-long and dual paraboloid 2N x N, cube faces N x N laid out
-/// per `layout`, mirror ball, angular, octahedral and views N x N, HEALPix 4N x 3N (N = N_side).
+/// Image size of `kind` for the "natural size" N: lat-long and dual paraboloid 2N x N, sky lat-long 4N x N (the upper
+/// half of a 4N x 2N lat-long), cube faces N x N laid out per `layout`, mirror ball, angular, sky angular, octahedral
+/// and views N x N, HEALPix 4N x 3N (N = N_side).
 void natural_image_size(Kind kind, int n, CubeLayout layout, int& width, int& height);
 
 /// Spec for `kind` at natural size N with the grid, basis and layout of a convention.

@@ -9,10 +9,11 @@
 ///
 /// Every parameterization keeps its direction->texel map, its texel->direction map and its exact solid
 /// angle side by side in one header/source pair (latlong.h, cubemap.h, mirrorball.h, angular.h,
-/// octahedral.h, paraboloid.h, healpix.h, perspective.h, fisheye.h).
+/// octahedral.h, paraboloid.h, healpix.h, perspective.h, fisheye.h, skylatlong.h, skyangular.h).
 #include <envkit/core/vec.h>
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <memory>
 #include <optional>
@@ -22,16 +23,33 @@
 
 namespace envkit {
 
-enum class Kind { LatLong, MirrorBall, AngularMap, CubeMap, Octahedral, DualParaboloid, HEALPix, Perspective, Fisheye };
+enum class Kind {
+  LatLong,
+  MirrorBall,
+  AngularMap,
+  CubeMap,
+  Octahedral,
+  DualParaboloid,
+  HEALPix,
+  Perspective,
+  Fisheye,
+  SkyLatLong,
+  SkyAngular,
+};
 /// Number of Kind values (tables indexed by static_cast<int>(Kind)).
-inline constexpr int kKindCount = 9;
+inline constexpr int kKindCount = 11;
+/// Every kind once, in the order users are shown them (help texts, error messages): the one list of kinds.
+inline constexpr std::array<Kind, kKindCount> kAllKinds = {
+    Kind::LatLong, Kind::CubeMap,     Kind::MirrorBall, Kind::AngularMap, Kind::Octahedral, Kind::DualParaboloid,
+    Kind::HEALPix, Kind::Perspective, Kind::Fisheye,    Kind::SkyLatLong, Kind::SkyAngular};
 
 struct ViewParams;      // view.h
 class LatLongMap;       // latlong.h
 enum class CubeLayout;  // cubemap.h
 enum class CubeBasis;   // cubemap.h
 
-/// "latlong", "mirrorball", "angular", "cube", "octahedral", "paraboloid", "healpix", "perspective", "fisheye".
+/// "latlong", "mirrorball", "angular", "cube", "octahedral", "paraboloid", "healpix", "perspective", "fisheye",
+/// "skylatlong", "skyangular".
 std::string kind_name(Kind kind);
 /// Inverse of kind_name; also accepts common aliases ("equirect", "lightprobe", "ball", "cubemap",
 /// "octa", "dualparaboloid", "hpx", "pinhole", "rectilinear"). Throws Error on unknown names.
@@ -90,9 +108,10 @@ class Parameterization {
 
   /// The face layout of a cube map; nullopt for every other parameterization.
   virtual std::optional<CubeFaceLayout> cube_faces() const { return std::nullopt; }
-  /// The lat-long geometry of a lat-long map (the map itself): its rows are bands of constant polar angle and its
-  /// columns meridians, so loops over its texels tabulate one value per row and per column instead of one per texel.
-  /// nullptr for every other parameterization.
+  /// The lat-long map whose texel (i, j) is this map's texel (i, j) for every texel of this map: a lat-long map
+  /// itself, and for a sky lat-long the full-sphere lat-long of twice its height whose upper half it is. Its rows are
+  /// bands of constant polar angle and its columns meridians, so loops over this map's texels (rows j < height())
+  /// tabulate one value per row and per column instead of one per texel. nullptr for every other parameterization.
   virtual const LatLongMap* latlong_geometry() const { return nullptr; }
 
   /// Direction (unit length, map frame) seen at continuous image position `pos`.

@@ -25,6 +25,12 @@ struct Disk {
   Vec3 axis, right, up;               ///< direction at the centre; image-right and image-up at the centre
 };
 
+/// The equidistant lens, polar angle theta = k r (k: the polar angle on the rim, radians), shared by the angular map
+/// (k = pi), the sky angular map (k = pi / 2) and equidistant fisheyes (k = fov / 2): RadialMap's cap_density,
+/// (1 - cos(k r)) / r^2 = 2 sin^2(k r / 2) / r^2, and area_density, k sin(k r) / r; both finite at r = 0.
+double equidistant_cap_density(double r, double k);
+double equidistant_area_density(double r, double k);
+
 class RadialMap : public Parameterization {
  public:
   bool to_direction(Vec2 pos, Vec3& dir) const override;

@@ -1,7 +1,8 @@
 #pragma once
 /// @file solid_angle_table.h
 /// Every texel's exact solid angle, computed once (in parallel) and stored compactly: one value per row for
-/// lat-long maps (a row's texels are equal, except that corner grids halve the duplicated edge columns), one
+/// lat-long and sky lat-long maps (a row's texels are equal, except that corner grids halve the duplicated edge
+/// columns), one
 /// constant for the equal-area maps (octahedral, HEALPix), one float per texel otherwise (relative precision 6e-8,
 /// ample for weights).
 #include <envkit/maps/parameterization.h>

@@ -1,0 +1,132 @@
+// Strategy auto's pilot: each material's light technique (LightChoice) from a short measurement of every candidate
+// at shading points the camera sees. See integrator.h ("auto") for the rule.
+#include <envkit/render/integrator.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace envkit::render {
+
+namespace {
+
+/// Camera rays on a kGrid x kGrid lattice of image positions find the shading points.
+constexpr int kGrid = 96;
+/// Shading points per material (evenly thinned from those the lattice finds) and estimates per point and candidate.
+constexpr int kPoints = 128;
+constexpr int kRepeats = 32;
+/// A candidate replaces MIS's choice when its measured gain is this many standard errors above 0 (one-sided, about
+/// 93% if the differences were normal): a lower bar misses fewer gains and takes more losses that are noise.
+constexpr double kSignificance = 1.5;
+/// A light sample drawn from a product table costs this much more than one from the plain table (the table's
+/// choice and the refined descent), in units of one shadow ray and BSDF evaluation: BENCHMARKS.md, "The default: a
+/// pilot per material".
+constexpr double kProductDescentCost = 0.25;
+constexpr std::uint32_t kPilotSeed = 0x9e3779b9u;
+
+double luminance(const Vec3& v) { return 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z; }
+
+/// A primary hit as a shading point's parts: the normals turned to the side the ray came from.
+struct PilotPoint {
+  Vec3 position, ng;
+  Frame frame;
+  Vec3 wo;
+};
+
+/// The first moments of kRepeats estimates.
+struct Moments {
+  double sum = 0.0, sum_sq = 0.0;
+  double mean() const { return sum / kRepeats; }
+  double variance() const { return std::max(0.0, sum_sq / kRepeats - mean() * mean()) * kRepeats / (kRepeats - 1); }
+};
+
+}  // namespace
+
+void Integrator::choose_by_pilot(const Camera& camera) {
+  std::vector<std::vector<PilotPoint>> found(std::size_t(scene_.material_count()));
+  for (int j = 0; j < kGrid; ++j)
+    for (int i = 0; i < kGrid; ++i) {
+      const Ray ray = camera.generate((i + 0.5) * camera.width() / kGrid, (j + 0.5) * camera.height() / kGrid);
+      Hit hit;
+      if (!scene_.intersect(ray, hit)) continue;
+      Vec3 ng = hit.geometric_normal, ns = hit.shading_normal;
+      if ((ng ^ ray.direction) > 0.0) {
+        ng = -ng;
+        ns = -ns;
+      }
+      const Frame frame = Frame::from_normal(ns);
+      const Vec3 wo = frame.to_local(-ray.direction);
+      if (wo.z > 0.0) found[std::size_t(hit.material)].push_back({hit.position, ng, frame, wo});
+    }
+  for (int m = 0; m < scene_.material_count(); ++m) {
+    const Material& material = scene_.material(m);
+    std::vector<PilotPoint>& all = found[std::size_t(m)];
+    if (material.is_pure_delta() || all.empty()) continue;
+    std::vector<PilotPoint> points;
+    for (int k = 0; k < std::min<int>(kPoints, int(all.size())); ++k)
+      points.push_back(all[std::size_t(k) * all.size() / std::min<std::size_t>(kPoints, all.size())]);
+    std::vector<LightChoice> candidates = {{true, false}, {false, false}};
+    if (sun_) candidates.insert(candidates.end(), {{true, true}, {false, true}});
+    // moments[p x candidates + c]: each point's slots are its own, so the sums do not depend on the threads.
+    std::vector<Moments> moments(points.size() * candidates.size());
+    tbb::parallel_for(std::size_t(0), points.size(), [&](std::size_t p) {
+      const PilotPoint& q = points[p];
+      const ShadingPoint x{Scene::offset_origin(q.position, q.ng), q.frame, q.ng, q.wo, material};
+      Sampler sampler(kPilotSeed, int(p), m);
+      for (std::size_t c = 0; c < candidates.size(); ++c)
+        for (int r = 0; r < kRepeats; ++r) {
+          sampler.start_sample(std::uint32_t(c * kRepeats + r));
+          const double e = luminance(direct_mis_with(x, sampler, candidates[c]));
+          Moments& mo = moments[p * candidates.size() + c];
+          mo.sum += std::isfinite(e) ? e : 0.0;
+          mo.sum_sq += std::isfinite(e) ? e * e : 0.0;
+        }
+    });
+    // Relative variance, as the images are judged: each point's variance over its mean squared (the mean over
+    // every candidate: they estimate the same value), with a floor of 1% of the mean square for dark points.
+    std::vector<double> mean_sq(points.size());
+    double mean_sq_all = 0.0;
+    for (std::size_t p = 0; p < points.size(); ++p) {
+      double mean = 0.0;
+      for (std::size_t c = 0; c < candidates.size(); ++c) mean += moments[p * candidates.size() + c].mean();
+      mean /= double(candidates.size());
+      mean_sq[p] = mean * mean;
+      mean_sq_all += mean_sq[p] / double(points.size());
+    }
+    // Each point's relative variance times the candidate's cost per shading point.
+    const SampleCounts n = counts(material);
+    const auto score = [&](std::size_t p, std::size_t c) {
+      const LightChoice& k = candidates[c];
+      const double cost = 1.0 + n.bsdf + n.light * (1.0 + (k.product ? kProductDescentCost : 0.0)) +
+                          (k.sun_apart ? options_.sun_samples : 0);
+      return moments[p * candidates.size() + c].variance() / (mean_sq[p] + 1e-2 * mean_sq_all + 1e-300) * cost;
+    };
+    // MIS's own choice stands unless a candidate's mean score is lower by more than kSignificance standard errors
+    // of the per-point differences: the pilot changes the technique only where it measured a gain. Of several such
+    // candidates the lowest mean score wins.
+    const LightChoice mis_choice{false, sun_ && takes_sun_samples(material)};
+    const std::size_t base =
+        std::size_t(std::find(candidates.begin(), candidates.end(), mis_choice) - candidates.begin());
+    std::size_t best = base;
+    double best_gain = 0.0;
+    const double count = double(points.size());
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      double sum = 0.0, sum_sq = 0.0;
+      for (std::size_t p = 0; p < points.size(); ++p) {
+        const double d = score(p, base) - score(p, c);
+        sum += d;
+        sum_sq += d * d;
+      }
+      const double gain = sum / count;
+      const double se = std::sqrt(std::max(0.0, sum_sq / count - gain * gain) / std::max(count - 1.0, 1.0));
+      if (gain > kSignificance * se && gain > best_gain) {
+        best = c;
+        best_gain = gain;
+      }
+    }
+    choices_[std::size_t(m)] = candidates[best];
+  }
+}
+
+}  // namespace envkit::render

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Indirect light: envrender --max-depth 2,3,5 vs Blender Cycles at max_bounces 1,2,4 (Filter Glossy 0 and 1), per
+# region, against each renderer's unbiased reference, and bias against noise per --regularize value.
+# Needs build/bin/envrender, blender + blender-data, oiiotool, numpy, matplotlib. Driver: bench_indirect.py.
+#
+#   scripts/bench/bench_indirect.sh --quick     reduced run (sunrise, depth 3, 64x36, references 1024 spp)
+#   scripts/bench/bench_indirect.sh             full run (sunrise, forest, interior; depths 2, 3, 5; 160x90; 4096 spp)
+#
+# Output (default out/bench_indirect/): every EXR, results.json, results.md (tables), bias_noise.png.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_indirect "$@"

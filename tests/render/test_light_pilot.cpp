@@ -1,0 +1,75 @@
+// Strategy auto's pilot (light_pilot.cpp): without a camera auto is product-mis, pixel for pixel; with one, each
+// material's choice depends on the scene alone, not on the thread count. (Unbiasedness, crop and tile independence
+// and finiteness under a 1e6 sun: test_render_strategies.cpp, which renders auto beside every other strategy.)
+#include <envkit/render/integrator.h>
+#include <envkit/render/render.h>
+#include <envkit/render/scene_loader.h>
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "render_support.h"
+
+using namespace envkit;
+using namespace envkit::render;
+
+namespace {
+
+LoadedScene small_default_scene(int width, int height) {
+  SceneLoadOptions options;
+  options.width = width;
+  options.height = height;
+  std::string text = default_scene_json();
+  const std::string from = R"("probe": "default", "size": [1024, 512])";
+  text.replace(text.find(from), from.size(), R"("probe": "default", "size": [256, 128])");
+  return load_scene_text(text, "pilot.json", options);
+}
+
+IntegratorOptions with(Strategy s) {
+  IntegratorOptions o;
+  o.strategy = s;
+  return o;
+}
+
+TEST(LightPilot, WithoutACameraAutoIsProductMis) {
+  const LoadedScene scene = small_default_scene(24, 12);
+  const Integrator automatic(*scene.scene, *scene.light, with(Strategy::Auto));
+  const Integrator product(*scene.scene, *scene.light, with(Strategy::ProductMis));
+  for (int m = 0; m < scene.scene->material_count(); ++m)
+    EXPECT_EQ(automatic.light_choice(m), product.light_choice(m)) << m;
+  RenderOptions ro;
+  ro.spp = 2;
+  const Film a = render_image(scene.camera, automatic, ro), b = render_image(scene.camera, product, ro);
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) ASSERT_EQ(a.mean(x, y), b.mean(x, y)) << x << "," << y;
+}
+
+TEST(LightPilot, ChoicesDoNotDependOnTheThreadCount) {
+  const LoadedScene scene = small_default_scene(48, 24);
+  std::vector<LightChoice> many, one;
+  {
+    const Integrator integrator(*scene.scene, *scene.light, with(Strategy::Auto), &scene.camera);
+    for (int m = 0; m < scene.scene->material_count(); ++m) many.push_back(integrator.light_choice(m));
+  }
+  {
+    tbb::global_control serial(tbb::global_control::max_allowed_parallelism, 1);
+    const Integrator integrator(*scene.scene, *scene.light, with(Strategy::Auto), &scene.camera);
+    for (int m = 0; m < scene.scene->material_count(); ++m) one.push_back(integrator.light_choice(m));
+  }
+  EXPECT_EQ(many, one);
+}
+
+TEST(LightPilot, ExplicitStrategiesKeepTheirRule) {
+  // The pilot chooses for auto only: product-mis and mis keep the sun by takes_sun_samples(), with and without a
+  // camera.
+  const LoadedScene scene = small_default_scene(24, 12);
+  for (Strategy s : {Strategy::Mis, Strategy::ProductMis}) {
+    const Integrator integrator(*scene.scene, *scene.light, with(s), &scene.camera);
+    for (int m = 0; m < scene.scene->material_count(); ++m) {
+      const Material& material = scene.scene->material(m);
+      EXPECT_EQ(integrator.light_choice(m), (LightChoice{s == Strategy::ProductMis, takes_sun_samples(material)}))
+          << strategy_name(s) << " " << m;
+    }
+  }
+}
+
+}  // namespace
