@@ -32,6 +32,7 @@ RUNTIME_PACKAGES=(
   python3 python3-numpy                     # Debian's interpreter and the arrays the module hands out
   python3-dev python3-pybind11 pybind11-dev  # headers of Debian's python3 and pybind11 (CMake config)
   python3-distributed                       # python3 -m envkit.batch on a dask.distributed cluster
+  python3-setuptools python3-wheel python3-venv  # pip install --no-build-isolation . into a venv (pyproject.toml)
 )
 
 # Tests, benchmarks, comparisons with peers and plots (scripts/test.sh, the bench and report scripts).

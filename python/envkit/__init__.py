@@ -8,7 +8,8 @@
     view = sky.convert("perspective", size=(640, 480), view_dir=(30, 10), fov=60)   # envconvert --to perspective
     chain = sky.prefilter(size=256)                 # envprefilter: GGX mip chain, chain.write("sky.ktx2")
 
-Use Debian's interpreter, /usr/bin/python3: numpy (python3-numpy) is installed there.
+Use Debian's interpreter, /usr/bin/python3: numpy (python3-numpy) is installed there; or install the package into a
+venv made from it with --system-site-packages (pip install --no-build-isolation .; docs/PYTHON.md).
 """
 
 try:
@@ -18,17 +19,28 @@ except ImportError as _e:  # pragma: no cover - depends on the interpreter
 
     raise ImportError(
         "envkit needs numpy, which this interpreter (%s) does not have; use Debian's /usr/bin/python3 "
-        "(apt-get install python3-numpy), or pip install numpy into this one" % _sys.executable
+        "(apt-get install python3-numpy) or a venv made from it (/usr/bin/python3 -m venv --system-site-packages), "
+        "or pip install numpy into this one" % _sys.executable
     ) from _e
 
 import json as _json
 import os as _os
 
+# An installed package (pip install .) carries libenv's modules next to the extension: point libenv at them, unless
+# the environment already names others.
+for _module, _variable in (("ocio", "ENVKIT_OCIO_MODULE"), ("oiio", "ENVKIT_OIIO_MODULE"),
+                           ("healpix", "ENVKIT_HEALPIX_MODULE")):
+    _path = _os.path.join(_os.path.dirname(__file__), "libenvkit_%s.so" % _module)
+    if _os.path.exists(_path):
+        _os.environ.setdefault(_variable, _path)
+
 from . import _envkit
 from ._envkit import (
+    ArgumentError,
     ConversionError,
     EnvMap,
     Error,
+    FileError,
     PrefilteredChain,
     Tables,
     conventions,
@@ -40,10 +52,13 @@ from ._envkit import (
     probes,
     read_image,
     sh,
+    sh_reconstruct,
 )
 
 __all__ = [
+    "ArgumentError",
     "ConversionError",
+    "FileError",
     "EnvMap",
     "Error",
     "Tables",
@@ -56,6 +71,7 @@ __all__ = [
     "merge",
     "prefilter",
     "sh",
+    "sh_reconstruct",
     "load",
     "probes",
     "read",
@@ -65,6 +81,11 @@ __all__ = [
 ]
 
 has_renderer = _envkit.has_renderer
+
+from . import _faces  # noqa: E402  (py360convert's 'list' / 'dict' cube formats, on EnvMap)
+
+EnvMap.faces = _faces.faces
+EnvMap.from_faces = staticmethod(_faces.from_faces)
 
 
 def read(path, **kwargs):

@@ -4,6 +4,8 @@
 /// wrong type and ValueError for a value out of range, both naming the argument ("size: expected an integer, got
 /// float 8.5", "size: 1099511627776 is outside [0, 262144]"), instead of pybind11's own conversion errors, which
 /// name no argument, wrap around, or drop the imaginary part of complex numbers.
+#include <envkit/core/error.h>
+#include <envkit/io/request_limits.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
@@ -15,6 +17,45 @@
 namespace envkit::python {
 
 namespace py = pybind11;
+
+/// A refused argument value (an unknown name, a bad combination): raised in Python as envkit.ArgumentError, both an
+/// envkit.Error and a ValueError.
+class ArgumentError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A file that cannot be read, parsed or written: raised in Python as envkit.FileError, both an envkit.Error and an
+/// OSError.
+class FileError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// f(), with the library's refusals (envkit::Error) turned into E: the parse of a name (ArgumentError) or a file
+/// operation (FileError). Requests too large for memory stay ValueErrors; refusals already typed pass through.
+template <class E, class F>
+auto rethrown_as(F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const ArgumentError&) {
+    throw;
+  } catch (const FileError&) {
+    throw;
+  } catch (const RequestTooLarge&) {
+    throw;
+  } catch (const Error& e) {
+    throw E(e.what());
+  }
+}
+template <class F>
+auto argument_value(F&& f) -> decltype(f()) {
+  return rethrown_as<ArgumentError>(std::forward<F>(f));
+}
+template <class F>
+auto file_operation(F&& f) -> decltype(f()) {
+  return rethrown_as<FileError>(std::forward<F>(f));
+}
 
 /// The largest natural size N any size argument accepts, so that every image side computed from it fits in an int;
 /// whether the image it makes fits in memory (every larger one would not) is check_size_arg's question.

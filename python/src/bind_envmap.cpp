@@ -45,24 +45,27 @@ LoadOptions load_options(const std::optional<std::string>& parameterization,
                          const std::optional<std::string>& convention, const std::optional<std::string>& layout,
                          const ViewArgs& view, const BallArgs& ball = {}) {
   LoadOptions o;
-  if (parameterization) o.kind = parse_kind(*parameterization);
-  if (layout) o.layout = parse_layout(*layout);
-  if (convention) o.convention = envkit::convention(*convention).name;
+  argument_value([&] {
+    if (parameterization) o.kind = parse_kind(*parameterization);
+    if (layout) o.layout = parse_layout(*layout);
+    if (convention) o.convention = envkit::convention(*convention).name;
+  });
   if (view.given()) {
     // As envconvert: view options describe an input only together with --from perspective|fisheye.
     if (!o.kind || !is_view_kind(*o.kind))
-      throw Error("view: describes a camera view: add parameterization='perspective' or 'fisheye'");
-    o.view = view_params(view, *o.kind);
+      throw ArgumentError("view: describes a camera view: add parameterization='perspective' or 'fisheye'");
+    o.view = argument_value([&] { return view_params(view, *o.kind); });
   }
   if (ball.centre || ball.radius) {
     if (!o.kind || *o.kind != Kind::MirrorBall)
-      throw Error("ball_centre/ball_radius: describe a mirror-ball photograph: add parameterization='mirrorball'");
+      throw ArgumentError(
+          "ball_centre/ball_radius: describe a mirror-ball photograph: add parameterization='mirrorball'");
     if (ball.centre) {
       o.ball_cx = ball.centre->first;
       o.ball_cy = ball.centre->second;
     }
     if (ball.radius && !(*ball.radius > 0.0 && *ball.radius <= 1e7))
-      throw Error("ball_radius: " + std::to_string(*ball.radius) + " is outside (0, 1e7]");
+      throw ArgumentError("ball_radius: " + std::to_string(*ball.radius) + " is outside (0, 1e7]");
     o.ball_radius = ball.radius;
   }
   return o;
@@ -76,12 +79,12 @@ Ptr from_file(const std::string& path, const std::optional<std::string>& paramet
   LoadOptions o =
       load_options(parameterization, convention, layout, ViewArgs{view}, BallArgs{ball_centre, ball_radius});
   if (colorspace) o.read.colorspace = *colorspace;
-  if (fix_nonfinite) o.read.nonfinite = parse_nonfinite_policy(*fix_nonfinite);
+  if (fix_nonfinite) o.read.nonfinite = argument_value([&] { return parse_nonfinite_policy(*fix_nonfinite); });
   auto p = std::make_shared<PyEnvMap>();
   Detection d;
   {
     py::gil_scoped_release release;
-    p->map = load_envmap(path, o, &d);
+    p->map = file_operation([&] { return load_envmap(path, o, &d); });
   }
   if (d.kind == Kind::CubeMap) p->layout = d.layout;
   p->name = path;
@@ -151,13 +154,15 @@ struct ConvertArgNames {
   }
 }
 
-/// The conversion `request` asks of `src`, as envconvert performs it (validate, output_spec, convert).
-Ptr converted(const PyEnvMap& src, const ConversionRequest& request, const ConvertArgNames& names) {
+/// The conversion `request` asks of `src`, as envconvert performs it (validate, output_spec, convert), onto `spec`
+/// when given instead of output_spec's.
+Ptr converted(const PyEnvMap& src, const ConversionRequest& request, const ConvertArgNames& names,
+              const std::optional<ParamSpec>& spec = std::nullopt) {
   auto out = std::make_shared<PyEnvMap>();
   try {
     py::gil_scoped_release release;
     validate(request);
-    out->map = convert(src.map, request);
+    out->map = spec ? convert(src.map, request, *spec) : convert(src.map, request);
   } catch (const ConversionError& e) {
     raise_refusal(e, names);
   }
@@ -179,7 +184,7 @@ ConversionRequest same_kind_request(const PyEnvMap& p, const std::string& filter
     r.view = *p.map.param->view();
     r.aspect = double(p.map.param->width()) / p.map.param->height();
   }
-  r.filter = parse_filter(filter);
+  r.filter = argument_value([&] { return parse_filter(filter); });
   return r;
 }
 
@@ -192,14 +197,25 @@ Ptr convert_map(const PyEnvMap& p, const std::string& to, const py::object& size
   ConversionRequest r;
   r.aspect = optional_real_arg(aspect_obj, "aspect", 1e-3, 1e3);
   const std::optional<int> nside = optional_int_arg(nside_obj, "nside", 1, int(kMaxSizeArg));
-  r.to = parse_kind(to);
-  r.convention = &envkit::convention(convention ? *convention : p.map.convention);
-  if (layout) r.layout = parse_layout(*layout);
+  argument_value([&] {
+    r.to = parse_kind(to);
+    r.convention = &envkit::convention(convention ? *convention : p.map.convention);
+    if (layout) r.layout = parse_layout(*layout);
+  });
   int size = 0;
+  std::optional<ParamSpec> latlong_spec;
   if (py::isinstance<py::tuple>(size_arg) || py::isinstance<py::list>(size_arg)) {
     const auto wh = int_pair_arg(size_arg, "size", 1, int(kMaxSizeArg));
     size = wh.first;
     r.height = wh.second;
+    if (r.to == Kind::LatLong) {
+      // A lat-long of any aspect (py360convert's c2e h, w): the spec at natural size h, w columns wide.
+      latlong_spec = spec_for(Kind::LatLong, wh.second, *r.convention);
+      latlong_spec->width = wh.first;
+      check_size_arg("size", "latlong map", wh.first, wh.second, 32.0);
+      size = wh.second;
+      r.height.reset();
+    }
   } else {
     size = int_arg(size_arg, "size", 0, int(kMaxSizeArg));  // 0: about the input's texel density
   }
@@ -209,10 +225,12 @@ Ptr convert_map(const PyEnvMap& p, const std::string& to, const py::object& size
     size = *nside;
   }
   if (size > 0) r.size = size;
-  r.view = parsed_view(view_args, r.to);
-  r.filter = parse_filter(filter);
-  if (!rotate.is_none()) r.rotation = rotation_arg(rotate);
-  return converted(p, r, ConvertArgNames{nside ? "nside" : "size", r.to});
+  argument_value([&] {
+    r.view = parsed_view(view_args, r.to);
+    r.filter = parse_filter(filter);
+    if (!rotate.is_none()) r.rotation = rotation_arg(rotate);
+  });
+  return converted(p, r, ConvertArgNames{nside ? "nside" : "size", r.to}, latlong_spec);
 }
 
 /// A map of zeros laid out like envconvert's output of `kind` at natural size N: allocated by envkit, so that
@@ -222,13 +240,14 @@ Ptr blank(const py::object& size_arg, const std::string& parameterization, const
           const py::object& view) {
   const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
   const int channels = int_arg(channels_arg, "channels", 1, 4);
-  const Kind kind = parse_kind(parameterization);
-  const Convention& conv = envkit::convention(convention.value_or("envkit"));
+  const Kind kind = argument_value([&] { return parse_kind(parameterization); });
+  const Convention& conv =
+      argument_value([&]() -> const Convention& { return envkit::convention(convention.value_or("envkit")); });
   std::optional<CubeLayout> l;
-  if (layout) l = parse_layout(*layout);
-  const std::optional<ViewParams> v = view_params(ViewArgs{view}, kind);
+  if (layout) l = argument_value([&] { return parse_layout(*layout); });
+  const std::optional<ViewParams> v = argument_value([&] { return view_params(ViewArgs{view}, kind); });
   if (v && !is_view_kind(kind))
-    throw Error("view: describes a camera view: add parameterization='perspective' or 'fisheye'");
+    throw ArgumentError("view: describes a camera view: add parameterization='perspective' or 'fisheye'");
   const ParamSpec spec = is_view_kind(kind) ? view_spec(kind, size, 1.0, v.value_or([&] {
     ViewParams d;
     d.fov_degrees = default_fov_degrees(kind);
@@ -301,7 +320,9 @@ py::dict stats_dict(const PyEnvMap& p) {
 }
 
 py::dict diff_dict(const PyEnvMap& a, const PyEnvMap& b, const std::string& filter, const std::string& metric) {
-  const Filter f = parse_filter(filter);
+  const Filter f = argument_value([&] { return parse_filter(filter); });
+  if (metric != "relmse" && metric != "rmse" && metric != "max" && metric != "power")
+    throw ArgumentError("metric: '" + metric + "' is not relmse, rmse, max or power");
   MapComparison c;
   {
     py::gil_scoped_release release;
@@ -404,9 +425,9 @@ py::array texel_of(const PyEnvMap& p, const py::object& input) {
 }
 
 py::array lookup(const PyEnvMap& p, const py::object& input, const std::string& filter) {
-  const Filter f = parse_filter(filter);
+  const Filter f = argument_value([&] { return parse_filter(filter); });
   if (f == Filter::Area)
-    throw Error(
+    throw ArgumentError(
         "lookup: the area filter integrates over texels; use nearest, "
         "bilinear or bicubic");
   std::size_t n = 0;
@@ -445,7 +466,7 @@ void write(const PyEnvMap& p, const std::string& path, bool half, const std::str
   ClampReport clamped;
   {
     py::gil_scoped_release release;
-    clamped = save_envmap(path, p.map, so);
+    clamped = file_operation([&] { return save_envmap(path, p.map, so); });
   }
   warn_clamped(clamped, path);
 }
@@ -453,7 +474,7 @@ void write(const PyEnvMap& p, const std::string& path, bool half, const std::str
 }  // namespace
 
 void bind_envmap(py::module_& m) {
-  const py::tuple bases = py::make_tuple(m.attr("Error"), py::handle(PyExc_ValueError));
+  const py::tuple bases = py::make_tuple(m.attr("ArgumentError"));
   g_conversion_error = PyErr_NewException("_envkit.ConversionError", bases.ptr(), nullptr);  // lives with the module
   if (!g_conversion_error) throw py::error_already_set();
   m.attr("ConversionError") = g_conversion_error;
@@ -557,8 +578,10 @@ area filter conserves power.
 
 Camera views (to='perspective' or 'fisheye'): size N is the width, the height N / aspect (or size=(w, h));
 view_dir (x, y, z) or (yaw, pitch) in degrees (yaw about +Y from +Z towards +X), roll, fov (perspective: across
-the width, or the height with fov_axis='v'; fisheye: across the image circle, default 180), lens (equidistant,
-equisolid, orthographic, stereographic); or view= a dict as EnvMap.view returns. Directions the view does not
+the width, or the height with fov_axis='v'; (h, v): both, pixels need not be square; fisheye: across the image
+circle, default 180), lens (equidistant, equisolid, orthographic, stereographic; on a perspective view
+'orthographic' makes the planar orthographic projection); or view= a dict as EnvMap.view returns. A lat-long takes
+size=(w, h) of any aspect. Directions the view does not
 see come out with alpha 0. HEALPix: nside=N (image 4N x 3N), or size=N.)")
       .def(
           "rotate",
@@ -626,7 +649,7 @@ see come out with alpha 0. HEALPix: nside=N (image 4N x 3N), or size=N.)")
         Image image;
         {
           py::gil_scoped_release release;
-          image = read_image(path);
+          image = file_operation([&] { return read_image(path); });
         }
         return image_array(std::move(image));
       },

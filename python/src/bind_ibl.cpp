@@ -8,6 +8,8 @@
 #include <envkit/ibl/prefilter.h>
 #include <envkit/ibl/sh.h>
 #include <envkit/io/request_limits.h>
+#include <envkit/maps/param_factory.h>
+#include <envkit/maps/texel_directions.h>
 #include <pybind11/stl.h>
 
 #include <memory>
@@ -18,6 +20,7 @@
 #include "bindings.h"
 #include "envmap_object.h"
 #include "rotation_arg.h"
+#include "view_args.h"
 
 namespace envkit::python {
 
@@ -56,7 +59,7 @@ std::shared_ptr<PyIbl> prefilter(const PyEnvMap& p, const py::object& size_arg, 
   po.kind = ibl_kind(octahedral);
   po.size = size;
   po.levels = levels;
-  po.mapping = parse_roughness_mapping(mapping);
+  po.mapping = argument_value([&] { return parse_roughness_mapping(mapping); });
   po.accuracy = accuracy;
   set_ibl_cube_faces(for_path, po);
   const MapRef src = source_ref(p, rotate);
@@ -96,28 +99,31 @@ std::shared_ptr<PyIbl> irradiance(const PyEnvMap& p, const py::object& size_arg,
 /// Writes the chain (or irradiance map) as envprefilter -o (--irradiance) does. Every writer is atomic (temp file,
 /// then rename); the group defers those renames so that all files of a chain appear together or none does.
 void write(const PyIbl& ibl, const std::string& path, const std::string& format) {
-  const GpuFormat f = parse_gpu_format(format);
+  const GpuFormat f = argument_value([&] { return parse_gpu_format(format); });
   const std::vector<IblFile> files = ibl.irradiance
                                          ? std::vector<IblFile>{irradiance_file(path, ibl.chain.levels.at(0), ibl.kind)}
                                          : ggx_chain_files(path, ibl.chain, ibl.kind, ibl.source);
   std::vector<std::pair<ClampReport, std::string>> clamped;
   {
     py::gil_scoped_release release;
-    OutputGroup group;
-    for (const IblFile& file : files)
-      clamped.emplace_back(write_ibl_file(file.path, file, ibl.kind == Kind::CubeMap, f), file.path);
-    group.commit();
+    file_operation([&] {
+      OutputGroup group;
+      for (const IblFile& file : files)
+        clamped.emplace_back(write_ibl_file(file.path, file, ibl.kind == Kind::CubeMap, f), file.path);
+      group.commit();
+    });
   }
   for (const auto& [report, file] : clamped) warn_clamped(report, file);
 }
 
 py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& kind, bool lambertian,
              const std::string& window, const py::object& rotate) {
-  const int order = int_arg(order_arg, "order", 1, 3);  // envprefilter --sh-order
-  if (kind != "radiance" && kind != "irradiance") throw Error("sh: kind must be radiance or irradiance, not " + kind);
-  const ShWindow w = parse_sh_window(window);
+  const int order = int_arg(order_arg, "order", 1, kMaxShOrder);  // envprefilter --sh-order
+  if (kind != "radiance" && kind != "irradiance")
+    throw ArgumentError("sh: kind must be radiance or irradiance, not " + kind);
+  const ShWindow w = argument_value([&] { return parse_sh_window(window); });
   if (kind == "radiance" && (lambertian || w != ShWindow::None))
-    throw Error(
+    throw ArgumentError(
         "sh: lambertian and window apply to irradiance (radiance coefficients are unwindowed, as in "
         "envprefilter's JSON)");
   const MapRef src = source_ref(p, rotate);
@@ -136,6 +142,63 @@ py::array sh(const PyEnvMap& p, const py::object& order_arg, const std::string& 
   return out;
 }
 
+/// A map of `parameterization` at natural size N whose texels hold sum_i coeffs[i][c] Y_i(d) at their centre
+/// direction d (world frame): SH coefficients (radiance, or irradiance) turned back into a map through libenv's
+/// basis (sh_basis.h), truncated to `order` when given.
+std::shared_ptr<PyEnvMap> sh_reconstruct(const py::object& coeffs_arg, const py::object& size_arg,
+                                         const std::string& parameterization, const std::string& convention,
+                                         const py::object& order_arg) {
+  const py::array a = real_array(coeffs_arg, "coeffs");
+  if (a.ndim() != 1 && a.ndim() != 2) throw py::value_error("coeffs: expected (n,) or (n, channels) coefficients");
+  const auto c = a.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+  const py::ssize_t n = c.shape(0), channels = a.ndim() == 2 ? c.shape(1) : 1;
+  int full = 0;
+  while (sh_count(full) < n && full < kMaxShOrder) ++full;
+  if (sh_count(full) != n)
+    throw py::value_error("coeffs: " + std::to_string(n) + " rows is not (order + 1)^2 for an order up to " +
+                          std::to_string(kMaxShOrder));
+  // Colour channels only, as EnvMap.sh returns them (alpha is never projected): Y or R, G, B.
+  if (channels != 1 && channels != 3)
+    throw py::value_error("coeffs: 1 or 3 colour channels (columns), got " + std::to_string(channels));
+  const int order = order_arg.is_none() ? full : int_arg(order_arg, "order", 0, full);
+  const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
+  const Kind kind = argument_value([&] { return parse_kind(parameterization); });
+  if (kind == Kind::Perspective || kind == Kind::Fisheye)
+    throw ArgumentError("parameterization: sh_reconstruct makes environment maps, not camera views");
+  const Convention& conv = argument_value([&]() -> const Convention& { return envkit::convention(convention); });
+  const ParamSpec spec = spec_for(kind, size, conv);
+  check_size_arg("size", kind_name(kind) + " map", spec.width, spec.height, double(channels) * sizeof(float));
+  auto out = std::make_shared<PyEnvMap>();
+  out->map.param = make_parameterization(spec);
+  out->map.convention = conv.name;
+  if (kind == Kind::CubeMap) out->layout = spec.layout;
+  const double* cd = c.data();
+  {
+    py::gil_scoped_release release;
+    Image img(spec.width, spec.height, int(channels));
+    const TexelDirections dirs(*out->map.param);
+    const Mat3 to_world = out->map.to_world();
+    const int count = sh_count(order);
+    parallel_chunks(std::size_t(spec.height), [&](std::size_t j0, std::size_t j1) {
+      std::vector<double> y(static_cast<std::size_t>(count));
+      for (std::size_t j = j0; j < j1; ++j)
+        for (int i = 0; i < spec.width; ++i) {
+          Vec3 d;
+          if (!dirs.centre(i, int(j), d)) continue;
+          sh_basis(order, apply(to_world, d).normalized(), y.data());
+          float* px = img.at(i, int(j));
+          for (py::ssize_t ch = 0; ch < channels; ++ch) {
+            double v = 0.0;
+            for (int k = 0; k < count; ++k) v += cd[k * channels + ch] * y[std::size_t(k)];
+            px[ch] = float(v);
+          }
+        }
+    });
+    out->map.image = std::move(img);
+  }
+  return out;
+}
+
 }  // namespace
 
 void bind_ibl(py::module_& m) {
@@ -144,6 +207,15 @@ an irradiance map (EnvMap.irradiance): a sequence of H x W x C float32 arrays, l
 strip of six faces in the GL basis, as the KTX2/DDS face table; octahedral: N x N). Arrays share the chain's
 memory (no copy). write(path) writes what envprefilter -o (or --irradiance) writes.)")
       .def("__len__", [](const PyIbl& c) { return c.chain.levels.size(); })
+      .def("__repr__",
+           [](const PyIbl& c) {
+             const Image& level0 = c.chain.levels.at(0).image;
+             const std::string what = c.irradiance ? "irradiance map"
+                                                   : std::to_string(c.chain.levels.size()) + " GGX levels, mapping " +
+                                                         roughness_mapping_name(c.chain.mapping);
+             return "<envkit.PrefilteredChain " + kind_name(c.kind) + ", " + what + ", level 0 " +
+                    std::to_string(level0.width) + "x" + std::to_string(level0.height) + ">";
+           })
       .def("__getitem__",
            [](py::object self, py::ssize_t k) {
              const PyIbl& c = self.cast<const PyIbl&>();
@@ -193,10 +265,17 @@ here, as envprefilter -o name.exr does).)";
 one-level PrefilteredChain.)");
   m.def("sh", &sh, py::arg("map"), py::arg("order") = 2, py::arg("kind") = "radiance", py::arg("lambertian") = false,
         py::arg("window") = "none", py::arg("rotate") = py::none(),
-        R"(Spherical harmonics (envprefilter --sh --sh-order --sh-window): an (n_coefficients x colour channels)
-float64 array, row i = l (l + 1) + m, real orthonormal basis without the Condon-Shortley phase (docs/PREFILTER.md).
+        R"(Spherical harmonics (envprefilter --sh --sh-order --sh-window) of any order 1 .. 16: an
+((order + 1)^2 x colour channels) float64 array, row i = l (l + 1) + m, real orthonormal basis without the Condon-Shortley phase (docs/PREFILTER.md).
 kind 'radiance': L_lm (unwindowed, the JSON's radiance); 'irradiance': A_l w_l L_lm (the JSON's irradiance), or
 with lambertian=True divided by pi (irradiance_over_pi). window: none, hanning, lanczos (irradiance only).)");
+  m.def("sh_reconstruct", &sh_reconstruct, py::arg("coeffs"), py::arg("size") = 64,
+        py::arg("parameterization") = "latlong", py::arg("convention") = "envkit", py::arg("order") = py::none(),
+        R"(The map SH coefficients describe (skylibs' SphericalHarmonic.reconstruct): coeffs (n,) or (n, channels)
+as EnvMap.sh returns them (rows i = l (l + 1) + m, n = (order + 1)^2, order up to 16), evaluated at every texel
+centre of a `parameterization` map at natural size `size` (lat-long 2N x N) through libenv's basis (sh_basis.h):
+texel = sum_i coeffs[i] Y_i(direction). Radiance coefficients give the band-limited radiance, irradiance ones
+the irradiance (E, or E / pi for lambertian=True). order: keep bands 0 .. order only.)");
   // The same calls as methods of EnvMap (sky.prefilter(...), sky.sh(...)).
   auto envmap = py::reinterpret_borrow<py::class_<PyEnvMap, std::shared_ptr<PyEnvMap>>>(m.attr("EnvMap"));
   envmap.def("prefilter", &prefilter, py::arg("size") = 256, py::arg("levels") = 0, py::arg("mapping") = "gltf",
@@ -213,7 +292,7 @@ with lambertian=True divided by pi (irradiance_over_pi). window: none, hanning, 
         check_request_arg("size", [&] { check_dfg_lut_size(size); });  // envprefilter --lut-size
         DfgOptions d;
         d.width = d.height = size;
-        d.layout = parse_dfg_layout(layout);
+        d.layout = argument_value([&] { return parse_dfg_layout(layout); });
         Image lut;
         {
           py::gil_scoped_release release;

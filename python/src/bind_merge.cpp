@@ -38,10 +38,11 @@ Capture capture_of(const py::handle& item) {
       else if (k == "rotate")
         rotate = v;
       else
-        throw Error("merge: unknown capture key '" + k + "' (map, exposure, mask, rotate)");
+        throw ArgumentError("merge: unknown capture key '" + k + "' (map, exposure, mask, rotate)");
     }
   }
-  if (!py::isinstance<PyEnvMap>(map_obj)) throw Error("merge: a capture is an EnvMap or a dict with map=EnvMap");
+  if (!py::isinstance<PyEnvMap>(map_obj))
+    throw py::type_error("merge: a capture is an EnvMap or a dict with map=EnvMap");
   const PyEnvMap& p = map_obj.cast<const PyEnvMap&>();
   Capture c;
   // merge_captures takes its captures by value: one copy of the pixels.

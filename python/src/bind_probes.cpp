@@ -57,10 +57,10 @@ std::shared_ptr<PyEnvMap> rasterize(const Probe& probe, const std::string& to, c
                                     const std::string& convention, const std::optional<std::string>& layout,
                                     bool alpha) {
   const int size = int_arg(size_arg, "size", 1, int(kMaxSizeArg));
-  const Convention& conv = envkit::convention(convention);
-  const Kind kind = parse_kind(to);
+  const Convention& conv = argument_value([&]() -> const Convention& { return envkit::convention(convention); });
+  const Kind kind = argument_value([&] { return parse_kind(to); });
   std::optional<CubeLayout> l;
-  if (layout && kind == Kind::CubeMap) l = parse_layout(*layout);
+  if (layout && kind == Kind::CubeMap) l = argument_value([&] { return parse_layout(*layout); });
   const ParamSpec spec = spec_for(kind, size, conv, l);
   check_size_arg("size", kind_name(kind) + " map", spec.width, spec.height, kRasterBytesPerTexel);
   auto out = std::make_shared<PyEnvMap>();
@@ -128,7 +128,7 @@ texel the exact average over its solid angle (small features such as a sun keep 
         else if (form == "quadratic")
           f = probes::GradientProbe::Form::Quadratic;
         else
-          throw Error("gradient: form '" + form + "' (expected upper or quadratic)");
+          throw ArgumentError("gradient: form '" + form + "' (expected upper or quadratic)");
         return std::make_shared<probes::GradientProbe>(to_vec3(base, "base"), to_vec3(gain, "gain"), f);
       },
       py::arg("base"), py::arg("gain"), py::arg("form") = "upper",
@@ -161,9 +161,9 @@ texel the exact average over its solid angle (small features such as a sun keep 
         s.sun_azimuth_deg = azimuth_deg;
         s.sun_radius_deg = radius_deg;
         if (!sun_radiance.is_none()) s.sun_radiance = radiance_arg(sun_radiance, "sun_radiance");
-        if (!probes::valid_radiance(s.sun_radiance)) throw Error("sun_radiance: must be finite and >= 0");
-        if (!(radius_deg > 0.0 && radius_deg <= 90.0)) throw Error("radius_deg: must be in (0, 90]");
-        if (!(cloud_cover >= 0.0 && cloud_cover <= 1.0)) throw Error("cloud_cover: must be in [0, 1]");
+        if (!probes::valid_radiance(s.sun_radiance)) throw ArgumentError("sun_radiance: must be finite and >= 0");
+        if (!(radius_deg > 0.0 && radius_deg <= 90.0)) throw ArgumentError("radius_deg: must be in (0, 90]");
+        if (!(cloud_cover >= 0.0 && cloud_cover <= 1.0)) throw ArgumentError("cloud_cover: must be in [0, 1]");
         s.seed = static_cast<std::uint32_t>(integer_arg(seed, "seed", 0, 0xffffffffLL));
         s.cloud_cover = cloud_cover;
         return std::make_shared<probes::OutdoorProbe>(s);

@@ -29,13 +29,13 @@ TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::st
   std::optional<std::pair<int, int>> resolution;
   if (!resolution_arg.is_none()) resolution = int_pair_arg(resolution_arg, "resolution", 1, int(kMaxSizeArg));
   BakeOptions b;
-  b.importance = parse_importance(importance);
-  b.grid = parse_kind(grid);
+  b.importance = argument_value([&] { return parse_importance(importance); });
+  b.grid = argument_value([&] { return parse_kind(grid); });
   b.conservative = conservative;
   try {
     select_tables(tables, b);
   } catch (const Error& e) {
-    throw Error(std::string("tables: ") + e.what());
+    throw ArgumentError(std::string("tables: ") + e.what());
   }
   if (resolution) {
     check_size_arg("resolution", "an importance map", resolution->first, resolution->second, kBakeBytesPerTexel);
@@ -67,9 +67,10 @@ TablesPtr bake(const PyEnvMap& map, const std::string& importance, const std::st
 
 const SphericalDistribution& distribution(const EnvTables& t, const std::string& method, bool compensated,
                                           const std::string& name) {
-  const SamplingMethod m = parse_method(method);
+  const SamplingMethod m = argument_value([&] { return parse_method(method); });
   const SphericalDistribution* d = t.distribution(m, compensated);
-  if (!d) throw Error(name + ": has no " + table_name(m, compensated) + " table (re-bake with envbake --tables ...)");
+  if (!d)
+    throw ArgumentError(name + ": has no " + table_name(m, compensated) + " table (re-bake with envbake --tables ...)");
   return *d;
 }
 
@@ -81,12 +82,14 @@ struct PyTables {
 /// An output array given by the caller: C-contiguous, writable, of the dtype and shape sample() would return.
 template <class T>
 py::array_t<T> output(const py::handle& given, const std::vector<py::ssize_t>& shape, const char* what) {
-  if (!py::isinstance<py::array_t<T>>(given)) throw Error(std::string("sample: out ") + what + " has the wrong dtype");
+  if (!py::isinstance<py::array_t<T>>(given))
+    throw ArgumentError(std::string("sample: out ") + what + " has the wrong dtype");
   py::array_t<T> a = py::reinterpret_borrow<py::array_t<T>>(given);
   const bool ok = a.ndim() == py::ssize_t(shape.size()) && std::equal(shape.begin(), shape.end(), a.shape()) &&
                   (a.flags() & py::array::c_style) && a.writeable();
   if (!ok)
-    throw Error(std::string("sample: out ") + what + " must be a writable C-contiguous array of the result's shape");
+    throw ArgumentError(std::string("sample: out ") + what +
+                        " must be a writable C-contiguous array of the result's shape");
   return a;
 }
 
@@ -103,7 +106,7 @@ py::tuple sample(const PyTables& t, const py::object& u_in, const std::string& m
     texels = py::array_t<std::int32_t>(result_shape(u, 2));
   } else {
     const py::tuple o = py::cast<py::tuple>(out);
-    if (o.size() != 3) throw Error("sample: out must be (directions, pdf, texels)");
+    if (o.size() != 3) throw ArgumentError("sample: out must be (directions, pdf, texels)");
     dirs = output<double>(o[0], result_shape(u, 3), "directions");
     pdf = output<double>(o[1], result_shape(u, 0), "pdf");
     texels = output<std::int32_t>(o[2], result_shape(u, 2), "texels");
@@ -162,8 +165,9 @@ py::array pdf(const PyTables& t, const py::object& dir_in, const std::string& me
 py::array invert(const PyTables& t, const py::object& dir_in, const std::string& method, bool compensated) {
   const SphericalDistribution& d = distribution(*t.tables, method, compensated, t.name);
   if (!d.can_invert())
-    throw Error(t.name + ": the " + std::string(method_name(parse_method(method))) +
-                " table cannot be inverted (use cdf or hierarchical)");
+    throw ArgumentError(t.name + ": the " +
+                        std::string(method_name(argument_value([&] { return parse_method(method); }))) +
+                        " table cannot be inverted (use cdf or hierarchical)");
   std::size_t n = 0;
   const DoubleArray dirs = vectors(dir_in, 3, "directions", n);
   py::array_t<double> out(result_shape(dirs, 2));
@@ -215,7 +219,8 @@ read from (as envbake records), or of the pixels for a map made from an array.)"
             TablesPtr t;
             {
               py::gil_scoped_release release;
-              t = std::make_shared<const EnvTables>(EnvTables::load(path, expected_source_hash));
+              t = std::make_shared<const EnvTables>(
+                  file_operation([&] { return EnvTables::load(path, expected_source_hash); }));
             }
             return std::make_shared<PyTables>(PyTables{t, path});
           },
@@ -226,7 +231,7 @@ read from (as envbake records), or of the pixels for a map made from an array.)"
           "save",
           [](const PyTables& t, const std::string& path) {
             py::gil_scoped_release release;
-            t.tables->save(path);
+            file_operation([&] { t.tables->save(path); });
           },
           py::arg("path"), "Writes the tables atomically.")
       .def("sample", &sample, py::arg("u"), py::arg("method") = "hierarchical", py::arg("compensated") = false,
@@ -253,6 +258,17 @@ element instead of the batched one (the same results bit for bit, slower on larg
           },
           "Importance per texel (H x W float32, read-only view of the tables' "
           "memory).")
+      .def("__repr__",
+           [](const PyTables& t) {
+             std::string methods;
+             for (bool comp : {false, true})
+               for (SamplingMethod sm : {SamplingMethod::Cdf, SamplingMethod::Alias, SamplingMethod::Hierarchical})
+                 if (t.tables->distribution(sm, comp))
+                   methods += std::string(methods.empty() ? "" : ",") + table_name(sm, comp);
+             return "<envkit.Tables " + kind_name(t.tables->grid()) + " " + std::to_string(t.tables->width()) + "x" +
+                    std::to_string(t.tables->height()) + ", " + importance_name(t.tables->importance_mode()) +
+                    ", tables " + methods + ", from " + t.name + ">";
+           })
       .def_property_readonly("grid", [](const PyTables& t) { return kind_name(t.tables->grid()); })
       .def_property_readonly("width", [](const PyTables& t) { return t.tables->width(); })
       .def_property_readonly("height", [](const PyTables& t) { return t.tables->height(); })

@@ -6,15 +6,16 @@
 #include <cstdio>
 #include <string>
 
+#include "args.h"
 #include "arrays.h"
 
 namespace envkit::python {
 
 Mat3 rotation_arg(const py::object& r) {
-  if (py::isinstance<py::str>(r)) return parse_rotation(r.cast<std::string>());
+  if (py::isinstance<py::str>(r)) return argument_value([&] { return parse_rotation(r.cast<std::string>()); });
   const DoubleArray a = DoubleArray::ensure(r);
   if (!a || (a.size() != 3 && a.size() != 9))
-    throw Error("rotate: expected 'yaw,pitch,roll', 3 angles in degrees or a 3x3 matrix");
+    throw ArgumentError("rotate: expected 'yaw,pitch,roll', 3 angles in degrees or a 3x3 matrix");
   // Through the tools' text parser, so that validation and results are exactly theirs.
   std::string text;
   char buf[40];
@@ -22,7 +23,7 @@ Mat3 rotation_arg(const py::object& r) {
     std::snprintf(buf, sizeof buf, "%s%.17g", k ? "," : "", a.data()[k]);
     text += buf;
   }
-  return parse_rotation(text);
+  return argument_value([&] { return parse_rotation(text); });
 }
 
 Mat3 rotated(const Mat3& to_world, const py::object& rotate) {

@@ -60,7 +60,7 @@ def test_counts_and_other_integers(sky):
     raises(ValueError, "channels", envkit.EnvMap.blank, 4, channels=5)
     raises(TypeError, "channels", envkit.EnvMap.blank, 4, channels=2.5)
     raises(ValueError, "levels", envkit.prefilter, sky, size=8, levels=99)
-    raises(ValueError, "order", envkit.sh, sky, order=7)
+    raises(ValueError, "order", envkit.sh, sky, order=17)
     raises(TypeError, "nside", sky.convert, "healpix", nside=2.0)
     raises(ValueError, "resolution", envkit.bake, sky, resolution=(0, 8))
     raises(TypeError, "resolution", envkit.bake, sky, resolution=8)

@@ -113,6 +113,10 @@ TEST(Views, FisheyeLensesPlaceKnownAnglesAtTheirRadii) {
 TEST(Views, RoundTripsWithin1e6Radians) {
   std::vector<std::unique_ptr<Parameterization>> views;
   views.push_back(std::make_unique<PerspectiveMap>(320, 200, view(Vec3(0.3, 0.5, -1), 100, 17)));
+  views.push_back(std::make_unique<PerspectiveMap>(320, 200, view(Vec3(0.3, 0.5, -1), 100, 17, Lens::Orthographic)));
+  ViewParams hv = view(Vec3(-1, 0.2, 0.4), 80, 5);
+  hv.fov_v_degrees = 30;
+  views.push_back(std::make_unique<PerspectiveMap>(200, 200, hv));
   for (Lens l : kLenses)
     views.push_back(
         std::make_unique<FisheyeMap>(256, 256, view(Vec3(1, -0.2, 0.1), l == Lens::Orthographic ? 180 : 270, -30, l)));
@@ -149,6 +153,34 @@ TEST(Views, SolidAnglesSumToTheViewsClosedForms) {
       const double expected = kTwoPi * (1 - std::cos(fov * kPi / 360));
       EXPECT_NEAR(SolidAngleTable(f).total(), expected, 1e-6 * expected) << f.describe();
     }
+}
+
+// The planar orthographic view: texel solid angles (perspective.h's closed form) against the midpoint rule on the
+// density 1 / sqrt(1 - a^2 - b^2) over 256 x 256 sub-texels (away from the rim, where it is smooth), plane extents
+// sin(fov / 2), and a view whose corners leave the hemisphere refused. A vertical field of view of its own sets the
+// height's extent whatever the image's aspect, and survives the metadata round trip.
+TEST(Views, OrthographicAndTwoFieldOfViewPerspectives) {
+  const PerspectiveMap o(40, 30, view(Vec3(0.2, 1, 0.3), 100, 10, Lens::Orthographic));
+  EXPECT_NEAR(o.tan_half_x(), std::sin(50 * kPi / 180), 1e-15);
+  EXPECT_NEAR(SolidAngleTable(o).total(), o.view_solid_angle(), 1e-6 * o.view_solid_angle());
+  for (const auto& [i, j] : {std::pair{0, 0}, std::pair{20, 15}, std::pair{39, 3}}) {
+    double sum = 0.0;
+    const int n = 256;
+    for (int sj = 0; sj < n; ++sj)
+      for (int si = 0; si < n; ++si)
+        sum += o.solid_angle_density(Vec2(i + (si + 0.5) / n, j + (sj + 0.5) / n)) / (n * n);
+    EXPECT_NEAR(o.texel_solid_angle(i, j), sum, 1e-6 * sum) << i << "," << j;
+  }
+  EXPECT_THROW(PerspectiveMap(16, 16, view(Vec3(0, 0, 1), 120, 0, Lens::Orthographic)), Error);
+  EXPECT_NO_THROW(PerspectiveMap(16, 16, view(Vec3(0, 0, 1), 90, 0, Lens::Orthographic)));  // corners on the rim
+
+  ViewParams hv = view(Vec3(0, 0, 1), 90);
+  hv.fov_v_degrees = 40;
+  const PerspectiveMap p(100, 100, hv);
+  EXPECT_NEAR(p.tan_half_y(), std::tan(20 * kPi / 180), 1e-15);
+  EXPECT_EQ(parse_view(format_view(hv)), hv);
+  hv.fov_v_degrees = 180;
+  EXPECT_THROW(PerspectiveMap(16, 16, hv), Error);
 }
 
 // A 90-degree view along a cube face's axis is that face: cropping it from a

@@ -63,6 +63,7 @@ std::string format_view(const ViewParams& v) {
   s << "forward=" << v.forward.x << "," << v.forward.y << "," << v.forward.z << ";roll=" << v.roll_degrees
     << ";fov=" << v.fov_degrees << ";axis=" << (v.fov_axis == FovAxis::Horizontal ? "h" : "v")
     << ";lens=" << lens_name(v.lens);
+  if (v.fov_v_degrees > 0.0) s << ";vfov=" << v.fov_v_degrees;
   return s.str();
 }
 
@@ -99,6 +100,8 @@ ViewParams parse_view(const std::string& text) {
     } else if (key == "axis") {
       if (value != "h" && value != "v") throw Error("view axis '" + value + "' is neither h nor v");
       v.fov_axis = value == "h" ? FovAxis::Horizontal : FovAxis::Vertical;
+    } else if (key == "vfov") {
+      v.fov_v_degrees = number("vfov", value);
     } else if (key == "lens") {
       v.lens = parse_lens(value);
     } else {

@@ -11,6 +11,19 @@
 /// corners). Directions outside the frustum map outside the image: the view
 /// does not cover the sphere (covers_sphere() is false), so embedding it into a
 /// map gives coverage alpha, never black light.
+///
+/// Non-square pixels: with view.fov_v_degrees > 0, t_y = tan(vfov / 2) and
+/// t_x = tan(fov / 2) independently.
+///
+/// Planar orthographic view (view.lens == Lens::Orthographic): the same image
+/// rectangle on the plane, projected parallel to F onto the hemisphere around
+/// F: (x, y) sees a R + b U + sqrt(1 - a^2 - b^2) F with t_x = sin(hfov / 2),
+/// t_y = sin(vfov / 2) (vfov from square pixels unless given). Its corners must
+/// stay on the hemisphere (t_x^2 + t_y^2 <= 1). The solid angle density is
+/// 1 / sqrt(1 - a^2 - b^2), whose integral over [0, a] x [0, b] is
+///   G(a, b) = a asin(b / sqrt(1 - a^2)) + b asin(a / sqrt(1 - b^2))
+///             - atan(a b / sqrt(1 - a^2 - b^2)),
+/// so texel solid angles are exact.
 #include <envkit/maps/parameterization.h>
 #include <envkit/maps/view.h>
 
@@ -41,16 +54,18 @@ class PerspectiveMap final : public Parameterization {
   bool resolve_tap(int, int, int& i, int& j) const override { return i >= 0 && j >= 0 && i < width_ && j < height_; }
 
   /// Half-extents of the image plane at unit distance: tan(hfov / 2), tan(vfov
-  /// / 2).
+  /// / 2) (orthographic: sin(hfov / 2), sin(vfov / 2)).
   double tan_half_x() const { return tx_; }
   double tan_half_y() const { return ty_; }
-  /// Exact solid angle of the whole view: 4 asin(sin(hfov / 2) sin(vfov / 2)).
+  /// Exact solid angle of the whole view: 4 asin(sin(hfov / 2) sin(vfov / 2)) (orthographic: 4 G(t_x, t_y)).
   double view_solid_angle() const;
+  bool orthographic() const { return orthographic_; }
 
  private:
   ViewParams view_;
   ViewBasis basis_;
   double tx_ = 1, ty_ = 1;
+  bool orthographic_ = false;
 };
 
 }  // namespace envkit

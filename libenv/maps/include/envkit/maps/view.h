@@ -46,7 +46,12 @@ struct ViewParams {
   /// 180, stereographic below 360).
   double fov_degrees = 90.0;
   FovAxis fov_axis = FovAxis::Horizontal;
-  Lens lens = Lens::Equidistant;  ///< fisheye only
+  /// Perspective only: when positive, the full angle across the image height, fov_degrees then being the one across
+  /// the width (fov_axis ignored): pixels need not be square. 0: from fov_degrees by square pixels.
+  double fov_v_degrees = 0.0;
+  /// Fisheye: the lens projection. Perspective: Orthographic makes the planar orthographic view (perspective.h);
+  /// every other value is the pinhole.
+  Lens lens = Lens::Equidistant;
 
   bool operator==(const ViewParams&) const = default;
 };
