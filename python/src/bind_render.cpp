@@ -156,7 +156,8 @@ void bind_farm(py::module_& m) {
              job->scene = load_scene(path, text, base, load_options(width, height, bake));
              job->options = io;
              py::gil_scoped_release release;
-             job->integrator = std::make_unique<Integrator>(*job->scene.scene, *job->scene.light, io, &job->scene.camera);
+             job->integrator =
+                 std::make_unique<Integrator>(*job->scene.scene, *job->scene.light, io, &job->scene.camera);
              return job;
            }),
            py::arg("path"), py::arg("text"), py::arg("base"), py::arg("strategy"), py::arg("light_method"),
@@ -169,6 +170,12 @@ void bind_farm(py::module_& m) {
       .def_property_readonly("environment_files",
                              [](const RenderJob& j) { return face_paths(j.scene.environment_description); })
       // The options' names as envrender records them in its EXR's metadata.
+      .def("__repr__",
+           [](const RenderJob& j) {
+             return "<envkit._RenderJob " + std::to_string(j.scene.camera.width()) + "x" +
+                    std::to_string(j.scene.camera.height()) + ", " + strategy_name(j.options.strategy) + ", " +
+                    j.scene.environment_description + ">";
+           })
       .def_property_readonly("strategy",
                              [](const RenderJob& j) { return std::string(strategy_name(j.options.strategy)); })
       .def_property_readonly("light_method",

@@ -20,6 +20,8 @@ def test_every_bound_type_has_a_repr(sky):
         "Tables": envkit.bake(sky, tables=["cdf"]),
         "PrefilteredChain": sky.prefilter(size=8, levels=2),
         "Probe": envkit.probes.constant([1, 1, 1]),
+        "_RenderJob": envkit._envkit._RenderJob(None, None, "", None, "hierarchical", "power", None, None, 1, 1, 0.0,
+                                                8, 4, False),
     }
     irr = sky.irradiance(size=4)
     for name, obj in list(objects.items()) + [("PrefilteredChain", irr)]:
@@ -28,6 +30,7 @@ def test_every_bound_type_has_a_repr(sky):
         assert " object at 0x" not in text
     assert "latlong 32x16" in repr(objects["Tables"]) and "cdf" in repr(objects["Tables"])
     assert "2 GGX levels" in repr(objects["PrefilteredChain"]) and "irradiance" in repr(irr)
+    assert "8x4, auto" in repr(objects["_RenderJob"])
     # Every class the module binds is covered above.
     classes = {n for n in dir(envkit._envkit) if isinstance(getattr(envkit._envkit, n), type)
                and not issubclass(getattr(envkit._envkit, n), BaseException)}

@@ -3,7 +3,7 @@
 
 README.md, BENCHMARKS.md and docs/*.md are read; for each of them:
   - every repository path they name (libenv/..., tools/..., docs/...) exists in the source tree;
-  - every env* tool run in a command line is a built tool (or `python3 -m envkit.batch`);
+  - every env* tool run in a command line is a built tool (or `python3 -m envkit.batch` / `envkit.farm`);
   - every --flag given to a tool in a command line is one its --help lists.
 Command lines are the lines of fenced code blocks (```sh or unlabelled) and the inline code spans that run a tool
 (`envbake --tables hierarchical,sun`, `time build/bin/envconvert --help`). Each mismatch is printed as
@@ -23,7 +23,7 @@ import tempfile
 
 TOOLS = ("envconvert", "envinfo", "envdiff", "envbake", "envsample", "envprefilter", "envmerge", "envprobe",
          "envrender")
-PYTHON_MODULES = ("envkit.batch",)
+PYTHON_MODULES = ("envkit.batch", "envkit.farm")
 
 # Top-level directories of the repository; a word starting with one of them and a slash is a path.
 TOP_DIRS = ("libenv", "renderer", "tools", "scripts", "tests", "docs", "python", "web", "probes")

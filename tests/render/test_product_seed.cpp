@@ -2,8 +2,8 @@
 // of clamped coefficient masses, the BSDF lobe fit, chi-square of drawn directions against the returned pdf for
 // every kind of material (measured included), the pdf's support and integral, renders that agree with product-mis,
 // the furnace, a 1e6 sun, and pixels independent of crop, tiles and threads.
-#include <envkit/envmap/envmap.h>
 #include <envkit/core/sh_basis.h>
+#include <envkit/envmap/envmap.h>
 #include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
 #include <envkit/render/basis_hierarchy.h>

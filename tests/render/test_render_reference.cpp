@@ -138,7 +138,8 @@ int check_point(const probes::Probe& probe, const Mat3& rotation, std::unique_pt
   for (const IntegratorOptions& o : strategies()) {
     const Integrator integrator(empty, *env.light, o);
     split += integrator.sun_split() != nullptr;
-    const bool product = o.strategy == Strategy::Product || o.strategy == Strategy::ProductMis;
+    const bool product =
+        o.strategy == Strategy::Product || o.strategy == Strategy::ProductMis || o.strategy == Strategy::Auto;
     EXPECT_EQ(integrator.has_product_tables(), product && !material.is_pure_delta()) << describe(o);
     Vec3 mean(0, 0, 0), se(0, 0, 0);
     const char* override_n = std::getenv("ENVKIT_REFERENCE_SAMPLES");  // for manual convergence checks
