@@ -547,14 +547,9 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
     // The smallest pdf of the path's non-delta continuations (regularization: the file comment).
     double min_pdf = std::numeric_limits<double>::infinity();
     for (int depth = 0; depth < options_.max_depth; ++depth) {
-      const Vec3 wo_world = -ray.direction;
-      Vec3 ng = hit.geometric_normal, ns = hit.shading_normal;
-      if ((ng ^ wo_world) < 0.0) {
-        ng = -ng;
-        ns = -ns;
-      }
-      const Frame frame = Frame::from_normal(ns);
-      const Vec3 wo = frame.to_local(wo_world);
+      const SurfaceView view = surface_view(hit.geometric_normal, hit.shading_normal, -ray.direction);
+      const Vec3 &ng = view.ng, &wo = view.wo;
+      const Frame& frame = view.frame;
       if (!(wo.z > 0.0)) break;
       const Material& material = regularized(hit.material, regularization_floor(options_.regularization, min_pdf));
       result += mul(throughput, direct(hit.position, frame, ng, wo, material, sampler));

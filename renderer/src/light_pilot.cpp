@@ -30,11 +30,10 @@ constexpr std::uint32_t kPilotSeed = 0x9e3779b9u;
 
 double luminance(const Vec3& v) { return 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z; }
 
-/// A primary hit as a shading point's parts: the normals turned to the side the ray came from.
+/// A primary hit as a shading point's parts.
 struct PilotPoint {
-  Vec3 position, ng;
-  Frame frame;
-  Vec3 wo;
+  Vec3 position;
+  SurfaceView view;
 };
 
 /// The first moments of kRepeats estimates.
@@ -53,14 +52,8 @@ void Integrator::choose_by_pilot(const Camera& camera) {
       const Ray ray = camera.generate((i + 0.5) * camera.width() / kGrid, (j + 0.5) * camera.height() / kGrid);
       Hit hit;
       if (!scene_.intersect(ray, hit)) continue;
-      Vec3 ng = hit.geometric_normal, ns = hit.shading_normal;
-      if ((ng ^ ray.direction) > 0.0) {
-        ng = -ng;
-        ns = -ns;
-      }
-      const Frame frame = Frame::from_normal(ns);
-      const Vec3 wo = frame.to_local(-ray.direction);
-      if (wo.z > 0.0) found[std::size_t(hit.material)].push_back({hit.position, ng, frame, wo});
+      const SurfaceView view = surface_view(hit.geometric_normal, hit.shading_normal, -ray.direction);
+      if (view.wo.z > 0.0) found[std::size_t(hit.material)].push_back({hit.position, view});
     }
   for (int m = 0; m < scene_.material_count(); ++m) {
     const Material& material = scene_.material(m);
@@ -75,7 +68,7 @@ void Integrator::choose_by_pilot(const Camera& camera) {
     std::vector<Moments> moments(points.size() * candidates.size());
     tbb::parallel_for(std::size_t(0), points.size(), [&](std::size_t p) {
       const PilotPoint& q = points[p];
-      const ShadingPoint x{Scene::offset_origin(q.position, q.ng), q.frame, q.ng, q.wo, material};
+      const ShadingPoint x{Scene::offset_origin(q.position, q.view.ng), q.view.frame, q.view.ng, q.view.wo, material};
       Sampler sampler(kPilotSeed, int(p), m);
       for (std::size_t c = 0; c < candidates.size(); ++c)
         for (int r = 0; r < kRepeats; ++r) {

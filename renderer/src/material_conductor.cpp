@@ -29,15 +29,10 @@ class ConductorMaterial final : public Material {
     return fresnel(wo ^ h) * scalar;
   }
 
-  double pdf(const Vec3& wo, const Vec3& wi) const override {
-    Vec3 h;
-    if (!detail::above(wo) || !detail::above(wi) || !detail::half_vector(wo, wi, h)) return 0.0;
-    return detail::vndf_reflection_pdf(alpha_, wo.z, h);
-  }
+  double pdf(const Vec3& wo, const Vec3& wi) const override { return detail::ggx_reflection_pdf(alpha_, wo, wi); }
 
   bool sample(const Vec3& wo, Vec2 u2, double /*u_lobe*/, BsdfSample& out) const override {
-    if (!detail::above(wo)) return false;
-    return detail::reflection_sample(*this, wo, detail::sample_vndf(alpha_, wo, u2), out);
+    return detail::ggx_reflection_sample(*this, alpha_, wo, u2, out);
   }
 
  private:

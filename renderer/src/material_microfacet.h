@@ -169,4 +169,18 @@ inline bool reflection_sample(const Material& material, const Vec3& wo, const Ve
   return out.pdf > 0.0;
 }
 
+/// The pdf of a GGX reflection lobe of roughness alpha drawn by visible-normal sampling (local frame; 0 below the
+/// horizon): conductors and rough mirrors alike.
+inline double ggx_reflection_pdf(double alpha, const Vec3& wo, const Vec3& wi) {
+  Vec3 h;
+  if (!above(wo) || !above(wi) || !half_vector(wo, wi, h)) return 0.0;
+  return vndf_reflection_pdf(alpha, wo.z, h);
+}
+
+/// A visible-normal sample of a GGX reflection lobe of roughness alpha, valued by the material's own eval and pdf.
+inline bool ggx_reflection_sample(const Material& material, double alpha, const Vec3& wo, Vec2 u2, BsdfSample& out) {
+  if (!above(wo)) return false;
+  return reflection_sample(material, wo, sample_vndf(alpha, wo, u2), out);
+}
+
 }  // namespace envkit::render::detail

@@ -23,15 +23,10 @@ class RoughMirrorMaterial final : public Material {
     return reflectance_ * (detail::ggx_d(alpha_, h) * detail::smith_g2_cos_over_4cos(alpha_, wo.z, wi.z));
   }
 
-  double pdf(const Vec3& wo, const Vec3& wi) const override {
-    Vec3 h;
-    if (!detail::above(wo) || !detail::above(wi) || !detail::half_vector(wo, wi, h)) return 0.0;
-    return detail::vndf_reflection_pdf(alpha_, wo.z, h);
-  }
+  double pdf(const Vec3& wo, const Vec3& wi) const override { return detail::ggx_reflection_pdf(alpha_, wo, wi); }
 
   bool sample(const Vec3& wo, Vec2 u2, double /*u_lobe*/, BsdfSample& out) const override {
-    if (!detail::above(wo)) return false;
-    return detail::reflection_sample(*this, wo, detail::sample_vndf(alpha_, wo, u2), out);
+    return detail::ggx_reflection_sample(*this, alpha_, wo, u2, out);
   }
 
  private:

@@ -38,4 +38,20 @@ struct Frame {
   Vec3 to_world(const Vec3& v) const { return s * v.x + t * v.y + n * v.z; }
 };
 
+/// A surface point as a ray arriving along -wo_world sees it: both normals turned to wo's side, the shading frame of
+/// the shading normal, and wo in that frame (wo.z <= 0 where the shading normal hides the side the ray came from).
+struct SurfaceView {
+  Vec3 ng;  ///< geometric normal on wo's side
+  Frame frame;
+  Vec3 wo;  ///< local frame
+};
+inline SurfaceView surface_view(Vec3 geometric_normal, Vec3 shading_normal, const Vec3& wo_world) {
+  if ((geometric_normal ^ wo_world) < 0.0) {
+    geometric_normal = -geometric_normal;
+    shading_normal = -shading_normal;
+  }
+  const Frame frame = Frame::from_normal(shading_normal);
+  return {geometric_normal, frame, frame.to_local(wo_world)};
+}
+
 }  // namespace envkit::render
