@@ -43,32 +43,88 @@ struct Moments {
   double variance() const { return std::max(0.0, sum_sq / kRepeats - mean() * mean()) * kRepeats / (kRepeats - 1); }
 };
 
-}  // namespace
-
-void Integrator::choose_by_pilot(const Camera& camera) {
-  std::vector<std::vector<PilotPoint>> found(std::size_t(scene_.material_count()));
+/// Per scene material, the primary hits of the camera lattice that see its front.
+std::vector<std::vector<PilotPoint>> pilot_points(const Scene& scene, const Camera& camera) {
+  std::vector<std::vector<PilotPoint>> found(std::size_t(scene.material_count()));
   for (int j = 0; j < kGrid; ++j)
     for (int i = 0; i < kGrid; ++i) {
       const Ray ray = camera.generate((i + 0.5) * camera.width() / kGrid, (j + 0.5) * camera.height() / kGrid);
       Hit hit;
-      if (!scene_.intersect(ray, hit)) continue;
+      if (!scene.intersect(ray, hit)) continue;
       const SurfaceView view = surface_view(hit.geometric_normal, hit.shading_normal, -ray.direction);
       if (view.wo.z > 0.0) found[std::size_t(hit.material)].push_back({hit.position, view});
     }
+  return found;
+}
+
+/// At most kPoints of `all`, evenly spaced in the lattice's order.
+std::vector<PilotPoint> thinned(const std::vector<PilotPoint>& all) {
+  const std::size_t n = std::min<std::size_t>(kPoints, all.size());
+  std::vector<PilotPoint> points;
+  for (std::size_t k = 0; k < n; ++k) points.push_back(all[k * all.size() / n]);
+  return points;
+}
+
+/// scores[p x C + c]: point p's relative variance under candidate c, as the images are judged (relMSE: the
+/// variance over the squared mean plus kRelMseFloor, the mean over every candidate since they estimate the same
+/// value), times the candidate's cost per shading point.
+std::vector<double> scores(const std::vector<Moments>& moments, const std::vector<LightChoice>& candidates,
+                           SampleCounts n, int sun_samples) {
+  const std::size_t count = candidates.size(), points = moments.size() / count;
+  std::vector<double> out(moments.size());
+  for (std::size_t p = 0; p < points; ++p) {
+    double mean = 0.0;
+    for (std::size_t c = 0; c < count; ++c) mean += moments[p * count + c].mean() / double(count);
+    for (std::size_t c = 0; c < count; ++c) {
+      const LightChoice& k = candidates[c];
+      const double cost =
+          1.0 + n.bsdf + n.light * (1.0 + (k.product ? kProductDescentCost : 0.0)) + (k.sun_apart ? sun_samples : 0);
+      out[p * count + c] = moments[p * count + c].variance() / (mean * mean + kRelMseFloor) * cost;
+    }
+  }
+  return out;
+}
+
+/// The candidate to keep: `base` (MIS's choice) unless a candidate's mean score is lower by more than kSignificance
+/// standard errors of the per-point differences, so that the technique changes only where a gain was measured; of
+/// several such candidates, the one of the largest gain.
+std::size_t pick(const std::vector<double>& scores, std::size_t count, std::size_t base) {
+  const std::size_t points = scores.size() / count;
+  std::size_t best = base;
+  double best_gain = 0.0;
+  for (std::size_t c = 0; c < count; ++c) {
+    double sum = 0.0, sum_sq = 0.0;
+    for (std::size_t p = 0; p < points; ++p) {
+      const double d = scores[p * count + base] - scores[p * count + c];
+      sum += d;
+      sum_sq += d * d;
+    }
+    const double gain = sum / double(points);
+    const double se =
+        std::sqrt(std::max(0.0, sum_sq / double(points) - gain * gain) / std::max(double(points) - 1.0, 1.0));
+    if (gain > kSignificance * se && gain > best_gain) {
+      best = c;
+      best_gain = gain;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+void Integrator::choose_by_pilot(const Camera& camera) {
+  const std::vector<std::vector<PilotPoint>> found = pilot_points(scene_, camera);
+  std::vector<LightChoice> candidates = {{true, false}, {false, false}};
+  if (sun_) candidates.insert(candidates.end(), {{true, true}, {false, true}});
   for (int m = 0; m < scene_.material_count(); ++m) {
     const Material& material = scene_.material(m);
-    std::vector<PilotPoint>& all = found[std::size_t(m)];
-    if (material.is_pure_delta() || all.empty()) continue;
-    std::vector<PilotPoint> points;
-    for (int k = 0; k < std::min<int>(kPoints, int(all.size())); ++k)
-      points.push_back(all[std::size_t(k) * all.size() / std::min<std::size_t>(kPoints, all.size())]);
-    std::vector<LightChoice> candidates = {{true, false}, {false, false}};
-    if (sun_) candidates.insert(candidates.end(), {{true, true}, {false, true}});
-    // moments[p x candidates + c]: each point's slots are its own, so the sums do not depend on the threads.
+    const std::vector<PilotPoint> points = thinned(found[std::size_t(m)]);
+    if (material.is_pure_delta() || points.empty()) continue;
+    // moments[p x C + c]: each point's slots are its own, so the sums do not depend on the threads.
     std::vector<Moments> moments(points.size() * candidates.size());
     tbb::parallel_for(std::size_t(0), points.size(), [&](std::size_t p) {
-      const PilotPoint& q = points[p];
-      const ShadingPoint x{Scene::offset_origin(q.position, q.view.ng), q.view.frame, q.view.ng, q.view.wo, material};
+      const SurfaceView& v = points[p].view;
+      const ShadingPoint x{Scene::offset_origin(points[p].position, v.ng), v.frame, v.ng, v.wo, material};
       Sampler sampler(kPilotSeed, int(p), m);
       for (std::size_t c = 0; c < candidates.size(); ++c)
         for (int r = 0; r < kRepeats; ++r) {
@@ -79,47 +135,11 @@ void Integrator::choose_by_pilot(const Camera& camera) {
           mo.sum_sq += std::isfinite(e) ? e * e : 0.0;
         }
     });
-    // Relative variance, as the images are judged (relMSE): each point's variance over its mean squared plus
-    // kRelMseFloor, the mean over every candidate (they estimate the same value).
-    std::vector<double> mean_sq(points.size());
-    for (std::size_t p = 0; p < points.size(); ++p) {
-      double mean = 0.0;
-      for (std::size_t c = 0; c < candidates.size(); ++c) mean += moments[p * candidates.size() + c].mean();
-      mean /= double(candidates.size());
-      mean_sq[p] = mean * mean;
-    }
-    // Each point's relative variance times the candidate's cost per shading point.
-    const SampleCounts n = counts(material);
-    const auto score = [&](std::size_t p, std::size_t c) {
-      const LightChoice& k = candidates[c];
-      const double cost = 1.0 + n.bsdf + n.light * (1.0 + (k.product ? kProductDescentCost : 0.0)) +
-                          (k.sun_apart ? options_.sun_samples : 0);
-      return moments[p * candidates.size() + c].variance() / (mean_sq[p] + kRelMseFloor) * cost;
-    };
-    // MIS's own choice stands unless a candidate's mean score is lower by more than kSignificance standard errors
-    // of the per-point differences: the pilot changes the technique only where it measured a gain. Of several such
-    // candidates the lowest mean score wins.
     const LightChoice mis_choice{false, sun_ && takes_sun_samples(material)};
     const std::size_t base =
         std::size_t(std::find(candidates.begin(), candidates.end(), mis_choice) - candidates.begin());
-    std::size_t best = base;
-    double best_gain = 0.0;
-    const double count = double(points.size());
-    for (std::size_t c = 0; c < candidates.size(); ++c) {
-      double sum = 0.0, sum_sq = 0.0;
-      for (std::size_t p = 0; p < points.size(); ++p) {
-        const double d = score(p, base) - score(p, c);
-        sum += d;
-        sum_sq += d * d;
-      }
-      const double gain = sum / count;
-      const double se = std::sqrt(std::max(0.0, sum_sq / count - gain * gain) / std::max(count - 1.0, 1.0));
-      if (gain > kSignificance * se && gain > best_gain) {
-        best = c;
-        best_gain = gain;
-      }
-    }
-    choices_[std::size_t(m)] = candidates[best];
+    const std::vector<double> s = scores(moments, candidates, counts(material), options_.sun_samples);
+    choices_[std::size_t(m)] = candidates[pick(s, candidates.size(), base)];
   }
 }
 
