@@ -362,17 +362,17 @@ def finished_tiles(job, identity):
         return {}
 
 
-def _rendered_tiles(client, job, todo):
-    """Yields (frame, tile, render_tile's result) as the tiles `todo` ([(frame, tile)]) finish on `client`; raises
+def _rendered_tiles(client, job, pending):
+    """Yields (frame, tile, render_tile's result) as the tiles `pending` ([(frame, tile)]) finish on `client`; raises
     FarmError naming the first that failed, the others cancelled."""
     # By reference to the importable module, also when this one runs as __main__ (python3 -m envkit.farm), whose
     # functions cloudpickle would copy by value with their globals.
     from .farm import render_tile as task
 
     futures = [client.submit(task, job.frames[f], job.options, job.crops[t], job.tile_path(f, t), pure=False,
-                             retries=1) for f, t in todo]
+                             retries=1) for f, t in pending]
     for k, r, e in completed(futures):
-        f, t = todo[k]
+        f, t = pending[k]
         if e is not None:
             for other in futures:
                 other.cancel()
@@ -398,11 +398,11 @@ def run(client, job, force=False, keep_work=False, progress=None):
     write_json_atomic(manifest_file, {"job": identity, "tiles": done}, durable=False)
     n_tiles = len(job.crops)
     tiles = [(f, t) for f in range(len(job.frames)) for t in range(n_tiles)]
-    todo = [(f, t) for f, t in tiles if tile_name(f, t) not in done]
+    pending = [(f, t) for f, t in tiles if tile_name(f, t) not in done]
     resumed = [job.tile_path(f, t) for f, t in tiles if tile_name(f, t) in done]
     if progress and resumed:
         progress({"event": "resumed", "tiles": len(resumed), "of": len(tiles)})
-    missing = collections.Counter(f for f, _ in todo)
+    missing = collections.Counter(f for f, _ in pending)
     render_seconds = collections.Counter()  # per frame, the resumed tiles' seconds included
     for f, t in tiles:
         render_seconds[f] += done.get(tile_name(f, t), {}).get("seconds", 0.0)
@@ -423,9 +423,9 @@ def run(client, job, force=False, keep_work=False, progress=None):
     for f in range(len(job.frames)):
         if not missing[f]:
             finish(f)
-    if todo:
+    if pending:
         with client() if callable(client) else contextlib.nullcontext(client) as c:
-            for f, t, r in _rendered_tiles(c, job, todo):
+            for f, t, r in _rendered_tiles(c, job, pending):
                 done[tile_name(f, t)] = {"hash": r["hash"], "seconds": r["seconds"]}
                 write_json_atomic(manifest_file, {"job": identity, "tiles": done}, durable=False)
                 result["rendered"].append(r["path"])

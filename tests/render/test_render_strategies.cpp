@@ -137,17 +137,7 @@ TEST(RenderStrategies, NoNonFiniteValuesUnderAMillionSun) {
       ro.spp = 4;
       const Film film = render_image(scene.camera, integrator, ro);
       EXPECT_EQ(integrator.nonfinite_count(), 0u) << s.name;
-      double total = 0;
-      for (int y = 0; y < film.height(); ++y)
-        for (int x = 0; x < film.width(); ++x) {
-          const Vec3 m = film.mean(x, y), v = film.variance(x, y);
-          for (int c = 0; c < 3; ++c) {
-            ASSERT_TRUE(std::isfinite(m[c]) && m[c] >= 0.0) << s.name << " pixel " << x << "," << y;
-            ASSERT_TRUE(std::isfinite(v[c]) && v[c] >= 0.0) << s.name << " pixel " << x << "," << y;
-          }
-          total += m.y;
-        }
-      EXPECT_GT(total, 0.0) << s.name;
+      EXPECT_GT(envkit::test::expect_finite_film(film, s.name), 0.0) << s.name;
     }
   }
 }
@@ -191,28 +181,13 @@ TEST(RenderStrategies, CropAndThreadCountDoNotChangePixels) {
   automatic.strategy = Strategy::Auto;
   for (const IntegratorOptions& options : {mis, product, automatic}) {
     SCOPED_TRACE(strategy_name(options.strategy));
-    const Integrator integrator(*scene.scene, *scene.light, options, &scene.camera);
     RenderOptions ro;
     ro.spp = 3;
     ro.seed = 42;
-    const Film full = render_image(scene.camera, integrator, ro);
-    ro.crop = Crop{5, 3, 17, 10};
-    ro.tile_size = 4;
-    Film crop;
-    {
-      // One thread for the tables (the sun split, the product tables) as well as for the pixels.
-      tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-      const Integrator serial(*scene.scene, *scene.light, options, &scene.camera);
-      crop = render_image(scene.camera, serial, ro);
-    }
-    for (int y = 0; y < crop.height(); ++y)
-      for (int x = 0; x < crop.width(); ++x) {
-        EXPECT_EQ(crop.mean(x, y), full.mean(x + 5, y + 3));
-        EXPECT_EQ(crop.variance(x, y), full.variance(x + 5, y + 3));
-        EXPECT_EQ(crop.count(x, y), 3u);
-      }
+    // One thread for the tables (the sun split, the product tables, auto's pilot) as well as for the pixels.
+    const Film full = envkit::test::expect_crop_matches(scene, options, ro, Crop{5, 3, 17, 10}, 4);
     // Another seed gives another image.
-    ro.crop = Crop{};
+    const Integrator integrator(*scene.scene, *scene.light, options, &scene.camera);
     ro.seed = 43;
     const Film other = render_image(scene.camera, integrator, ro);
     EXPECT_NE(other.mean(12, 6), full.mean(12, 6));
