@@ -84,7 +84,10 @@ std::string rgb_text(const Vec3& v) {
 nlohmann::json rgb_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 struct Args {
-  std::string kind, output, param = "latlong", size, grid, layout, basis, convention = "envkit";
+  std::string kind, output, size, grid, basis;
+  envkit::Kind param = envkit::Kind::LatLong;
+  std::optional<envkit::CubeLayout> layout;
+  const envkit::Convention* convention = &envkit::convention("envkit");
   std::string radiance, sky, floor, base, gain, form = "upper", direction, texel, cells, color_a, color_b;
   std::string preview;
   double radius_deg = 0.265, elevation_deg = 35.0, azimuth_deg = 40.0, exposure = -1.0, cloud_cover = 0.35;
@@ -117,11 +120,9 @@ void check_options(const CLI::App& app, const std::string& kind) {
 }
 
 envkit::ParamSpec make_spec(const Args& a) {
-  const envkit::Convention& conv = envkit::convention(a.convention);
-  const envkit::Kind kind = envkit::parse_kind(a.param);
-  std::optional<envkit::CubeLayout> layout;
-  if (!a.layout.empty()) layout = envkit::parse_layout(a.layout);
-  envkit::ParamSpec spec = envkit::spec_for(kind, 512, conv, layout);  // default natural size 512: 1024x512
+  const envkit::Convention& conv = *a.convention;
+  const envkit::Kind kind = a.param;
+  envkit::ParamSpec spec = envkit::spec_for(kind, 512, conv, a.layout);  // default natural size 512: 1024x512
   if (!a.size.empty()) {
     if (a.size.find_first_of("xX") != std::string::npos) {
       const tools::ImageSize size = tools::parse_image_size("--size", a.size, kMaxSide);
@@ -241,7 +242,7 @@ int run(const Args& a, const CLI::App& app) {
   const envkit::ParamSpec spec = make_spec(a);
   const std::unique_ptr<envkit::Parameterization> map = envkit::make_parameterization(spec);
   probes::RasterOptions options;
-  options.map_to_world = envkit::convention(a.convention).frame(spec.kind);
+  options.map_to_world = a.convention->frame(spec.kind);
   const std::unique_ptr<probes::Probe> probe = make_probe(a, app, *map, options);
 
   // Maps with texels that hold no data (mirror ball corners, blank cross cells) get a coverage channel.
@@ -259,7 +260,7 @@ int run(const Args& a, const CLI::App& app) {
   envkit::EnvMap env;
   env.image = std::move(image);
   env.param = map->clone();
-  env.convention = envkit::convention(a.convention).name;
+  env.convention = a.convention->name;
   envkit::SaveOptions so;
   so.write.pixel_type = a.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
   so.write.metadata["envkit:probe"] = probe->describe();
@@ -330,12 +331,16 @@ int main(int argc, char** argv) {
   app.add_option("kind", a.kind, "constant | gradient | sun | texel | checker | default")->required();
   app.add_option("-o,--output", a.output, "output image (.exr float by default; .hdr, .pfm, .tif, .png...)")
       ->required();
-  app.add_option("--param", a.param, "parameterization: latlong, cube, mirrorball, angular, octahedral, paraboloid")
-      ->capture_default_str();
+  envkit::tools::add_parsed_option(app, "--param", a.param, envkit::parse_kind,
+                                   "parameterization: latlong, cube, mirrorball, angular, octahedral, paraboloid")
+      ->default_str("latlong");
   app.add_option("--size", a.size, "WxH, or N = natural size (lat-long 2N x N, cube faces N); default 1024x512");
-  app.add_option("--convention", a.convention, envkit::tools::convention_choices())->capture_default_str();
+  envkit::tools::add_parsed_option(app, "--convention", a.convention, envkit::tools::convention_named,
+                                   envkit::tools::convention_choices())
+      ->default_str("envkit");
   app.add_option("--grid", a.grid, "centre | corner (lat-long and cube; default from the convention)");
-  app.add_option("--layout", a.layout, "cube layout: vstrip, hstrip, hcross, vcross");
+  envkit::tools::add_parsed_option(app, "--layout", a.layout, envkit::parse_layout,
+                                   "cube layout: vstrip, hstrip, hcross, vcross");
   app.add_option("--basis", a.basis, "cube face basis: envkit | gl");
   app.add_option("--radiance", a.radiance, "R or R,G,B: constant L, sun disk Ls, texel value V, default-probe sun");
   app.add_option("--sky", a.sky, "R or R,G,B: uniform sky around the sun (default 0.05)");

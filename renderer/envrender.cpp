@@ -44,9 +44,9 @@ Exit codes: 0 success, 1 bad input or failure (one line on stderr, no output fil
 struct Args {
   std::string scene;
   std::string output = "envrender.exr";
-  std::string strategy = envkit::render::strategy_name(envkit::render::IntegratorOptions{}.strategy);
-  std::string light_method = "hierarchical";
-  std::string heuristic = "power";
+  envkit::render::Strategy strategy = envkit::render::IntegratorOptions{}.strategy;
+  envkit::SamplingMethod light_method = envkit::render::IntegratorOptions{}.light_method;
+  envkit::render::Heuristic heuristic = envkit::render::IntegratorOptions{}.heuristic;
   std::string crop;
   std::string resolution;
   int spp = 16;
@@ -124,9 +124,9 @@ int run(const Args& a) {
   for (const std::string& image : envkit::face_paths(scene.environment_description)) inputs.push_back(image);
   envkit::check_outputs({a.output, png}, inputs, a.force);
   IntegratorOptions io;
-  io.strategy = parse_strategy(a.strategy);
-  io.light_method = envkit::parse_method(a.light_method);
-  io.heuristic = parse_heuristic(a.heuristic);
+  io.strategy = a.strategy;
+  io.light_method = a.light_method;
+  io.heuristic = a.heuristic;
   io.bsdf_samples = a.bsdf_samples;
   io.light_samples = a.light_samples;
   io.sun_samples = a.sun_samples;
@@ -217,9 +217,9 @@ int run(const Args& a) {
   std::map<std::string, std::string> meta = {
       {"envkit:renderer", "envrender"},
       {"envkit:scene", a.scene.empty() ? "built-in default" : a.scene},
-      {"envkit:strategy", a.strategy},
+      {"envkit:strategy", strategy_name(a.strategy)},
       {"envkit:light_method", envkit::method_name(io.light_method)},
-      {"envkit:heuristic", a.heuristic},
+      {"envkit:heuristic", heuristic_name(a.heuristic)},
       {"envkit:bsdf_samples", a.bsdf_samples ? std::to_string(*a.bsdf_samples) : "by lobe"},
       {"envkit:light_samples", a.light_samples ? std::to_string(*a.light_samples) : "by lobe"},
       {"envkit:sun_samples", std::to_string(integrator.sun_split() ? a.sun_samples : 0)},
@@ -237,7 +237,7 @@ int run(const Args& a) {
   if (!a.quiet) {
     std::ostringstream msg;
     msg << "wrote " << a.output << " and " << png << " (" << film.width() << "x" << film.height() << ", " << stats.spp
-        << " spp, " << a.strategy << ", " << tools::fmt(stats.seconds, 3) << " s, "
+        << " spp, " << strategy_name(a.strategy) << ", " << tools::fmt(stats.seconds, 3) << " s, "
         << tools::fmt(double(stats.samples) / std::max(stats.seconds, 1e-9) * 1e-6, 3) << " M camera samples/s)";
     tools::info(msg.str());
   }
@@ -257,25 +257,21 @@ int main(int argc, char** argv) {
   app.add_option("--spp", a.spp, "samples per pixel")->transform(tools::integer_in(1, 1 << 24))->capture_default_str();
   app.add_option("--time", a.time, "render for this many seconds instead of --spp (passes of 1 spp)")
       ->check(tools::number_in(0.0, 1e6, true));
-  app.add_option("--strategy", a.strategy,
-                 "auto|bsdf|light|mis|mis-compensated|product|product-mis|product-wavelet|product-wavelet-mis|"
-                 "product-steerable|product-steerable-mis|product-sh|product-sh-mis "
-                 "(auto: as product-mis, with each material's table, product or plain, and the sun apart or not "
-                 "chosen by a short pilot; product-wavelet: Clarberg et al. 2005's wavelet product of lighting and "
-                 "BSDF; product-steerable: Subr and Arvo 2007's per-basis lighting tables; product-sh: Jarosz et al. "
-                 "2009's SH product; each the whole map)")
-      ->check(CLI::IsMember({"auto", "bsdf", "light", "mis", "mis-compensated", "product", "product-mis",
-                             "product-wavelet", "product-wavelet-mis", "product-steerable", "product-steerable-mis",
-                             "product-sh", "product-sh-mis"}))
-      ->capture_default_str();
-  app.add_option("--light-method", a.light_method,
-                 "environment sampling table of light, mis and mis-compensated: cdf|alias|hierarchical (the product "
-                 "strategies refine the hierarchical table)")
-      ->check(tools::method_validator())
-      ->capture_default_str();
-  app.add_option("--heuristic", a.heuristic, "MIS heuristic: balance|power")
-      ->check(CLI::IsMember({"balance", "power"}))
-      ->capture_default_str();
+  tools::add_parsed_option(
+      app, "--strategy", a.strategy, envkit::render::parse_strategy,
+      envkit::render::strategy_names("|") +
+          " (auto: as product-mis, with each material's table, product or plain, and the sun apart or not "
+          "chosen by a short pilot; product-wavelet: Clarberg et al. 2005's wavelet product of lighting and "
+          "BSDF; product-steerable: Subr and Arvo 2007's per-basis lighting tables; product-sh: Jarosz et al. "
+          "2009's SH product; each the whole map)")
+      ->default_str(envkit::render::strategy_name(a.strategy));
+  tools::add_parsed_option(app, "--light-method", a.light_method, envkit::parse_method,
+                           "environment sampling table of light, mis and mis-compensated: cdf|alias|hierarchical "
+                           "(the product strategies refine the hierarchical table)")
+      ->default_str(envkit::method_name(a.light_method));
+  tools::add_parsed_option(app, "--heuristic", a.heuristic, envkit::render::parse_heuristic,
+                           "MIS heuristic: balance|power")
+      ->default_str(envkit::render::heuristic_name(a.heuristic));
   const std::string narrow = tools::fmt(envkit::render::kWideLobeAlpha, 3);
   app.add_option("--bsdf-samples", a.bsdf_samples,
                  "BSDF samples per shading point (N) for every material; default: by the material's lobe, " +

@@ -2,6 +2,7 @@
 // into a versioned table file that envsample, envinfo and envrender load.
 #include <envkit/core/atomic_file.h>
 #include <envkit/core/error.h>
+#include <envkit/io/color.h>
 #include <envkit/tables/env_tables.h>
 
 #include <chrono>
@@ -59,10 +60,20 @@ Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 
 
 struct Options {
   tools::InputSpec in;
-  std::string out, importance = "luminance", param = "latlong", resolution, tables = "hierarchical", fix_nonfinite;
+  std::string out, resolution, tables = "hierarchical";
+  envkit::ImportanceMode importance = envkit::ImportanceMode::Luminance;
+  Kind grid = Kind::LatLong;
   int size = 0, threads = 0;
   bool conservative = false, force = false, quiet = false, progress = false, json = false;
 };
+
+// The kinds a table file's grid can be.
+Kind bake_grid(const std::string& name) {
+  const Kind kind = envkit::parse_kind(name);
+  if (kind != Kind::LatLong && kind != Kind::Octahedral && kind != Kind::HEALPix)
+    throw envkit::Error("'" + name + "' is no bake grid (use latlong, octahedral or healpix)");
+  return kind;
+}
 
 void parse_tables(const std::string& list, envkit::BakeOptions& b) {
   std::vector<std::string> names;
@@ -84,8 +95,8 @@ void parse_resolution(const std::string& text, envkit::BakeOptions& b) {
 
 int run(Options& o) {
   envkit::BakeOptions b;
-  b.importance = envkit::parse_importance(o.importance);
-  b.grid = envkit::parse_kind(o.param);
+  b.importance = o.importance;
+  b.grid = o.grid;
   b.conservative = o.conservative;
   parse_tables(o.tables, b);
   if (!o.resolution.empty()) parse_resolution(o.resolution, b);
@@ -100,7 +111,6 @@ int run(Options& o) {
   if (b.grid == Kind::HEALPix && (b.importance_width % 4 != 0 || b.importance_width * 3 != b.importance_height * 4))
     throw CLI::ValidationError("--resolution",
                                "a HEALPix importance map is 4M x 3M (M = its N_side), not " + o.resolution);
-  if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
 
   const std::vector<std::string> inputs = tools::input_paths(o.in.path);
   envkit::check_output_path(o.out, inputs, o.force);
@@ -146,14 +156,13 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces)")->required()->type_name("FILE");
   app.add_option("-o,--output", o.out, "output table file (.envtbl)")->required()->type_name("TABLES");
-  app.add_option("--importance", o.importance, "scalar importance of a texel: luminance, average or max")
+  tools::add_parsed_option(app, "--importance", o.importance, envkit::parse_importance,
+                           "scalar importance of a texel: luminance, average or max")
       ->type_name("MODE")
-      ->check(CLI::IsMember({"luminance", "average", "max"}))
-      ->capture_default_str();
-  app.add_option("--param", o.param, "bake grid: latlong, octahedral or healpix")
+      ->default_str("luminance");
+  tools::add_parsed_option(app, "--param", o.grid, bake_grid, "bake grid: latlong, octahedral or healpix")
       ->type_name("KIND")
-      ->check(CLI::IsMember({"latlong", "octahedral", "healpix"}))
-      ->capture_default_str();
+      ->default_str("latlong");
   app.add_option("--size", o.size, "bake grid size N (latlong 2N x N, octahedral N x N, healpix 4N x 3N)")
       ->type_name("N")
       ->transform(tools::integer_in(1, 1 << 16));
@@ -163,21 +172,18 @@ int main(int argc, char** argv) {
       ->type_name("LIST")
       ->capture_default_str();
   app.add_flag("--conservative", o.conservative, "importance = max over each texel's bilinear footprint");
-  app.add_option("--from", o.in.from, "input parameterization (default: detected)")
-      ->type_name("KIND")
-      ->check(tools::kind_validator());
-  app.add_option("--layout", o.in.layout, "cube layout of the input (default: detected)")
-      ->type_name("L")
-      ->check(tools::layout_validator());
-  app.add_option("--from-convention", o.in.convention, "convention of the input (default: from metadata)")
-      ->type_name("C")
-      ->check(tools::convention_validator());
-  app.add_option("--colorspace", o.in.colorspace, "colour space of the input pixels (default: from the file)")
-      ->type_name("CS")
-      ->check(tools::colorspace_validator());
-  app.add_option("--fix-nonfinite", o.fix_nonfinite, "replace NaN/Inf input values instead of failing")
-      ->type_name("zero|clamp")
-      ->check(CLI::IsMember({"zero", "clamp"}));
+  tools::add_parsed_option(app, "--from", o.in.from, envkit::parse_kind, "input parameterization (default: detected)")
+      ->type_name("KIND");
+  tools::add_parsed_option(app, "--layout", o.in.layout, envkit::parse_layout,
+                           "cube layout of the input (default: detected)")
+      ->type_name("L");
+  tools::add_parsed_option(app, "--from-convention", o.in.convention, tools::convention_named,
+                           "convention of the input (default: from metadata)")
+      ->type_name("C");
+  tools::add_parsed_option(app, "--colorspace", o.in.colorspace, envkit::canonical_colorspace,
+                           "colour space of the input pixels (default: from the file)")
+      ->type_name("CS");
+  tools::add_fix_nonfinite_option(app, o.in);
   tools::add_threads_option(app, o.threads);
   app.add_flag("-f,--force", o.force, "allow TABLES to overwrite an input");
   app.add_flag("-q,--quiet", o.quiet, "print only warnings and errors");

@@ -5,6 +5,7 @@
 #include <envkit/core/error.h>
 #include <envkit/envmap/conversion.h>
 #include <envkit/envmap/envmap.h>
+#include <envkit/io/color.h>
 #include <envkit/io/image_io.h>
 #include <envkit/maps/view.h>
 #include <envkit/maps/view_spec.h>
@@ -81,8 +82,14 @@ Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 
 
 struct Options {
   tools::InputSpec in;
-  std::string out, to, layout, filter = "area", convention, rotate, fix_nonfinite, ball_centre, compression;
-  std::string view_dir, lens, fov_axis;
+  std::string out, ball_centre, compression, view_dir, fov_axis;
+  Kind to = Kind::LatLong;
+  std::optional<envkit::CubeLayout> layout;
+  envkit::Filter filter = envkit::Filter::Area;
+  const envkit::Convention* convention = nullptr;
+  std::optional<envkit::Mat3> rotation;
+  std::string rotate;  ///< --rotate as given, for the closing line
+  std::optional<envkit::Lens> lens;
   std::optional<double> roll, fov;
   double aspect = 1.0;
   int size = 0, threads = 0;
@@ -92,42 +99,42 @@ struct Options {
 void add_options(CLI::App& app, Options& o) {
   app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces)")->required()->type_name("FILE");
   app.add_option("-o,--output", o.out, "output map (a '%' writes six cube faces)")->required()->type_name("OUT");
-  app.add_option("--to", o.to, "output parameterization: " + tools::kind_choices())
+  tools::add_parsed_option(app, "--to", o.to, envkit::parse_kind, "output parameterization: " + tools::kind_choices())
       ->required()
-      ->type_name("KIND")
-      ->check(tools::kind_validator());
-  app.add_option("--from", o.in.from, "input parameterization (default: detected)")
-      ->type_name("KIND")
-      ->check(tools::kind_validator());
-  app.add_option("--layout", o.layout, "cube layout: " + tools::layout_choices() + " (default: the convention's)")
-      ->type_name("L")
-      ->check(tools::layout_validator());
+      ->type_name("KIND");
+  tools::add_parsed_option(app, "--from", o.in.from, envkit::parse_kind, "input parameterization (default: detected)")
+      ->type_name("KIND");
+  tools::add_parsed_option(app, "--layout", o.layout, envkit::parse_layout,
+                           "cube layout: " + tools::layout_choices() + " (default: the convention's)")
+      ->type_name("L");
   app.add_option("--size", o.size,
                  "natural size N (default: about the input's texel density, a multiple of 8 from 64 up)")
       ->type_name("N")
       ->transform(tools::integer_in(1, 1 << 17));
-  app.add_option("--filter", o.filter, std::string("resampling filter: ") + tools::kFilterChoices)
+  tools::add_parsed_option(app, "--filter", o.filter, envkit::parse_filter,
+                           std::string("resampling filter: ") + tools::kFilterChoices)
       ->type_name("F")
-      ->check(tools::filter_validator())
-      ->capture_default_str();
-  app.add_option("--convention", o.convention,
-                 "output convention: " + tools::convention_choices() +
-                     " (default: the input's when its metadata names one, else envkit)")
-      ->type_name("C")
-      ->check(tools::convention_validator());
-  app.add_option("--from-convention", o.in.convention, "convention of the input (default: from metadata, else envkit)")
-      ->type_name("C")
-      ->check(tools::convention_validator());
-  app.add_option("--rotate", o.rotate, "rotate the environment: yaw,pitch,roll in degrees or 9 matrix entries")
-      ->type_name("R")
-      ->check(tools::rotation_validator());
-  app.add_option("--colorspace", o.in.colorspace, "colour space of the input pixels (default: from the file)")
-      ->type_name("CS")
-      ->check(tools::colorspace_validator());
+      ->default_str("area");
+  tools::add_parsed_option(app, "--convention", o.convention, tools::convention_named,
+                           "output convention: " + tools::convention_choices() +
+                               " (default: the input's when its metadata names one, else envkit)")
+      ->type_name("C");
+  tools::add_parsed_option(app, "--from-convention", o.in.convention, tools::convention_named,
+                           "convention of the input (default: from metadata, else envkit)")
+      ->type_name("C");
+  tools::add_parsed_option(
+      app, "--rotate", o.rotation,
+      [&o](const std::string& text) {
+        o.rotate = text;
+        return envkit::parse_rotation(text);
+      },
+      "rotate the environment: yaw,pitch,roll in degrees or 9 matrix entries")
+      ->type_name("R");
+  tools::add_parsed_option(app, "--colorspace", o.in.colorspace, envkit::canonical_colorspace,
+                           "colour space of the input pixels (default: from the file)")
+      ->type_name("CS");
   tools::add_threads_option(app, o.threads);
-  app.add_option("--fix-nonfinite", o.fix_nonfinite, "replace NaN/Inf input values instead of failing")
-      ->type_name("zero|clamp")
-      ->check(CLI::IsMember({"zero", "clamp"}));
+  tools::add_fix_nonfinite_option(app, o.in);
   app.add_flag("--half", o.half,
                "write half floats (OpenEXR output only); half cannot hold a sun: values above 65504 are clamped, "
                "with a warning");
@@ -151,9 +158,9 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--fov-axis", o.fov_axis, "perspective: the extent --fov spans, h (width, default) or v (height)")
       ->type_name("h|v")
       ->check(CLI::IsMember({"h", "v"}));
-  app.add_option("--lens", o.lens, "fisheye lens: equidistant (default), equisolid, orthographic, stereographic")
-      ->type_name("L")
-      ->check(tools::lens_validator());
+  tools::add_parsed_option(app, "--lens", o.lens, envkit::parse_lens,
+                           "fisheye lens: equidistant (default), equisolid, orthographic, stereographic")
+      ->type_name("L");
   app.add_option("--aspect", o.aspect, "camera view output: width / height (default 1)")
       ->type_name("A")
       ->check(tools::number_in(1e-3, 1e3));
@@ -165,9 +172,7 @@ void add_options(CLI::App& app, Options& o) {
 
 bool is_view(Kind kind) { return kind == Kind::Perspective || kind == Kind::Fisheye; }
 
-bool view_given(const Options& o) {
-  return !o.view_dir.empty() || o.roll || o.fov || !o.lens.empty() || !o.fov_axis.empty();
-}
+bool view_given(const Options& o) { return !o.view_dir.empty() || o.roll || o.fov || o.lens || !o.fov_axis.empty(); }
 
 // The camera view the --view-dir/--roll/--fov/--fov-axis/--lens options describe, with the defaults of `kind`.
 envkit::ViewParams view_params(const Options& o, Kind kind) {
@@ -175,7 +180,7 @@ envkit::ViewParams view_params(const Options& o, Kind kind) {
   v.fov_degrees = o.fov.value_or(envkit::default_fov_degrees(kind));
   v.roll_degrees = o.roll.value_or(0.0);
   if (!o.fov_axis.empty()) v.fov_axis = o.fov_axis == "v" ? envkit::FovAxis::Vertical : envkit::FovAxis::Horizontal;
-  if (!o.lens.empty()) v.lens = envkit::parse_lens(o.lens);
+  if (o.lens) v.lens = *o.lens;
   if (!o.view_dir.empty()) {
     std::vector<double> c;
     std::istringstream in(o.view_dir);
@@ -191,26 +196,26 @@ envkit::ViewParams view_params(const Options& o, Kind kind) {
   return v;
 }
 
-// The conversion the options ask for, each name parsed once, here. The view options describe the output when it
-// is a camera view, else an input read --from perspective|fisheye (describe_input).
+// The conversion the options ask for (each name was parsed once, as CLI11 read it). The view options describe the
+// output when it is a camera view, else an input read --from perspective|fisheye (describe_input).
 envkit::ConversionRequest conversion_request(const Options& o, std::optional<Kind> from) {
   envkit::ConversionRequest r;
-  r.to = envkit::parse_kind(o.to);
+  r.to = o.to;
   if (o.size > 0) r.size = o.size;
   // A convention read from the input's metadata carries over unless one is given for either side.
-  if (!o.convention.empty())
-    r.convention = &envkit::convention(o.convention);
-  else if (!o.in.convention.empty())
+  if (o.convention)
+    r.convention = o.convention;
+  else if (o.in.convention)
     r.convention = &envkit::convention("envkit");
-  if (!o.layout.empty()) r.layout = envkit::parse_layout(o.layout);
+  r.layout = o.layout;
   const bool from_view = from && is_view(*from);
   if (view_given(o) && is_view(r.to))
     r.view = view_params(o, r.to);
   else if (view_given(o) && !from_view)
     r.view = envkit::ViewParams{};  // refused for being given at all (validate): the options' values are not read
   if (o.aspect != 1.0) r.aspect = o.aspect;
-  r.filter = envkit::parse_filter(o.filter);
-  if (!o.rotate.empty()) r.rotation = envkit::parse_rotation(o.rotate);
+  r.filter = o.filter;
+  r.rotation = o.rotation;
   r.output = o.out;
   r.pixel_type = o.half ? envkit::PixelType::Half : envkit::PixelType::Auto;
   r.compression = o.compression;
@@ -265,7 +270,6 @@ void describe_input(Options& o, std::optional<Kind> from, Kind to) {
   if ((o.in.ball_cx || o.in.ball_radius) && from != Kind::MirrorBall)
     throw CLI::ValidationError("--ball-centre/--ball-radius",
                                "describe a mirror-ball photograph: add --from mirrorball");
-  if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
   if (!view_given(o) || is_view(to) || !from || !is_view(*from)) return;
   o.in.view = view_params(o, *from);
   try {
@@ -276,7 +280,7 @@ void describe_input(Options& o, std::optional<Kind> from, Kind to) {
 }
 
 int convert(Options& o) {
-  const std::optional<Kind> from = o.in.from.empty() ? std::nullopt : std::optional(envkit::parse_kind(o.in.from));
+  const std::optional<Kind> from = o.in.from;
   const envkit::ConversionRequest request = conversion_request(o, from);
   validate(request, from && is_view(*from));
   describe_input(o, from, request.to);

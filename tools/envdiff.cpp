@@ -41,7 +41,8 @@ Exit status: 0 success (or the metric is within --fail-above); 3 the metric exce
 
 struct Options {
   tools::InputSpec a, b;
-  std::string filter = "area", metric = "relmse";
+  envkit::Filter filter = envkit::Filter::Area;
+  std::string metric = "relmse";
   std::optional<double> fail_above;
   int threads = 0;
   bool json = false;
@@ -65,7 +66,7 @@ json comparison_json(const Options& o, const tools::LoadedInput& a, const tools:
   }
   json j = {{"a", tools::input_json(a)},
             {"b", tools::input_json(b)},
-            {"filter", o.filter},
+            {"filter", envkit::filter_name(o.filter)},
             {"compared_solid_angle", c.compared_solid_angle},
             {"rmse", c.rmse},
             {"relmse", c.relmse},
@@ -87,7 +88,7 @@ void print_text(const Options& o, const tools::LoadedInput& a, const tools::Load
             << "\n";
   std::cout << "B              " << b.path << ": " << b.map.param->describe() << ", convention " << b.map.convention
             << "\n";
-  std::cout << "compared       B resampled onto A (filter " << o.filter << ") over "
+  std::cout << "compared       B resampled onto A (filter " << envkit::filter_name(o.filter) << ") over "
             << tools::fmt(c.compared_solid_angle) << " sr\n\n";
   std::cout << tools::pad("rmse", 15) << tools::fmt(c.rmse) << "\n";
   std::cout << tools::pad("relmse", 15) << tools::fmt(c.relmse) << "\n";
@@ -113,7 +114,7 @@ int diff(Options& o) {
   tools::report_input(a, true);
   const tools::LoadedInput b = tools::load_input(o.b);
   tools::report_input(b, true);
-  const Comparison c = envkit::compare_maps(a.map, b.map, envkit::parse_filter(o.filter), a.path, b.path);
+  const Comparison c = envkit::compare_maps(a.map, b.map, o.filter, a.path, b.path);
   const double value = envkit::comparison_metric(c, o.metric);
   const bool failed = o.fail_above && !(value <= *o.fail_above);  // NaN fails
   if (o.json)
@@ -130,10 +131,10 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("A", o.a.path, "reference map (a '%' reads six cube faces)")->required()->type_name("FILE");
   app.add_option("B", o.b.path, "map to compare, resampled onto A")->required()->type_name("FILE");
-  app.add_option("--filter", o.filter, std::string("filter resampling B onto A: ") + tools::kFilterChoices)
+  tools::add_parsed_option(app, "--filter", o.filter, envkit::parse_filter,
+                           std::string("filter resampling B onto A: ") + tools::kFilterChoices)
       ->type_name("F")
-      ->check(tools::filter_validator())
-      ->capture_default_str();
+      ->default_str("area");
   app.add_option("--metric", o.metric, "metric that --fail-above tests")
       ->type_name("M")
       ->check(CLI::IsMember({"rmse", "relmse", "max", "power"}))

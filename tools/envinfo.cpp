@@ -363,17 +363,16 @@ int main(int argc, char** argv) {
   app.add_option("IN", o.in.path, "input map (a '%' reads six cube faces) or table file")
       ->required()
       ->type_name("FILE");
-  app.add_option("--from", o.in.from, "parameterization: " + tools::kind_choices() + " (default: detected)")
-      ->type_name("KIND")
-      ->check(tools::kind_validator());
-  app.add_option("--layout", o.in.layout, "cube layout: " + tools::layout_choices() + " (default: detected)")
-      ->type_name("L")
-      ->check(tools::layout_validator());
-  app.add_option("--convention", o.in.convention,
-                 "convention the map was written for: " + tools::convention_choices() +
-                     " (default: from metadata, else envkit)")
-      ->type_name("C")
-      ->check(tools::convention_validator());
+  tools::add_parsed_option(app, "--from", o.in.from, envkit::parse_kind,
+                           "parameterization: " + tools::kind_choices() + " (default: detected)")
+      ->type_name("KIND");
+  tools::add_parsed_option(app, "--layout", o.in.layout, envkit::parse_layout,
+                           "cube layout: " + tools::layout_choices() + " (default: detected)")
+      ->type_name("L");
+  tools::add_parsed_option(
+      app, "--convention", o.in.convention, tools::convention_named,
+      "convention the map was written for: " + tools::convention_choices() + " (default: from metadata, else envkit)")
+      ->type_name("C");
   app.add_flag("--json", o.json, "print one JSON object instead of the table");
   app.add_option("--export-exr", o.export_exr,
                  "table files: write importance, marginal, conditionals and hierarchical "

@@ -79,7 +79,8 @@ double number(const std::string& capture, const std::string& key, const std::str
 struct CaptureSpec {
   tools::InputSpec in;
   double exposure = 1.0;
-  std::string mask, rotate;
+  std::string mask;
+  std::optional<envkit::Mat3> rotation;
 };
 
 // A CAPTURE's file name and its key list: the keys start at the first '@' that is not doubled; "@@" is one '@' of
@@ -130,7 +131,7 @@ CaptureSpec parse_capture(const std::string& text) {
       throw CLI::ValidationError("CAPTURE", "'" + text + "': key '" + key + "' given twice");
     try {
       if (key == "from")
-        envkit::parse_kind(c.in.from = value);
+        c.in.from = envkit::parse_kind(value);
       else if (key == "lens")
         view.lens = envkit::parse_lens(value), has_view = true;
       else if (key == "fov")
@@ -146,12 +147,12 @@ CaptureSpec parse_capture(const std::string& text) {
       else if (key == "mask")
         c.mask = value;
       else if (key == "convention")
-        envkit::convention(c.in.convention = value);
+        c.in.convention = &envkit::convention(value);
       else if (key == "rotate") {
         std::string r = value;
         std::replace(r.begin(), r.end(), ':', ',');
         if (r.find(',') == std::string::npos) r += ",0,0";
-        envkit::parse_rotation(c.rotate = r);
+        c.rotation = envkit::parse_rotation(r);
       } else
         throw CLI::ValidationError(
             "CAPTURE", "'" + text + "': unknown key '" + key + "'" +
@@ -165,9 +166,9 @@ CaptureSpec parse_capture(const std::string& text) {
     c.in.view = view;
   }
   if (!(c.exposure > 0.0)) throw CLI::ValidationError("CAPTURE", "'" + text + "': exposure must be positive");
-  if (has_view && !c.in.from.empty()) {  // without from=, the kind (and its check) comes with the file
+  if (has_view && c.in.from) {  // without from=, the kind (and its check) comes with the file
     try {
-      envkit::check_view(envkit::parse_kind(c.in.from), view);
+      envkit::check_view(*c.in.from, view);
     } catch (const envkit::Error& e) {
       throw CLI::ValidationError("CAPTURE", "'" + text + "': " + e.what());
     }
@@ -200,7 +201,7 @@ int merge(Options& o) {
     tools::report_input(in, o.quiet);
     envkit::Capture c;
     c.map = std::move(in.map);
-    if (!s.rotate.empty()) c.map.rotation = envkit::parse_rotation(s.rotate);
+    if (s.rotation) c.map.rotation = *s.rotation;
     c.exposure = s.exposure;
     c.name = s.in.path;
     c.mask = std::move(masks[k]);

@@ -67,8 +67,12 @@ Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 
 
 struct Options {
   tools::InputSpec in;
-  std::string out, sh, irradiance, lut, mapping = "gltf", format = "rgba16f", sh_window = "none",
-                                        lut_layout = "scale-bias", fix_nonfinite, rotate;
+  std::string out, sh, irradiance, lut;
+  envkit::RoughnessMapping mapping = envkit::RoughnessMapping::Gltf;
+  envkit::GpuFormat format = envkit::GpuFormat::Rgba16f;
+  envkit::ShWindow sh_window = envkit::ShWindow::None;
+  envkit::DfgLayout lut_layout = envkit::DfgLayout::ScaleBias;
+  std::optional<envkit::Mat3> rotation;
   int size = 256, levels = 0, sh_order = 2, irradiance_size = 32, lut_size = 128, threads = 0;
   double accuracy = 0.2;
   bool octahedral = false, force = false, quiet = false, progress = false;
@@ -87,14 +91,14 @@ void add_options(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_option("--levels", o.levels, "number of levels (default: the full chain to 1 x 1)")
       ->transform(tools::integer_in(0, 15));
-  app.add_option("--mapping", o.mapping, "roughness of each level: gltf|filament|unreal")
-      ->check(CLI::IsMember({"gltf", "filament", "unreal"}))
-      ->capture_default_str();
-  app.add_option("--format", o.format,
-                 "texel format of .ktx2/.dds outputs: rgba16f|rgba32f|rg11b10f|rgb9e5; only rgba32f holds a sun "
-                 "(the others clamp above about 65000, and rg11b10f and rgb9e5 store negatives as 0, with a warning)")
-      ->check(CLI::IsMember({"rgba16f", "rgba32f", "rg11b10f", "rgb9e5"}))
-      ->capture_default_str();
+  tools::add_parsed_option(app, "--mapping", o.mapping, envkit::parse_roughness_mapping,
+                           "roughness of each level: gltf|filament|unreal")
+      ->default_str("gltf");
+  tools::add_parsed_option(
+      app, "--format", o.format, envkit::parse_gpu_format,
+      "texel format of .ktx2/.dds outputs: rgba16f|rgba32f|rg11b10f|rgb9e5; only rgba32f holds a sun "
+      "(the others clamp above about 65000, and rg11b10f and rgb9e5 store negatives as 0, with a warning)")
+      ->default_str("rgba16f");
   app.add_flag("--octahedral", o.octahedral, "equal-area octahedral maps instead of cubes");
   app.add_option("--accuracy", o.accuracy, "quadrature refinement threshold (smaller: slower, more exact)")
       ->check(tools::number_in(0.01, 1.0))
@@ -102,30 +106,27 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--sh-order", o.sh_order, "SH order: 2 (9 coefficients) or 3 (16)")
       ->check(CLI::IsMember({1, 2, 3}))
       ->capture_default_str();
-  app.add_option("--sh-window", o.sh_window, "SH windowing against ringing: none|hanning|lanczos")
-      ->check(CLI::IsMember({"none", "hanning", "lanczos"}))
-      ->capture_default_str();
+  tools::add_parsed_option(app, "--sh-window", o.sh_window, envkit::parse_sh_window,
+                           "SH windowing against ringing: none|hanning|lanczos")
+      ->default_str("none");
   app.add_option("--irradiance-size", o.irradiance_size, "face size of the irradiance map (at most 512)")
       ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
   app.add_option("--lut-size", o.lut_size, "DFG LUT width and height (at most 1024)")
       ->transform(tools::integer_in(1, 4096))
       ->capture_default_str();
-  app.add_option("--lut-layout", o.lut_layout, "DFG channels: scale-bias (R=A, G=B) or filament (R=B, G=A+B)")
-      ->check(CLI::IsMember({"scale-bias", "filament"}))
-      ->capture_default_str();
-  app.add_option("--from", o.in.from, "input parameterization (default: detected)")
-      ->type_name("KIND")
-      ->check(tools::kind_validator());
-  app.add_option("--from-convention", o.in.convention, "convention of the input (default: from metadata, else envkit)")
-      ->type_name("C")
-      ->check(tools::convention_validator());
-  app.add_option("--rotate", o.rotate, "rotate the environment: yaw,pitch,roll in degrees or 9 matrix entries")
-      ->type_name("R")
-      ->check(tools::rotation_validator());
-  app.add_option("--fix-nonfinite", o.fix_nonfinite, "replace NaN/Inf input values instead of failing")
-      ->type_name("zero|clamp")
-      ->check(CLI::IsMember({"zero", "clamp"}));
+  tools::add_parsed_option(app, "--lut-layout", o.lut_layout, envkit::parse_dfg_layout,
+                           "DFG channels: scale-bias (R=A, G=B) or filament (R=B, G=A+B)")
+      ->default_str("scale-bias");
+  tools::add_parsed_option(app, "--from", o.in.from, envkit::parse_kind, "input parameterization (default: detected)")
+      ->type_name("KIND");
+  tools::add_parsed_option(app, "--from-convention", o.in.convention, tools::convention_named,
+                           "convention of the input (default: from metadata, else envkit)")
+      ->type_name("C");
+  tools::add_parsed_option(app, "--rotate", o.rotation, envkit::parse_rotation,
+                           "rotate the environment: yaw,pitch,roll in degrees or 9 matrix entries")
+      ->type_name("R");
+  tools::add_fix_nonfinite_option(app, o.in);
   tools::add_threads_option(app, o.threads);
   app.add_flag("-f,--force", o.force, "allow an output to overwrite IN");
   app.add_flag("-q,--quiet", o.quiet, "print only warnings and errors");
@@ -211,7 +212,6 @@ int run(Options& o, bool format_given) {
   for (const std::string* p : {&o.sh, &o.irradiance, &o.lut})
     if (!p->empty()) targets.push_back(*p);
   envkit::check_outputs(targets, inputs, o.force);
-  if (!o.fix_nonfinite.empty()) o.in.nonfinite = envkit::parse_nonfinite_policy(o.fix_nonfinite);
   const auto thread_limit = tools::limit_threads(o.threads);
 
   // Every output goes to a temp file next to its target; all are renamed together once everything is written.
@@ -232,29 +232,28 @@ int run(Options& o, bool format_given) {
     lut_computed = std::async(std::launch::async, [&o] {
       envkit::DfgOptions d;
       d.width = d.height = o.lut_size;
-      d.layout = envkit::parse_dfg_layout(o.lut_layout);
+      d.layout = o.lut_layout;
       return envkit::dfg_lut(d);
     });
 
   tools::LoadedInput in = tools::load_input(o.in);
   tools::report_input(in, o.quiet);
-  if (!o.rotate.empty()) in.map.rotation = envkit::parse_rotation(o.rotate);
+  if (o.rotation) in.map.rotation = *o.rotation;
   const envkit::MapRef src = in.map.ref();
   const Kind kind = o.octahedral ? Kind::Octahedral : Kind::CubeMap;
-  const envkit::GpuFormat format = envkit::parse_gpu_format(o.format);
+  const envkit::GpuFormat format = o.format;
 
   // Spherical harmonics likewise, beside the GGX levels.
   std::future<envkit::ShCoefficients> sh_projected;
   if (!o.sh.empty())
-    sh_projected = std::async(
-        std::launch::async, [&] { return envkit::project_sh(src, o.sh_order, envkit::parse_sh_window(o.sh_window)); });
+    sh_projected = std::async(std::launch::async, [&] { return envkit::project_sh(src, o.sh_order, o.sh_window); });
 
   if (!o.out.empty()) {
     envkit::PrefilterOptions po;
     po.kind = kind;
     po.size = o.size;
     po.levels = levels;
-    po.mapping = envkit::parse_roughness_mapping(o.mapping);
+    po.mapping = o.mapping;
     po.accuracy = o.accuracy;
     envkit::set_ibl_cube_faces(o.out, po);
     const std::size_t work = std::size_t(o.size) * o.size * (kind == Kind::CubeMap ? 6 : 1) * 64;
@@ -266,8 +265,8 @@ int run(Options& o, bool format_given) {
          envkit::ggx_chain_files(o.out, chain, kind, fs::path(o.in.path).filename().string()))
       clamped.push_back(envkit::write_ibl_file(stage(f.path), f, kind == Kind::CubeMap, format).message(f.path));
     summary.push_back(o.out + ": " + std::to_string(levels) + " GGX levels, " + envkit::kind_name(kind) + " " +
-                      std::to_string(o.size) + ", mapping " + o.mapping +
-                      (extension(o.out) == ".exr" ? "" : ", " + o.format));
+                      std::to_string(o.size) + ", mapping " + envkit::roughness_mapping_name(o.mapping) +
+                      (extension(o.out) == ".exr" ? "" : ", " + envkit::gpu_format_name(o.format)));
   }
   if (!o.sh.empty()) {
     const envkit::ShCoefficients sh = sh_projected.get();
@@ -278,7 +277,8 @@ int run(Options& o, bool format_given) {
     os << j.dump(2) << "\n";
     os.close();
     staged.commit();
-    summary.push_back(o.sh + ": SH order " + std::to_string(o.sh_order) + ", window " + o.sh_window);
+    summary.push_back(o.sh + ": SH order " + std::to_string(o.sh_order) + ", window " +
+                      envkit::sh_window_name(o.sh_window));
   }
   if (!o.irradiance.empty()) {
     envkit::IrradianceOptions io;
@@ -298,7 +298,8 @@ int run(Options& o, bool format_given) {
       w.encode_colorspace = "raw";  // LUT values are data, not colour
     }
     envkit::write_image(stage(o.lut), lut_computed.get(), w);
-    summary.push_back(o.lut + ": DFG LUT " + std::to_string(o.lut_size) + "^2, layout " + o.lut_layout);
+    summary.push_back(o.lut + ": DFG LUT " + std::to_string(o.lut_size) + "^2, layout " +
+                      envkit::dfg_layout_name(o.lut_layout));
   }
   for (auto& p : pending) p->commit();
   for (const std::string& w : clamped)

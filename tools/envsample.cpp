@@ -41,7 +41,8 @@ Examples:
 Exit status: 0 success; 1 error (one line on stderr, no output file written); 2 usage error.)";
 
 struct Options {
-  std::string tables, out, method = "hierarchical", sequence = "sobol";
+  std::string tables, out, sequence = "sobol";
+  envkit::SamplingMethod method = envkit::SamplingMethod::Hierarchical;
   std::size_t n = 4096;
   std::uint32_t seed = 0;
   int width = 0;
@@ -161,7 +162,7 @@ int run(const Options& o) {
   envkit::check_output_path(o.out, {o.tables}, o.force);
   envkit::install_temp_cleanup_on_signal();
   const envkit::EnvTables t = envkit::EnvTables::load(o.tables);
-  const envkit::SamplingMethod method = envkit::parse_method(o.method);
+  const envkit::SamplingMethod method = o.method;
   const envkit::SphericalDistribution* d = t.distribution(method, o.compensated);
   if (!d)
     throw envkit::Error(o.tables + ": has no " + envkit::table_name(method, o.compensated) +
@@ -188,9 +189,8 @@ int main(int argc, char** argv) {
   app.add_option("-n,--samples", o.n, "number of samples")
       ->transform(tools::integer_in(1, 1LL << 32))
       ->capture_default_str();
-  app.add_option("--method", o.method, "cdf, alias or hierarchical")
-      ->check(tools::method_validator())
-      ->capture_default_str();
+  tools::add_parsed_option(app, "--method", o.method, envkit::parse_method, "cdf, alias or hierarchical")
+      ->default_str("hierarchical");
   app.add_option("--sequence", o.sequence, "random or sobol")
       ->check(CLI::IsMember({"random", "sobol"}))
       ->capture_default_str();

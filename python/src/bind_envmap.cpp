@@ -48,7 +48,7 @@ LoadOptions load_options(const std::optional<std::string>& parameterization,
   argument_value([&] {
     if (parameterization) o.kind = parse_kind(*parameterization);
     if (layout) o.layout = parse_layout(*layout);
-    if (convention) o.convention = envkit::convention(*convention).name;
+    if (convention) o.convention = &envkit::convention(*convention);
   });
   if (view.given()) {
     // As envconvert: view options describe an input only together with --from perspective|fisheye.

@@ -59,16 +59,19 @@ const char* strategy_name(Strategy s) {
   return "?";
 }
 
-Strategy parse_strategy(const std::string& name) {
-  for (Strategy s :
-       {Strategy::Bsdf, Strategy::Light, Strategy::Mis, Strategy::MisCompensated, Strategy::Product,
-        Strategy::ProductMis, Strategy::ProductWavelet, Strategy::ProductWaveletMis, Strategy::ProductSteerable,
-        Strategy::ProductSteerableMis, Strategy::ProductSh, Strategy::ProductShMis, Strategy::Auto})
-    if (name == strategy_name(s)) return s;
-  throw Error("unknown strategy '" + name +
-              "' (valid: auto, bsdf, light, mis, mis-compensated, product, product-mis, product-wavelet, "
-              "product-wavelet-mis, product-steerable, product-steerable-mis, product-sh, product-sh-mis)");
+std::string strategy_names(const std::string& separator) {
+  std::string names;
+  for (Strategy s : kStrategies) names += (names.empty() ? "" : separator) + strategy_name(s);
+  return names;
 }
+
+Strategy parse_strategy(const std::string& name) {
+  for (Strategy s : kStrategies)
+    if (name == strategy_name(s)) return s;
+  throw Error("unknown strategy '" + name + "' (valid: " + strategy_names(", ") + ")");
+}
+
+const char* heuristic_name(Heuristic h) { return h == Heuristic::Balance ? "balance" : "power"; }
 
 Heuristic parse_heuristic(const std::string& name) {
   if (name == "balance") return Heuristic::Balance;

@@ -341,7 +341,14 @@ void load_environment(const Reader& r, const json& e, const std::string& base_di
     image_path = resolve(base_dir, r.file_name(e.at("image"), "environment.image"));
     if (e.contains("tables")) tables_path = resolve(base_dir, r.file_name(e.at("tables"), "environment.tables"));
     LoadOptions load;
-    if (e.contains("convention")) load.convention = r.string(e.at("convention"), "environment.convention");
+    if (e.contains("convention")) {
+      const std::string name = r.string(e.at("convention"), "environment.convention");
+      try {
+        load.convention = &convention(name);
+      } catch (const Error& err) {
+        r.fail("environment.convention", err.what());
+      }
+    }
     try {
       map = load_envmap(image_path, load);
     } catch (const Error& err) {

@@ -81,7 +81,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   envkit::LoadOptions opt;
   if (byte(4) % 7) opt.kind = envkit::parse_kind(kKinds[byte(4) % 7 - 1]);
   if (byte(5) % 5) opt.layout = envkit::parse_layout(kLayouts[byte(5) % 5 - 1]);
-  if (byte(6) % 7) opt.convention = kConventions[byte(6) % 7 - 1];
+  if (byte(6) % 7) opt.convention = &envkit::convention(kConventions[byte(6) % 7 - 1]);
   if (byte(7) < 8) opt.ball_cx = kBallValues[byte(7)];
   if (byte(8) < 8) opt.ball_cy = kBallValues[byte(8)];
   if (byte(9) < 8) opt.ball_radius = kBallValues[byte(9)];

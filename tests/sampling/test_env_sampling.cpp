@@ -321,7 +321,7 @@ TEST(EnvTablesBake, TotalImportanceMatchesAnalyticPower) {
        {static_cast<const probes::Probe*>(&constant), static_cast<const probes::Probe*>(&sun)}) {
     LoadOptions lo;
     lo.kind = Kind::LatLong;
-    lo.convention = "envkit";
+    lo.convention = &envkit::convention("envkit");
     const EnvMap env = make_envmap(probes::rasterize(*p, map), "probe.exr", lo);
     for (ImportanceMode mode : {ImportanceMode::Luminance, ImportanceMode::Average, ImportanceMode::Max}) {
       BakeOptions o;

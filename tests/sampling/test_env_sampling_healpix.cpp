@@ -32,7 +32,7 @@ EnvMap healpix_sun_map(int nside, double sun_radiance = 50.0) {
                              Vec3(1.0, 1.0, 1.0));
   LoadOptions lo;
   lo.kind = Kind::HEALPix;
-  lo.convention = "envkit";
+  lo.convention = &envkit::convention("envkit");
   return make_envmap(probes::rasterize(sun, HealpixMap(nside)), "hp.exr", lo);
 }
 
@@ -179,7 +179,7 @@ TEST(HealpixSampling, BakesHealpixMapsNativelyAndResamplesOthers) {
   const probes::SunProbe sun(Vec3(0.3, 0.6, 0.5), 0.15, Vec3(50, 50, 50), Vec3(1, 1, 1));
   LoadOptions lo;
   lo.kind = Kind::LatLong;
-  lo.convention = "envkit";
+  lo.convention = &envkit::convention("envkit");
   const EnvMap ll = make_envmap(probes::rasterize(sun, LatLongMap(64, 32)), "ll.exr", lo);
   const EnvTables r = bake_healpix(ll);
   EXPECT_EQ(r.width(), 4 * 13);  // N_side = round(sqrt(64 x 32 / 12))

@@ -3,15 +3,11 @@
 #include <envkit/core/atomic_file.h>
 #include <envkit/core/error.h>
 #include <envkit/core/excerpt.h>
-#include <envkit/io/color.h>
 #include <envkit/io/image_io.h>
 #include <envkit/io/request_limits.h>
 #include <envkit/maps/convention.h>
 #include <envkit/maps/cubemap.h>
 #include <envkit/maps/parameterization.h>
-#include <envkit/maps/view.h>
-#include <envkit/resample/filter.h>
-#include <envkit/sampling/env_sampling.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -36,21 +32,6 @@ std::string g_program = "envkit";
 // Longest error message printed whole: a value or key a message echoes cannot flood the terminal, and control
 // characters in it are escaped, so an error stays one line.
 constexpr std::size_t kMessageBytes = 2000;
-
-// A validator that runs a libenv parser and reports its Error message (already one line, names the value).
-template <class Parse>
-CLI::Validator parsed_by(Parse parse) {
-  return CLI::Validator(
-      [parse](std::string& text) -> std::string {
-        try {
-          parse(text);
-          return {};
-        } catch (const envkit::Error& e) {
-          return e.what();
-        }
-      },
-      "");
-}
 
 std::string choices(const std::vector<std::string>& names) { return join(names, "|"); }
 
@@ -79,30 +60,7 @@ int run_cli(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
 void info(const std::string& message) { std::cerr << g_program << ": " << message << std::endl; }
 void warn(const std::string& message) { std::cerr << g_program << ": warning: " << message << std::endl; }
 
-CLI::Validator kind_validator() {
-  return parsed_by([](const std::string& s) { parse_kind(s); });
-}
-CLI::Validator layout_validator() {
-  return parsed_by([](const std::string& s) { parse_layout(s); });
-}
-CLI::Validator convention_validator() {
-  return parsed_by([](const std::string& s) { convention(s); });
-}
-CLI::Validator filter_validator() {
-  return parsed_by([](const std::string& s) { parse_filter(s); });
-}
-CLI::Validator rotation_validator() {
-  return parsed_by([](const std::string& s) { parse_rotation(s); });
-}
-CLI::Validator lens_validator() {
-  return parsed_by([](const std::string& s) { parse_lens(s); });
-}
-CLI::Validator method_validator() {
-  return parsed_by([](const std::string& s) { parse_method(s); });
-}
-CLI::Validator colorspace_validator() {
-  return parsed_by([](const std::string& s) { canonical_colorspace(s); });
-}
+const Convention* convention_named(const std::string& name) { return &convention(name); }
 
 std::string kind_choices() {
   std::vector<std::string> names;

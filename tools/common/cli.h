@@ -1,8 +1,10 @@
 #pragma once
 /// @file cli.h
 /// What every envkit command-line tool shares: exit codes, one-line messages prefixed by the program name,
-/// CLI11 validators backed by libenv's own parsers (so the error text is libenv's), and the thread limit.
+/// options parsed once by libenv's own parsers (so the error text is libenv's), and the thread limit.
+#include <envkit/core/error.h>
 #include <envkit/core/vec.h>
+#include <envkit/maps/convention.h>
 #include <tbb/global_control.h>
 
 #include <CLI/CLI.hpp>
@@ -31,15 +33,31 @@ void info(const std::string& message);
 /// "<program>: warning: <message>" on stderr.
 void warn(const std::string& message);
 
-/// Validators that accept exactly what libenv's parsers accept and fail with their message.
-CLI::Validator kind_validator();        ///< parse_kind
-CLI::Validator layout_validator();      ///< parse_layout
-CLI::Validator convention_validator();  ///< convention()
-CLI::Validator filter_validator();      ///< parse_filter
-CLI::Validator rotation_validator();    ///< parse_rotation
-CLI::Validator colorspace_validator();  ///< canonical_colorspace (the active OCIO config)
-CLI::Validator lens_validator();        ///< parse_lens (fisheye lenses)
-CLI::Validator method_validator();      ///< parse_method (sampling tables: cdf, alias, hierarchical)
+/// Adds option `name`, one value that libenv's `parse` turns into `target` where CLI11 checks it: each name is
+/// parsed once, on its way in, and a value `parse` refuses (envkit::Error) is a usage error "<option>: <libenv's
+/// message>". `target` is a T, an std::optional<T>, or a pointer for parsers that return a reference
+/// (convention_named); it keeps its value when the option is absent. With several occurrences the last counts.
+template <class Target, class Parse>
+CLI::Option* add_parsed_option(CLI::App& app, const std::string& name, Target& target, Parse parse,
+                               const std::string& help) {
+  // The check stores what it parsed, so the option's own callback has nothing left to do.
+  CLI::Option* option = app.add_option_function<std::string>(
+      name, [](const std::string&) {}, help);
+  option->check(CLI::Validator(
+      [&target, parse](std::string& text) -> std::string {
+        try {
+          target = parse(text);
+          return {};
+        } catch (const envkit::Error& e) {
+          return e.what();
+        }
+      },
+      ""));
+  return option;
+}
+
+/// convention() as a parser for add_parsed_option: the preset, by address (presets live for the program).
+const Convention* convention_named(const std::string& name);
 
 /// "a|b|c" lists for help texts.
 std::string kind_choices();

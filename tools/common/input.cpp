@@ -6,12 +6,18 @@
 
 namespace envkit::tools {
 
+CLI::Option* add_fix_nonfinite_option(CLI::App& app, InputSpec& spec) {
+  return add_parsed_option(app, "--fix-nonfinite", spec.nonfinite, parse_nonfinite_policy,
+                           "replace NaN/Inf input values instead of failing")
+      ->type_name("zero|clamp");
+}
+
 std::vector<std::string> input_paths(const std::string& path) { return face_paths(path); }
 
 LoadedInput load_input(const InputSpec& spec) {
   LoadOptions options;
-  if (!spec.from.empty()) options.kind = parse_kind(spec.from);
-  if (!spec.layout.empty()) options.layout = parse_layout(spec.layout);
+  options.kind = spec.from;
+  options.layout = spec.layout;
   options.convention = spec.convention;
   options.read.colorspace = spec.colorspace;
   options.read.nonfinite = spec.nonfinite;

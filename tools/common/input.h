@@ -4,6 +4,7 @@
 /// about what was assumed and what was found in the pixels.
 #include <envkit/envmap/envmap.h>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -13,10 +14,10 @@ namespace envkit::tools {
 /// How to read one input; empty strings mean "detect" / "decide from the file".
 struct InputSpec {
   std::string path;
-  std::string from;        ///< kind (parse_kind)
-  std::string layout;      ///< cube layout (parse_layout)
-  std::string convention;  ///< convention the file was written for
-  std::string colorspace;  ///< ReadOptions::colorspace
+  std::optional<Kind> from;                ///< --from: the kind
+  std::optional<CubeLayout> layout;        ///< --layout of a cube input
+  const Convention* convention = nullptr;  ///< the convention the file was written for
+  std::string colorspace;                  ///< ReadOptions::colorspace (canonical_colorspace)
   NonFinitePolicy nonfinite = NonFinitePolicy::Error;
   std::optional<double> ball_cx, ball_cy, ball_radius;
   std::optional<ViewParams> view;  ///< camera views read with --from perspective|fisheye (default: metadata)
@@ -28,6 +29,9 @@ struct LoadedInput {
   Detection detection;
   ReadReport report;
 };
+
+/// Adds --fix-nonfinite zero|clamp, parsed into `spec.nonfinite`.
+CLI::Option* add_fix_nonfinite_option(CLI::App& app, InputSpec& spec);
 
 /// Every path the input names (six face files for a '%' pattern), for check_output_path.
 std::vector<std::string> input_paths(const std::string& path);

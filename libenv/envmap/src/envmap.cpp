@@ -103,9 +103,9 @@ Detection detect_parameterization(const Image& img, const std::string& path, con
   const std::string tagged_convention = meta(img, "envkit:convention");
   // OIIO's environment tags only speak for files that say nothing more specific.
   std::optional<OiioEnvReading> oiio;
-  if (opt.convention.empty() && !stale_tags && tagged_convention.empty() && exr_envmap.empty())
+  if (!opt.convention && !stale_tags && tagged_convention.empty() && exr_envmap.empty())
     oiio = read_oiio_env_tags(img.metadata);
-  d.convention = !opt.convention.empty()      ? opt.convention
+  d.convention = opt.convention               ? opt.convention->name
                  : stale_tags                 ? "openexr"
                  : !tagged_convention.empty() ? tagged_convention
                  : !exr_envmap.empty()        ? "openexr"

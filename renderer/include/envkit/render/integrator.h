@@ -125,8 +125,26 @@ enum class Strategy {
 };
 enum class Heuristic { Balance, Power };
 
+/// Every strategy, in the order help texts and error messages list them.
+inline constexpr Strategy kStrategies[] = {Strategy::Auto,
+                                           Strategy::Bsdf,
+                                           Strategy::Light,
+                                           Strategy::Mis,
+                                           Strategy::MisCompensated,
+                                           Strategy::Product,
+                                           Strategy::ProductMis,
+                                           Strategy::ProductWavelet,
+                                           Strategy::ProductWaveletMis,
+                                           Strategy::ProductSteerable,
+                                           Strategy::ProductSteerableMis,
+                                           Strategy::ProductSh,
+                                           Strategy::ProductShMis};
+
 const char* strategy_name(Strategy s);
+/// The names of kStrategies joined by `separator` ("auto|bsdf|...").
+std::string strategy_names(const std::string& separator);
 Strategy parse_strategy(const std::string& name);  ///< throws Error listing the valid names
+const char* heuristic_name(Heuristic h);           ///< "balance", "power"
 Heuristic parse_heuristic(const std::string& name);
 
 struct IntegratorOptions {

@@ -38,7 +38,9 @@ struct EnvMap {
 struct LoadOptions {
   std::optional<Kind> kind;          ///< --from; empty = detect
   std::optional<CubeLayout> layout;  ///< cube layout; empty = from metadata or the aspect ratio
-  std::string convention;  ///< empty = from metadata, "openexr" for files with the envmap attribute, else "envkit"
+  /// The convention the file was written for; nullptr = from metadata, "openexr" for files with the envmap
+  /// attribute, else "envkit".
+  const Convention* convention = nullptr;
   ReadOptions read;
   std::optional<double> ball_cx, ball_cy, ball_radius;  ///< mirror-ball photographs, pixels
   /// Perspective and fisheye inputs: the view (empty = from the envkit:view metadata, else view.h's defaults).
