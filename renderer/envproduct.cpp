@@ -35,7 +35,7 @@ frame --normal and --view are given in; the image centre looks along +Z, as envs
   row 1: BRDF x cos (f(wo, wi) cos theta_i; black below the surface), the lighting (the map as the scene sees it,
          rotation included), and their product, the integrand of the point's direct light;
   then one panel per strategy: its -n samples as red dots over the picture of what it aims at (bsdf over BRDF x cos,
-         light over the lighting, every other over the product), dimmed to half.
+         light over the lighting, every other over the product), dimmed to 40%.
 Each picture is scaled on its own: colour kept, luminance Y shown as log(1 + Y / mean) / log(1 + max / mean).
 A strategy's samples are drawn through the renderer's own code (Integrator::strategy_at): each of its techniques
 (BSDF, light table, sun, product table, seed sampler) in proportion to its samples per shading point, as envrender
@@ -229,10 +229,10 @@ int run(const Args& a) {
   }
   bar.finish();
 
-  std::vector<render::cli::Panel> panels = {{&shown[0], "BRDF x cos"}, {&shown[1], "lighting"}, {&shown[2], "product"}};
-  for (std::size_t i = 0; i < strategies.size(); ++i)
-    panels.push_back(
-        {&dotted[i], std::string(render::strategy_name(strategies[i])) + " (" + std::to_string(a.n) + " samples)"});
+  std::vector<render::cli::Panel> panels = {{&shown[0], "BRDF x cos"},
+                                            {&shown[1], "lighting"},
+                                            {&shown[2], "product (dots: " + std::to_string(a.n) + " samples)"}};
+  for (std::size_t i = 0; i < strategies.size(); ++i) panels.push_back({&dotted[i], render::strategy_name(strategies[i])});
   bool labelled = true;
   const envkit::Image figure = render::cli::compose_figure(panels, 3, &labelled);
   if (!labelled && !a.quiet) tools::warn("no font for the panels' labels: panels in the order of --help, unlabelled");

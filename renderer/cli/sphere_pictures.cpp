@@ -131,8 +131,8 @@ Image display_picture(const Image& linear) {
 
 Image dotted_picture(const Image& display, const LatLongMap& map, const std::vector<Vec3>& directions) {
   Image out = display;
-  for (std::size_t i = 0; i < std::size_t(out.texel_count()) * 3; ++i) out.pixels.data()[i] *= 0.5f;
-  const int dot = map.width() >= 512 ? 2 : 1;
+  for (std::size_t i = 0; i < std::size_t(out.texel_count()) * 3; ++i) out.pixels.data()[i] *= 0.4f;
+  const int dot = std::max(1, map.width() / 256 + (map.width() >= 256 ? 1 : 0));
   for (const Vec3& d : directions) {
     const auto [x, y] = texel_of(map, d);
     for (int dy = 0; dy < dot; ++dy)
@@ -147,9 +147,10 @@ Image dotted_picture(const Image& display, const LatLongMap& map, const std::vec
 }
 
 Image compose_figure(const std::vector<Panel>& panels, int columns, bool* labelled) {
-  constexpr int kGap = 4, kStrip = 22, kFontSize = 16;
+  constexpr int kGap = 4, kStrip = 22;
   const int W = panels.empty() ? 1 : panels[0].image->width, H = panels.empty() ? 1 : panels[0].image->height;
   const int rows = int((panels.size() + std::size_t(columns) - 1) / std::size_t(columns));
+  const int font_size = W >= 384 ? 16 : 13;
   Image figure(columns * W + (columns + 1) * kGap, rows * (H + kStrip) + (rows + 1) * kGap, 3);
   std::fill(figure.pixels.data(), figure.pixels.data() + figure.texel_count() * 3, 0.06f);
   for (std::size_t i = 0; i < panels.size(); ++i) {
@@ -166,7 +167,7 @@ Image compose_figure(const std::vector<Panel>& panels, int columns, bool* labell
     const int x = kGap + int(i % std::size_t(columns)) * (W + kGap) + 4;
     const int y = kGap + int(i / std::size_t(columns)) * (H + kStrip + kGap) + kStrip - 6;
     const auto draw = [&](const std::string& name) {
-      return OIIO::ImageBufAlgo::render_text(buffer, x, y, panels[i].label, kFontSize, name, white);
+      return OIIO::ImageBufAlgo::render_text(buffer, x, y, panels[i].label, font_size, name, white);
     };
     if (draw(font)) continue;
     if (font.empty() && draw("DejaVuSans")) {

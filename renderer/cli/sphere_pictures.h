@@ -55,7 +55,8 @@ Image density_picture(const LatLongMap& map, const StrategySamples& samples,
 /// A linear picture made viewable: each texel's colour scaled so that its luminance Y becomes
 /// log(1 + Y / mean Y) / log(1 + max Y / mean Y) (a sun does not blacken the sky, a lobe's tail stays visible).
 Image display_picture(const Image& linear);
-/// The display picture dimmed to half, with the directions as red dots (2 x 2 texels from 512 columns).
+/// The display picture dimmed to 40%, with the directions as red dots (1 texel below 256 columns, then 2 x 2, 3 x 3
+/// from 512, ...).
 Image dotted_picture(const Image& display, const LatLongMap& map, const std::vector<Vec3>& directions);
 
 /// A panel of the figure and its label.
