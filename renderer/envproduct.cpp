@@ -232,7 +232,8 @@ int run(const Args& a) {
   std::vector<render::cli::Panel> panels = {{&shown[0], "BRDF x cos"},
                                             {&shown[1], "lighting"},
                                             {&shown[2], "product (dots: " + std::to_string(a.n) + " samples)"}};
-  for (std::size_t i = 0; i < strategies.size(); ++i) panels.push_back({&dotted[i], render::strategy_name(strategies[i])});
+  for (std::size_t i = 0; i < strategies.size(); ++i)
+    panels.push_back({&dotted[i], render::strategy_name(strategies[i])});
   bool labelled = true;
   const envkit::Image figure = render::cli::compose_figure(panels, 3, &labelled);
   if (!labelled && !a.quiet) tools::warn("no font for the panels' labels: panels in the order of --help, unlabelled");
