@@ -1,13 +1,16 @@
 // envproduct on the command line: the figure and the EXR pictures exist with the sizes --help states, the product
 // picture is BRDF x cos times the lighting texel-wise, each strategy's sample density converges to its pdf on a
 // coarse grid, BSDF samples stay above an opaque surface, and bad input is refused with one line and no output.
+#include <envkit/core/vec.h>
 #include <envkit/io/image_io.h>
 #include <envkit/maps/latlong.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -162,6 +165,41 @@ TEST_F(EnvProduct, BsdfSamplesStayAboveAnOpaqueSurface) {
         if ((d ^ n) > 0.0) above += density.at(x, y, 0) * map.texel_solid_angle(x, y);
       }
     EXPECT_GT(above, 0.5);
+  }
+}
+
+TEST_F(EnvProduct, TheSeedsCaseAMeasuredMaterialUnderAProbe) {
+  // A MERL-format file of a Lambertian BRDF of albedo 0.5 (every cell f = 0.5 / pi, over the format's channel scales):
+  // the measured material must picture and sample as the analytic diffuse one.
+  {
+    std::ofstream out(path("lambert.binary"), std::ios::binary);
+    const std::int32_t dims[3] = {90, 90, 180};
+    out.write(reinterpret_cast<const char*>(dims), sizeof dims);
+    const double scale[3] = {1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0};
+    for (double s : scale) {
+      const std::vector<double> values(std::size_t(90) * 90 * 180, 0.5 / kPi / s);
+      out.write(reinterpret_cast<const char*>(values.data()), std::streamsize(values.size() * sizeof(double)));
+    }
+  }
+  const std::string measured = R"({"type": "measured", "file": ")" + path("lambert.binary") + R"("})";
+  for (const auto& [material, prefix] : {std::pair{measured, std::string("m")},
+                                         std::pair{std::string(R"({"type": "diffuse", "albedo": 0.5})"), std::string("d")}}) {
+    const auto r = envproduct({"--env", kSunProbe, "--material", material, "--normal", "0,1,0.3", "--width", "128", "-n",
+                               "200000", "--strategies", "bsdf,product", "-o", path(prefix + ".png"), "--exr",
+                               path(prefix), "-q"});
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  const Image m = read_image(path("m.brdf.exr")), d = read_image(path("d.brdf.exr"));
+  for (int y = 0; y < m.height; ++y)
+    for (int x = 0; x < m.width; ++x)
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(m.at(x, y, c), d.at(x, y, c), 1e-4 + 1e-3 * d.at(x, y, c)) << x << "," << y;
+  for (const char* s : {"bsdf", "product"}) {
+    SCOPED_TRACE(s);
+    const CellMasses masses = cell_masses(read_image(path(std::string("m.samples.") + s + ".exr")), 8, 4);
+    for (std::size_t c = 0; c < masses.observed.size(); ++c)
+      if (masses.expected[c] > 0.02) {
+        EXPECT_NEAR(masses.observed[c] / masses.expected[c], 1.0, 0.05) << "cell " << c;
+      }
   }
 }
 
