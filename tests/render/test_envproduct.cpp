@@ -182,17 +182,19 @@ TEST_F(EnvProduct, TheSeedsCaseAMeasuredMaterialUnderAProbe) {
     }
   }
   const std::string measured = R"({"type": "measured", "file": ")" + path("lambert.binary") + R"("})";
-  for (const auto& [material, prefix] : {std::pair{measured, std::string("m")},
-                                         std::pair{std::string(R"({"type": "diffuse", "albedo": 0.5})"), std::string("d")}}) {
-    const auto r = envproduct({"--env", kSunProbe, "--material", material, "--normal", "0,1,0.3", "--width", "128", "-n",
-                               "200000", "--strategies", "bsdf,product", "-o", path(prefix + ".png"), "--exr",
-                               path(prefix), "-q"});
+  for (const auto& [material, prefix] :
+       {std::pair{measured, std::string("m")},
+        std::pair{std::string(R"({"type": "diffuse", "albedo": 0.5})"), std::string("d")}}) {
+    const auto r =
+        envproduct({"--env", kSunProbe, "--material", material, "--normal", "0,1,0.3", "--width", "128", "-n", "200000",
+                    "--strategies", "bsdf,product", "-o", path(prefix + ".png"), "--exr", path(prefix), "-q"});
     ASSERT_EQ(r.code, 0) << r.err;
   }
   const Image m = read_image(path("m.brdf.exr")), d = read_image(path("d.brdf.exr"));
   for (int y = 0; y < m.height; ++y)
     for (int x = 0; x < m.width; ++x)
-      for (int c = 0; c < 3; ++c) ASSERT_NEAR(m.at(x, y, c), d.at(x, y, c), 1e-4 + 1e-3 * d.at(x, y, c)) << x << "," << y;
+      for (int c = 0; c < 3; ++c)
+        ASSERT_NEAR(m.at(x, y, c), d.at(x, y, c), 1e-4 + 1e-3 * d.at(x, y, c)) << x << "," << y;
   for (const char* s : {"bsdf", "product"}) {
     SCOPED_TRACE(s);
     const CellMasses masses = cell_masses(read_image(path(std::string("m.samples.") + s + ".exr")), 8, 4);
