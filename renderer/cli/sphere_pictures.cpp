@@ -68,7 +68,7 @@ StrategySamples draw_samples(const Integrator::StrategyDistribution& strategy, c
       ++s.none;
       continue;
     }
-    s.directions.push_back(d.direction);
+    if (s.directions.size() < kMaxDirections) s.directions.push_back(d.direction);
     if (d.is_delta) {
       ++s.delta;
       continue;

@@ -34,10 +34,13 @@ struct SpherePictures {
 };
 SpherePictures sphere_pictures(const LatLongMap& map, const PointView& point, const EnvironmentLight& light);
 
+/// Directions StrategySamples keeps for the dots (a picture holds no more; the counts take every draw).
+inline constexpr std::size_t kMaxDirections = 200000;
+
 /// n draws of a strategy at the point (u from Owen-scrambled Sobol points of `seed`, sample i's first pair for the
 /// direction and next dimension for the technique).
 struct StrategySamples {
-  std::vector<Vec3> directions;      ///< every drawn direction (delta draws included), world frame
+  std::vector<Vec3> directions;      ///< the first kMaxDirections drawn (delta draws included), world frame
   std::vector<double> texel_counts;  ///< non-delta draws per texel of the map, row-major
   std::size_t n = 0;                 ///< draws attempted
   std::size_t delta = 0;             ///< draws of a delta lobe (no density)
