@@ -128,8 +128,8 @@ int run(const Args& a) {
     try {
       return Integrator(*scene.scene, *scene.light, io, &scene.camera);
     } catch (const IntegratorOptionsError& e) {
-      throw envkit::Error(
-          e.message(envkit::render::cli::option_flag));  // the library names fields; the user typed options
+      // The library names fields; the user typed options.
+      throw envkit::Error(e.message(envkit::render::cli::option_flag));
     }
   }();
   const double setup_ms =
