@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "cli/render_options.h"
 #include "common/cli.h"
 #include "common/progress.h"
 
@@ -34,6 +35,8 @@ Examples:
   envrender --crop 0,0,240,120 -o tile0.exr        one window of the image (for farms)
   envrender --max-depth 3                          two indirect bounces
   envrender --max-depth 3 --regularize 1           less noise from caustic paths, biased (as Cycles' Filter Glossy 1)
+  envrender --strategy product-sh-mis --sh-order 4 --sh-resolution 32   a coarser SH product (faster, noisier)
+  envrender --strategy product-wavelet --wavelet-resolution 64 --wavelet-kept 256   finer cells, compressed factors
 
 Output: a linear two-part EXR (part 0: R, G, B; part 1 "aov": variance.R/G/B = variance of each pixel's mean,
 samples) and a PNG preview through the OCIO display transform (sRGB, ACES 1.0 - SDR Video) next to it (.png).
@@ -56,6 +59,7 @@ struct Args {
   int sun_samples = envkit::render::IntegratorOptions{}.sun_samples;
   int max_depth = 1;
   double regularize = envkit::render::IntegratorOptions{}.regularization;
+  envkit::render::IntegratorOptions seed_samplers;  // the seed samplers' parameters (wavelet, steerable, sh)
   int threads = 0;
   unsigned seed = 0;
   bool bake = false;
@@ -74,28 +78,6 @@ envkit::render::Crop parse_crop(const std::string& text) {
 
 std::string preview_path(const std::string& exr) {
   return std::filesystem::path(exr).replace_extension(".png").string();
-}
-
-// The option an IntegratorOptions field comes from.
-std::string option_flag(envkit::render::IntegratorField field) {
-  using F = envkit::render::IntegratorField;
-  switch (field) {
-    case F::Strategy:
-      return "--strategy";
-    case F::LightMethod:
-      return "--light-method";
-    case F::BsdfSamples:
-      return "--bsdf-samples";
-    case F::LightSamples:
-      return "--light-samples";
-    case F::SunSamples:
-      return "--sun-samples";
-    case F::MaxDepth:
-      return "--max-depth";
-    case F::Regularization:
-      return "--regularize";
-  }
-  return "?";
 }
 
 int run(const Args& a) {
@@ -132,6 +114,9 @@ int run(const Args& a) {
   io.sun_samples = a.sun_samples;
   io.max_depth = a.max_depth;
   io.regularization = a.regularize;
+  io.wavelet = a.seed_samplers.wavelet;
+  io.steerable = a.seed_samplers.steerable;
+  io.sh = a.seed_samplers.sh;
   if (!a.quiet) {
     for (const std::string& note : scene.notes) tools::info(note);
     // A warning about the compensated tables matters only to the strategy that draws from them.
@@ -143,7 +128,8 @@ int run(const Args& a) {
     try {
       return Integrator(*scene.scene, *scene.light, io, &scene.camera);
     } catch (const IntegratorOptionsError& e) {
-      throw envkit::Error(e.message(option_flag));  // the library names fields; the user typed options
+      // The library names fields; the user typed options.
+      throw envkit::Error(e.message(envkit::render::cli::option_flag));
     }
   }();
   const double setup_ms =
@@ -304,6 +290,7 @@ int main(int argc, char** argv) {
                  "value, so the image converges to a slightly blurred one (Cycles' default is 1); 0 = unbiased")
       ->check(tools::number_in(0.0, 1e6))
       ->capture_default_str();
+  envkit::render::cli::add_seed_sampler_options(app, a.seed_samplers);
   app.add_option("--crop", a.crop, "render only the window x0,y0,x1,y1 (pixels, x1/y1 exclusive)");
   app.add_option("--resolution", a.resolution, "override the camera resolution, WxH");
   app.add_option("--seed", a.seed, "sampler seed")

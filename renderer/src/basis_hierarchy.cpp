@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 namespace envkit::render {
@@ -199,15 +200,32 @@ double BasisHierarchy::pdf(const double* c, const Vec3& direction) const {
 // ---------------------------------------------------------------------------------------------------------------
 // Options
 
-void check_options(const BasisProductOptions& o, const char* who) {
-  const std::string w(who);
-  if (o.order < 1 || o.order > 16) throw Error(w + " order " + std::to_string(o.order) + ": must be in 1..16");
+namespace {
+
+std::string number_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
+}  // namespace
+
+std::optional<BasisOptionProblem> out_of_range(const BasisProductOptions& o) {
+  using M = BasisOptionProblem::Member;
+  if (o.order < 1 || o.order > 16) return BasisOptionProblem{M::Order, std::to_string(o.order), "must be in 1..16"};
   if (!power_of_two(o.resolution) || o.resolution < 2 || o.resolution > 512)
-    throw Error(w + " resolution " + std::to_string(o.resolution) + ": must be a power of two in 2..512");
+    return BasisOptionProblem{M::Resolution, std::to_string(o.resolution), "must be a power of two in 2..512"};
   if (o.wo_bins < 2 || o.wo_bins > 256)
-    throw Error(w + " wo bins " + std::to_string(o.wo_bins) + ": must be in 2..256");
+    return BasisOptionProblem{M::WoBins, std::to_string(o.wo_bins), "must be in 2..256"};
   if (!(o.defensive > 0.0 && o.defensive <= 1.0))
-    throw Error(w + " defensive share " + std::to_string(o.defensive) + ": must be in (0, 1]");
+    return BasisOptionProblem{M::Defensive, number_text(o.defensive), "must be in (0, 1]"};
+  return std::nullopt;
+}
+
+void check_options(const BasisProductOptions& o, const char* who) {
+  static constexpr const char* kNames[] = {"order", "resolution", "wo bins", "defensive share"};
+  if (const std::optional<BasisOptionProblem> bad = out_of_range(o))
+    throw Error(std::string(who) + " " + kNames[int(bad->member)] + " " + bad->value + ": " + bad->rule);
 }
 
 // ---------------------------------------------------------------------------------------------------------------

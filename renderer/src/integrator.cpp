@@ -95,6 +95,30 @@ const char* integrator_field_name(IntegratorField field) {
       return "max_depth";
     case IntegratorField::Regularization:
       return "regularization";
+    case IntegratorField::WaveletResolution:
+      return "wavelet.resolution";
+    case IntegratorField::WaveletNormalBins:
+      return "wavelet.normal_bins";
+    case IntegratorField::WaveletWoBins:
+      return "wavelet.wo_bins";
+    case IntegratorField::WaveletKeptCoefficients:
+      return "wavelet.kept_coefficients";
+    case IntegratorField::SteerableOrder:
+      return "steerable.order";
+    case IntegratorField::SteerableResolution:
+      return "steerable.resolution";
+    case IntegratorField::SteerableWoBins:
+      return "steerable.wo_bins";
+    case IntegratorField::SteerableDefensive:
+      return "steerable.defensive";
+    case IntegratorField::ShOrder:
+      return "sh.order";
+    case IntegratorField::ShResolution:
+      return "sh.resolution";
+    case IntegratorField::ShWoBins:
+      return "sh.wo_bins";
+    case IntegratorField::ShDefensive:
+      return "sh.defensive";
   }
   return "?";
 }
@@ -110,6 +134,24 @@ using Speller = IntegratorOptionsError::Speller;
 
 [[noreturn]] void refuse(IntegratorField field, std::function<std::string(const Speller&)> compose) {
   throw IntegratorOptionsError(field, std::move(compose));
+}
+
+/// Refuses the seed samplers' options out of range, the field named with its value and rule.
+void validate_seed_options(const IntegratorOptions& o) {
+  using F = IntegratorField;
+  const auto refuse_range = [](F field, const std::string& value, const std::string& rule) {
+    refuse(field, [=](const Speller& n) { return n(field) + " " + value + ": " + rule; });
+  };
+  if (const auto bad = out_of_range(o.wavelet)) {
+    static constexpr F kFields[] = {F::WaveletResolution, F::WaveletNormalBins, F::WaveletWoBins,
+                                    F::WaveletKeptCoefficients};
+    refuse_range(kFields[int(bad->member)], bad->value, bad->rule);
+  }
+  const auto basis = [&](const BasisProductOptions& options, const std::array<F, 4>& fields) {
+    if (const auto bad = out_of_range(options)) refuse_range(fields[std::size_t(bad->member)], bad->value, bad->rule);
+  };
+  basis(o.steerable, {F::SteerableOrder, F::SteerableResolution, F::SteerableWoBins, F::SteerableDefensive});
+  basis(o.sh, {F::ShOrder, F::ShResolution, F::ShWoBins, F::ShDefensive});
 }
 
 }  // namespace
@@ -137,6 +179,7 @@ void validate(const IntegratorOptions& o) {
   if (!(std::isfinite(o.regularization) && o.regularization >= 0.0))
     refuse(F::Regularization,
            [](const Speller& n) { return n(F::Regularization) + " must be a finite number >= 0 (0 = unbiased)"; });
+  validate_seed_options(o);
   const bool product = s == Strategy::Product || s == Strategy::ProductMis || s == Strategy::Auto;
   const bool wavelet = s == Strategy::ProductWavelet || s == Strategy::ProductWaveletMis;
   if (s == Strategy::ProductWavelet && m_min < 1)

@@ -42,14 +42,9 @@ void encode_factor(std::vector<double>& cells, int R, int keep, float* out) {
 }
 
 void check_options(const WaveletOptions& o) {
-  if (!haar::valid_size(o.resolution) || o.resolution > 256)
-    throw Error("wavelet resolution " + std::to_string(o.resolution) + ": must be a power of two in 2..256");
-  if (o.normal_bins < 1 || o.normal_bins > 64)
-    throw Error("wavelet normal bins " + std::to_string(o.normal_bins) + ": must be in 1..64");
-  if (o.wo_bins < 1 || o.wo_bins > 64)
-    throw Error("wavelet wo bins " + std::to_string(o.wo_bins) + ": must be in 1..64");
-  if (o.kept_coefficients < 0)
-    throw Error("wavelet kept coefficients " + std::to_string(o.kept_coefficients) + ": must be >= 0 (0 = all)");
+  static constexpr const char* kNames[] = {"resolution", "normal bins", "wo bins", "kept coefficients"};
+  if (const std::optional<WaveletOptionProblem> bad = out_of_range(o))
+    throw Error(std::string("wavelet ") + kNames[int(bad->member)] + " " + bad->value + ": " + bad->rule);
 }
 
 }  // namespace
@@ -227,6 +222,19 @@ double ProductWavelet::Point::pdf(const Vec3& direction) const {
   const double len = local.length();
   if (!(len > 0.0) || !(local.z > (1.0 - cap_) * len)) return 0.0;
   return product_.pdf(square_from_cap(local, cap_)) / (kTwoPi * cap_);
+}
+
+std::optional<WaveletOptionProblem> out_of_range(const WaveletOptions& o) {
+  using M = WaveletOptionProblem::Member;
+  if (!haar::valid_size(o.resolution) || o.resolution > 256)
+    return WaveletOptionProblem{M::Resolution, std::to_string(o.resolution), "must be a power of two in 2..256"};
+  if (o.normal_bins < 1 || o.normal_bins > 64)
+    return WaveletOptionProblem{M::NormalBins, std::to_string(o.normal_bins), "must be in 1..64"};
+  if (o.wo_bins < 1 || o.wo_bins > 64)
+    return WaveletOptionProblem{M::WoBins, std::to_string(o.wo_bins), "must be in 1..64"};
+  if (o.kept_coefficients < 0)
+    return WaveletOptionProblem{M::KeptCoefficients, std::to_string(o.kept_coefficients), "must be >= 0 (0 = all)"};
+  return std::nullopt;
 }
 
 }  // namespace envkit::render

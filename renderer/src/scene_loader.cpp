@@ -504,6 +504,20 @@ LoadedScene load_scene_file(const std::string& path, const SceneLoadOptions& opt
   return load_scene_text(text.str(), path, options);
 }
 
+std::unique_ptr<Material> load_material_text(const std::string& text, const std::string& source) {
+  const LineTrackedJson doc = parse_json_with_lines(text, source);
+  const Reader r(doc, source);
+  return parse_material(r, doc.value, "material", std::filesystem::path(source).parent_path().string());
+}
+
+LoadedScene load_environment_text(const std::string& text, const std::string& source, const SceneLoadOptions& options) {
+  const LineTrackedJson doc = parse_json_with_lines(text, source);
+  const Reader r(doc, source);
+  LoadedScene out;
+  load_environment(r, doc.value, std::filesystem::path(source).parent_path().string(), options, out);
+  return out;
+}
+
 const std::string& default_scene_json() {
   static const std::string text = R"json({
   "camera": {"position": [0.0, 1.6, -7.5], "look_at": [0.0, 0.55, 0.0], "up": [0, 1, 0], "fov": 32,

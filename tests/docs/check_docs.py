@@ -22,7 +22,7 @@ import sys
 import tempfile
 
 TOOLS = ("envconvert", "envinfo", "envdiff", "envbake", "envsample", "envprefilter", "envmerge", "envprobe",
-         "envrender")
+         "envrender", "envproduct")
 PYTHON_MODULES = ("envkit.batch", "envkit.farm")
 
 # Top-level directories of the repository; a word starting with one of them and a slash is a path.

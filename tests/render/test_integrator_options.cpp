@@ -3,6 +3,7 @@
 #include <envkit/render/integrator.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <optional>
 #include <string>
 
@@ -93,4 +94,47 @@ TEST(IntegratorOptions, MessagesSpellOptionsAsTheCallerAsks) {
   EXPECT_EQ(e->message([](IntegratorField f) { return f == F::Strategy ? std::string("S") : std::string("M"); }),
             "M cdf: the product strategies refine the hierarchical table (another method needs S light, mis or "
             "mis-compensated)");
+}
+
+TEST(IntegratorOptions, TheSeedSamplersOptionsOutOfRangeNameTheirField) {
+  struct Case {
+    IntegratorOptions options;
+    IntegratorField field;
+    std::string message;
+  };
+  std::vector<Case> cases;
+  IntegratorOptions o;
+  o.wavelet.resolution = 48;
+  cases.push_back({o, F::WaveletResolution, "wavelet.resolution 48: must be a power of two in 2..256"});
+  o = {};
+  o.wavelet.normal_bins = 0;
+  cases.push_back({o, F::WaveletNormalBins, "wavelet.normal_bins 0: must be in 1..64"});
+  o = {};
+  o.wavelet.wo_bins = 65;
+  cases.push_back({o, F::WaveletWoBins, "wavelet.wo_bins 65: must be in 1..64"});
+  o = {};
+  o.wavelet.kept_coefficients = -1;
+  cases.push_back({o, F::WaveletKeptCoefficients, "wavelet.kept_coefficients -1: must be >= 0 (0 = all)"});
+  o = {};
+  o.steerable.order = 17;
+  cases.push_back({o, F::SteerableOrder, "steerable.order 17: must be in 1..16"});
+  o = {};
+  o.steerable.resolution = 1024;
+  cases.push_back({o, F::SteerableResolution, "steerable.resolution 1024: must be a power of two in 2..512"});
+  o = {};
+  o.sh.wo_bins = 1;
+  cases.push_back({o, F::ShWoBins, "sh.wo_bins 1: must be in 2..256"});
+  o = {};
+  o.sh.defensive = 0.0;
+  cases.push_back({o, F::ShDefensive, "sh.defensive 0: must be in (0, 1]"});
+  o = {};
+  o.steerable.defensive = std::nan("");
+  cases.push_back({o, F::SteerableDefensive, "steerable.defensive nan: must be in (0, 1]"});
+  for (const Case& c : cases) {
+    const auto e = refusal(c.options);
+    ASSERT_TRUE(e.has_value()) << c.message;
+    EXPECT_EQ(e->field, c.field) << e->what();
+    EXPECT_EQ(std::string(e->what()), c.message);
+    EXPECT_EQ(e->message(flag), "--" + c.message);
+  }
 }

@@ -26,6 +26,8 @@
 #include <envkit/render/material.h>
 #include <envkit/sampling/env_sampling.h>
 
+#include <optional>
+#include <string>
 #include <vector>
 
 namespace envkit::render {
@@ -81,7 +83,16 @@ struct BasisProductOptions {
   double defensive = 0.1;  ///< share of the plain environment table in the point's mixture, in (0, 1]
 };
 
-/// Throws Error naming `who` for options out of range.
+/// A member of BasisProductOptions out of range: which, its value as text and the rule it breaks ("must be in
+/// 1..16").
+struct BasisOptionProblem {
+  enum class Member { Order, Resolution, WoBins, Defensive } member;
+  std::string value, rule;
+};
+/// The first member of `options` out of its range, or nullopt: every range of the struct's comments, checked here.
+std::optional<BasisOptionProblem> out_of_range(const BasisProductOptions& options);
+
+/// Throws Error naming `who` for options out of range (out_of_range()).
 void check_options(const BasisProductOptions& options, const char* who);
 
 /// The BSDF x cos (the mean of eval()'s RGB) of each material, for each of `wo_bins` outgoing elevations (bin

@@ -172,9 +172,30 @@ struct IntegratorOptions {
 };
 
 /// The IntegratorOptions field a refusal concerns.
-enum class IntegratorField { Strategy, LightMethod, BsdfSamples, LightSamples, SunSamples, MaxDepth, Regularization };
+enum class IntegratorField {
+  Strategy,
+  LightMethod,
+  BsdfSamples,
+  LightSamples,
+  SunSamples,
+  MaxDepth,
+  Regularization,
+  WaveletResolution,
+  WaveletNormalBins,
+  WaveletWoBins,
+  WaveletKeptCoefficients,
+  SteerableOrder,
+  SteerableResolution,
+  SteerableWoBins,
+  SteerableDefensive,
+  ShOrder,
+  ShResolution,
+  ShWoBins,
+  ShDefensive
+};
 
-/// The field's name in IntegratorOptions ("max_depth"): how the library's messages name options.
+/// The field's name in IntegratorOptions ("max_depth", "wavelet.resolution", "sh.order"): how the library's
+/// messages name options.
 const char* integrator_field_name(IntegratorField field);
 
 /// Options validate() refuses. The message names the options through a speller, so that each front end shows them
@@ -193,8 +214,9 @@ class IntegratorOptionsError : public Error {
 };
 
 /// Throws IntegratorOptionsError unless the options go together: counts that are given are >= 0 and at least what
-/// the strategy draws from, max_depth >= 1, sun_samples >= 0, regularization finite and >= 0, and the hierarchical
-/// table for the product strategies. The Integrator runs it first.
+/// the strategy draws from, max_depth >= 1, sun_samples >= 0, regularization finite and >= 0, the hierarchical
+/// table for the product strategies, and the seed samplers' options (wavelet, steerable, sh) within their ranges
+/// (out_of_range(), whatever the strategy: "sh.order 20: must be in 1..16"). The Integrator runs it first.
 void validate(const IntegratorOptions& options);
 
 /// A lobe is wide when it is at least this GGX alpha (Lambertian counts as 1): it sees much of the sky from a
@@ -288,6 +310,44 @@ class Integrator {
   const ProductSteerable* product_steerable() const { return steerable_.get(); }
   const ProductSh* product_sh() const { return sh_.get(); }
 
+  /// A direction StrategyDistribution::sample() draws.
+  struct StrategyDraw {
+    Vec3 direction;         ///< unit, scene world frame (valid when pdf > 0 or is_delta)
+    double pdf = 0.0;       ///< the distribution's density there, per steradian; 0 for a delta draw or none drawn
+    bool is_delta = false;  ///< a BSDF sample of a delta lobe (no density)
+  };
+  struct DrawMix;  ///< StrategyDistribution's techniques (strategy_draw.cpp)
+  /// What the strategy draws at one shading point, as one distribution of directions: what envproduct pictures,
+  /// and what tests compare a strategy's samples with. Each of the strategy's techniques for the material (the
+  /// BSDF's; the light table's parts: the whole map's, or the rest and the sun; its product table; a seed sampler's
+  /// product) is picked with probability proportional to its samples per shading point (N, M, S: sample_counts()),
+  /// so the density is the one-sample mixture (N p_bsdf + M p_light + S p_sun) / (N + M + S) of the techniques that
+  /// direct() draws from. Strategies without BSDF samples (light, product, product-wavelet, ...) leave N out; pure
+  /// delta materials draw from the BSDF alone. Light techniques draw over the whole sphere (directions below the
+  /// horizon are drawn, and contribute 0 in direct()); a BSDF draw that fails (below the horizon) draws none.
+  /// Holds references to the integrator and the material.
+  class StrategyDistribution {
+   public:
+    StrategyDistribution(StrategyDistribution&&) noexcept;
+    ~StrategyDistribution();
+    /// u: the direction; u_technique in [0, 1): the technique (and, re-uniformised, a BSDF's lobe).
+    StrategyDraw sample(Vec2 u, double u_technique) const;
+    /// Density per steradian at world direction wi (unit) of sample()'s non-delta draws.
+    double pdf(const Vec3& wi_world) const;
+
+   private:
+    friend class Integrator;
+    StrategyDistribution(const Integrator& integrator, const Frame& frame, const Vec3& wo, const Material& material);
+    const Integrator* integrator_;
+    Frame frame_;
+    Vec3 wo_;
+    const Material* material_;
+    std::unique_ptr<DrawMix> mix_;
+  };
+  /// The strategy's distribution at a shading point: `frame.n` the normal, `wo_local` the view in that frame
+  /// (z > 0), `material` any (one of the scene's takes its own light choice).
+  StrategyDistribution strategy_at(const Frame& frame, const Vec3& wo_local, const Material& material) const;
+
  private:
   /// What every strategy knows of the point it shades (see direct()).
   struct ShadingPoint {
@@ -329,6 +389,8 @@ class Integrator {
     double u_lobe = 0.0;
   };
   using DirectFn = Vec3 (Integrator::*)(const ShadingPoint&, Sampler&) const;
+  /// StrategyDistribution's techniques at a shading point (strategy_draw.cpp).
+  DrawMix draw_mix(const ShadingPoint& x) const;
 
   double mis_weight(double a, double b) const;
   /// `light`: also find those techniques' density at the direction (MIS), the first in the radiance's texel search.

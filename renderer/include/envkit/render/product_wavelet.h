@@ -57,6 +57,8 @@
 #include <envkit/sampling/distribution_hierarchical.h>
 #include <envkit/sampling/env_sampling.h>
 
+#include <optional>
+#include <string>
 #include <vector>
 
 namespace envkit::render {
@@ -68,6 +70,14 @@ struct WaveletOptions {
   int wo_bins = 16;           ///< W: BSDF slices per side of the square of outgoing directions, 1..64
   int kept_coefficients = 0;  ///< detail coefficients kept per factor (largest magnitude); 0 = all (lossless)
 };
+
+/// A member of WaveletOptions out of range: which, its value as text and the rule it breaks.
+struct WaveletOptionProblem {
+  enum class Member { Resolution, NormalBins, WoBins, KeptCoefficients } member;
+  std::string value, rule;
+};
+/// The first member of `options` out of its range, or nullopt: every range of the struct's comments, checked here.
+std::optional<WaveletOptionProblem> out_of_range(const WaveletOptions& options);
 
 /// A factor's cells are at least this fraction of its mean (after compression): the product is positive on every
 /// cell, so no direction where the integrand is positive has pdf 0.

@@ -46,6 +46,16 @@ LoadedScene load_scene_file(const std::string& path, const SceneLoadOptions& opt
 /// Loads a scene from JSON text; `path` names it in messages and gives the base directory.
 LoadedScene load_scene_text(const std::string& text, const std::string& path, const SceneLoadOptions& options = {});
 
+/// One material as a scene file's `materials` entry gives it (docs/SCENE_FORMAT.md), from the JSON text of that
+/// entry; `source` names the text in messages ("<source>:<line>: material.<key>: <problem>", the scene's errors) and
+/// its directory resolves relative file names (a measured material's `file`).
+std::unique_ptr<Material> load_material_text(const std::string& text, const std::string& source);
+
+/// The light of a scene's `environment` entry alone (docs/SCENE_FORMAT.md), from the JSON text of that entry:
+/// the LoadedScene without scene and camera. Errors as the scene's ("<source>:<line>: environment.<key>: ...").
+LoadedScene load_environment_text(const std::string& text, const std::string& source,
+                                  const SceneLoadOptions& options = {});
+
 /// The built-in default scene: a row of five spheres of increasing roughness (rough plastic and conductor,
 /// alpha 0.01 .. 0.5) on a diffuse ground plane plus a diffuse sphere, lit by the built-in default probe
 /// (envkit::probes::make_default_probe(), 1024x512, tables baked in memory). Same as renderer/scenes/default.json.
