@@ -18,7 +18,7 @@ import re
 import struct
 
 # A dask worker process before any map (Python, dask, envkit and its libraries) and the allocator's slack.
-BASE_BYTES = 256 << 20
+BASE_BYTES = 192 << 20
 # Bytes of a float channel: the loaded map and a converted one hold 4 C bytes per texel.
 CHANNEL_BYTES = 4
 # One kind of sampling table (cdf, alias, hierarchical, ...) with its builder's scratch, per grid texel.

@@ -1,7 +1,7 @@
 """Batch processing of a folder of environment maps on a dask.distributed cluster (docs/PYTHON.md).
 
     /usr/bin/python3 -m envkit.batch IN_DIR OUT_DIR [--workers N | --scheduler ADDR] [--to latlong --size 1024]
-        [--no-bake] [--tables hierarchical] [--prefilter]
+        [--no-bake] [--tables hierarchical] [--prefilter] [--memory-limit 6GB] [--report FILE] [-q]
 
 Each input IN_DIR/NAME.EXT gives, in OUT_DIR:
   NAME.<to>.exr        the converted map (EnvMap.convert: envconvert IN -o OUT --to ...)
@@ -362,7 +362,8 @@ def _parse_args(argv):
   python3 -m envkit.batch /shared/hdris /shared/out --scheduler tcp://10.0.0.5:8786
 
 A re-run skips inputs whose outputs are up to date (manifest: input content hash, options, output hashes)
-and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 usage error.""",
+and redoes the rest. A map whose predicted memory (docs/PYTHON.md) exceeds --memory-limit is refused.
+Exit status: 0 all done or skipped; 1 some file failed; 2 usage error.""",
     )
     p.add_argument("in_dir", metavar="IN_DIR")
     p.add_argument("out_dir", metavar="OUT_DIR")
