@@ -284,3 +284,15 @@ def test_headers_give_texels_and_channels(inputs, tmp_path):
         texels, channels = memory.header(path)
         assert texels == 6 * 8 * 8 and channels in (3, 4), (ext, channels)
     assert memory.header(str(inputs / "broken.exr")) is None
+
+
+def test_memory_sizes_and_default_limit():
+    assert [memory.parse_bytes(t) for t in ("6GB", "6G", "6gib", "512MB", "1.5GB", "4096")] == [
+        6 << 30, 6 << 30, 6 << 30, 512 << 20, 3 << 29, 4096]
+    for bad in ("", "GB", "6 XB", "0", "0.0001KB", "-1GB", "1e9"):
+        with pytest.raises(ValueError):
+            memory.parse_bytes(bad)
+    # The largest known prediction plus a quarter; an unknown one (None) does not count.
+    assert memory.default_limit([400 << 20, None, 800 << 20], 2) == 1000 << 20
+    # At most the machine's memory shared by the workers.
+    assert memory.default_limit([1 << 50], 4) == distributed.system.MEMORY_LIMIT // 4
