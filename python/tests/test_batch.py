@@ -296,3 +296,31 @@ def test_memory_sizes_and_default_limit():
     assert memory.default_limit([400 << 20, None, 800 << 20], 2) == 1000 << 20
     # At most the machine's memory shared by the workers.
     assert memory.default_limit([1 << 50], 4) == distributed.system.MEMORY_LIMIT // 4
+
+
+def overlapping(task_stream):
+    """Whether any two process_file tasks of a dask task stream ran at the same time."""
+    spans = sorted((s["start"], s["stop"]) for t in task_stream if t["key"].startswith("process_file")
+                   for s in t["startstops"] if s["action"] == "compute")
+    return any(b[0] < a[1] for a, b in zip(spans, spans[1:]))
+
+
+def test_memory_claims_keep_a_worker_threads_within_its_limit(inputs, tmp_path):
+    # One worker with 2 threads and a memory resource that holds one map's prediction and not two: the maps run
+    # one after another; without the claims they run two at a time.
+    files = [str(inputs / ("map%d.exr" % k)) for k in range(4)]
+    opts = batch.default_options(to="cube", size=16, bake_size=16, force=True)
+    one_map = max(batch.predict(files, opts).values())
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None,
+                                       resources={"memory": one_map * 3 // 2})
+    client = distributed.Client(cluster)
+    try:
+        for claim, expected in ((True, False), (False, True)):
+            with distributed.get_task_stream(client) as ts:
+                r = batch.run(files, str(tmp_path / ("out%d" % claim)), client, opts, memory_limit=one_map * 3 // 2,
+                              claim_memory=claim)
+            assert [x["status"] for x in r] == ["done"] * 4, r
+            assert overlapping(ts.data) == expected, ts.data
+    finally:
+        client.close()
+        cluster.close()
