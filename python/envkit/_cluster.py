@@ -8,6 +8,7 @@ import json
 import os
 import sys
 import tempfile
+import warnings
 
 
 class Parser(argparse.ArgumentParser):
@@ -130,7 +131,9 @@ def client_for(scheduler=None, workers=2, threads_per_worker=1, memory_limit=Non
     else:
         memory = {"distributed.worker.memory.target": False, "distributed.worker.memory.spill": False,
                   "distributed.worker.memory.pause": False, "distributed.worker.memory.terminate": 1.0}
-        with dask.config.set(memory if memory_limit else {}):
+        with dask.config.set(memory if memory_limit else {}), warnings.catch_warnings():
+            # The scheduler's HTTP server takes another port when 8787 is taken (another cluster): no news.
+            warnings.filterwarnings("ignore", message="Port 8787 is already in use")
             cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=True,
                                    dashboard_address=None, memory_limit=memory_limit or "auto", resources=resources)
         client = Client(cluster)
