@@ -8,6 +8,7 @@ import json
 import os
 import sys
 import tempfile
+import warnings
 
 
 class Parser(argparse.ArgumentParser):
@@ -115,17 +116,26 @@ def add_cluster_options(parser, threads_help="dask threads per LocalCluster work
 
 
 @contextlib.contextmanager
-def client_for(scheduler=None, workers=2, threads_per_worker=1):
+def client_for(scheduler=None, workers=2, threads_per_worker=1, memory_limit=None, resources=None):
     """A dask.distributed Client of the scheduler at `scheduler`, or of a LocalCluster of `workers` processes
-    (closed on exit). Tasks of a worker that dies are re-run on the others (the scheduler's allowed-failures)."""
+    (closed on exit). Tasks of a worker that dies are re-run on the others (the scheduler's allowed-failures).
+    A LocalCluster's workers get `resources` (dask worker resources) and, with `memory_limit` (bytes per worker),
+    dask's limit: a worker is restarted only when its memory passes the limit itself, and never paused or spilled
+    (tasks hold no data to spill, and a pause would wait on memory the running task owns)."""
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
         cluster = None
         client = Client(scheduler)
     else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=True,
-                               dashboard_address=None)
+        memory = {"distributed.worker.memory.target": False, "distributed.worker.memory.spill": False,
+                  "distributed.worker.memory.pause": False, "distributed.worker.memory.terminate": 1.0}
+        with dask.config.set(memory if memory_limit else {}), warnings.catch_warnings():
+            # The scheduler's HTTP server takes another port when 8787 is taken (another cluster): no news.
+            warnings.filterwarnings("ignore", message="Port 8787 is already in use")
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=True,
+                                   dashboard_address=None, memory_limit=memory_limit or "auto", resources=resources)
         client = Client(cluster)
     try:
         yield client
@@ -133,6 +143,25 @@ def client_for(scheduler=None, workers=2, threads_per_worker=1):
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def peak_rss():
+    """This process's peak resident memory in bytes (VmHWM: since its exec; ru_maxrss where /proc is missing)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def worker_peaks(client):
+    """Peak resident memory of every worker process of `client`, in bytes, by worker address."""
+    return client.run(peak_rss)
 
 
 def completed(futures):

@@ -1,7 +1,7 @@
 """Batch processing of a folder of environment maps on a dask.distributed cluster (docs/PYTHON.md).
 
     /usr/bin/python3 -m envkit.batch IN_DIR OUT_DIR [--workers N | --scheduler ADDR] [--to latlong --size 1024]
-        [--no-bake] [--tables hierarchical] [--prefilter]
+        [--no-bake] [--tables hierarchical] [--prefilter] [--memory-limit 6GB] [--report FILE] [-q]
 
 Each input IN_DIR/NAME.EXT gives, in OUT_DIR:
   NAME.<to>.exr        the converted map (EnvMap.convert: envconvert IN -o OUT --to ...)
@@ -19,6 +19,12 @@ status is 1 when any file failed.
 Work runs on a dask.distributed Client: a LocalCluster of --workers processes by default, or the scheduler at
 --scheduler (workers must see IN_DIR and OUT_DIR at the same paths). Tasks of a worker that dies are re-run on
 the others (dask's allowed-failures, 3 by default).
+
+Memory: each map's peak footprint on a worker is predicted from its header (envkit/_memory.py, docs/PYTHON.md).
+A map predicted over --memory-limit (per worker; default: the largest map's prediction with a quarter more, at most
+the machine's memory over the workers) is refused with one line and not read. A LocalCluster's workers get that
+limit as dask's memory limit and as a dask resource that each task claims its prediction of, so the maps running
+at once on a worker (--threads-per-worker) fit in it.
 """
 
 import argparse
@@ -29,7 +35,8 @@ import os
 import sys
 import time
 
-from ._cluster import OutputError, UsageError, client_for, completed, count, write_json_atomic
+from . import _memory, _progress
+from ._cluster import OutputError, UsageError, client_for, completed, count, worker_peaks, write_json_atomic
 from ._cluster import Parser as _ClusterParser
 from ._cluster import add_cluster_options
 from ._cluster import check_out_dir as _check_out_dir
@@ -139,9 +146,10 @@ def _remove_stale_temps(out_dir, stem):
             pass
 
 
-def process_file(input_path, out_dir, options):
+def process_file(input_path, out_dir, options, refusal=None):
     """Converts/bakes one input (runs on a worker). Returns a dict: input, status (done | skipped | failed),
-    outputs, error (the one-line message), seconds."""
+    outputs, error (the one-line message), seconds. With `refusal` (a message), an input that is not up to date
+    fails with it, unread."""
     start = time.monotonic()
     stem = os.path.splitext(os.path.basename(input_path))[0]
     result = {"input": input_path, "status": "failed", "outputs": [], "error": "", "seconds": 0.0}
@@ -154,6 +162,9 @@ def process_file(input_path, out_dir, options):
                 result["outputs"] = sorted(json.load(f)["outputs"])
             result["status"] = "skipped"
             return result
+        if refusal:
+            result["error"] = refusal
+            return result
         # An outdated manifest must not vouch for outputs while they are being replaced.
         try:
             os.unlink(manifest)
@@ -164,8 +175,9 @@ def process_file(input_path, out_dir, options):
         outputs = {}
         for name, (enabled, run) in STEPS.items():
             if enabled(options):
-                path = run(envkit, env, options, out_dir, stem)
+                path = run(envkit, env, options, out_dir, stem)  # the step's result is released on return
                 outputs[path] = content_hash(path)
+        env = None  # the map is released before the worker takes its next file
         _write_json_atomic(
             manifest,
             {
@@ -264,18 +276,49 @@ def default_options(**overrides):
     return o
 
 
-def run(inputs, out_dir, client, options, progress=None):
-    """Maps process_file over `inputs` on `client`; returns the results in input order. A task whose workers all
-    died (dask's KilledWorker) or that raised is reported as failed, never raised."""
+def predict(inputs, options):
+    """Per input, its predicted peak memory on a worker in bytes (None when its header cannot be read)."""
+    predicted = {}
+    for p in inputs:
+        found = _memory.header(p)
+        predicted[p] = _memory.predicted_peak(found[0], found[1], options) if found else None
+    return predicted
+
+
+def refusal(input_path, predicted, memory_limit):
+    """The one-line message refusing a map predicted over the limit, or None."""
+    if memory_limit is None or predicted is None or predicted <= memory_limit:
+        return None
+    texels, channels = _memory.header(input_path)
+    return "%s: needs about %s of memory (%d texels x %d channels), more than --memory-limit %s per worker" % (
+        input_path, _memory.format_bytes(predicted), texels, channels, _memory.format_bytes(memory_limit))
+
+
+def run(inputs, out_dir, client, options, progress=None, memory_limit=None, claim_memory=False, predicted=None):
+    """Maps process_file over `inputs` on `client`; returns the results in input order, each with its predicted
+    peak memory (predicted_bytes). A task whose workers all died (dask's KilledWorker) or that raised is reported
+    as failed, never raised. Maps predicted over `memory_limit` (bytes) fail with one line, unread. With
+    claim_memory, each task claims its prediction of the workers' "memory" resource (a map of unknown size claims
+    all of memory_limit); the largest maps start first. `predicted`: predict(inputs, options), when known."""
     os.makedirs(out_dir, exist_ok=True)
     out_dir = os.path.abspath(out_dir)
     inputs = [os.path.abspath(p) for p in inputs]
-    futures = client.map(process_file, inputs, out_dir=out_dir, options=options, pure=False)
+    predicted = {os.path.abspath(p): v for p, v in (predicted or predict(inputs, options)).items()}
+    order = sorted(range(len(inputs)), key=lambda i: -(predicted[inputs[i]] or 0))
+    futures = []
+    for i in order:
+        p = inputs[i]
+        refused = refusal(p, predicted[p], memory_limit)
+        claim = 0 if refused else (predicted[p] or memory_limit or 0)
+        resources = {"memory": claim} if claim_memory else None
+        futures.append(client.submit(process_file, p, out_dir, options, refused, pure=False, resources=resources))
     results = [None] * len(inputs)
-    for i, r, e in completed(futures):
+    for k, r, e in completed(futures):
+        i = order[k]
         if e is not None:
             r = {"input": inputs[i], "status": "failed", "outputs": [], "error": "%s: %s" % (type(e).__name__, e),
                  "seconds": 0.0}
+        r["predicted_bytes"] = predicted[inputs[i]]
         results[i] = r
         if progress:
             progress(r)
@@ -288,6 +331,18 @@ def _Parser(**kwargs):
 
 
 _count = count
+
+
+def _memory_size(text):
+    """An argparse type: a memory size of at least a worker's base footprint."""
+    try:
+        v = _memory.parse_bytes(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    if v < _memory.BASE_BYTES:
+        raise argparse.ArgumentTypeError("%s is less than a worker's own %s" % (
+            text, _memory.format_bytes(_memory.BASE_BYTES)))
+    return v
 
 
 def check_out_dir(out_dir):
@@ -307,7 +362,8 @@ def _parse_args(argv):
   python3 -m envkit.batch /shared/hdris /shared/out --scheduler tcp://10.0.0.5:8786
 
 A re-run skips inputs whose outputs are up to date (manifest: input content hash, options, output hashes)
-and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 usage error.""",
+and redoes the rest. A map whose predicted memory (docs/PYTHON.md) exceeds --memory-limit is refused.
+Exit status: 0 all done or skipped; 1 some file failed; 2 usage error.""",
     )
     p.add_argument("in_dir", metavar="IN_DIR")
     p.add_argument("out_dir", metavar="OUT_DIR")
@@ -331,7 +387,11 @@ and redoes the rest. Exit status: 0 all done or skipped; 1 some file failed; 2 u
     p.add_argument("--tables", default="hierarchical", help="any of cdf,alias,hierarchical,compensated,sun (default: as envbake)")
     p.add_argument("--prefilter", action="store_true", help="also prefilter (when this envkit has the step)")
     p.add_argument("--force", action="store_true", help="redo every file, up to date or not")
-    p.add_argument("--json", metavar="FILE", help="write the per-file results as JSON")
+    p.add_argument("--memory-limit", type=_memory_size, metavar="SIZE",
+                   help="memory per worker, e.g. 6GB (default: the largest map's predicted peak + 25%%, at most "
+                        "the machine's memory / workers); maps predicted over it are refused")
+    p.add_argument("--report", "--json", metavar="FILE",
+                   help="write a JSON report: every file with its status, the counts, the workers' peak memory")
     p.add_argument("-q", "--quiet", action="store_true", help="print only failures and the summary")
     a = p.parse_args(argv)
     if a.prefilter and not prefilter_available():
@@ -362,26 +422,25 @@ def main(argv=None):
     if not inputs:
         print("envkit.batch: %s: no input maps" % a.in_dir, file=sys.stderr)
         return 1
-    start = time.monotonic()
-    done = [0]
-
-    def progress(r):
-        done[0] += 1
-        if r["status"] == "failed":
-            print("envkit.batch: %s" % (r["error"] if r["input"] in r["error"] else r["input"] + ": " + r["error"]),
-                  file=sys.stderr)
-        elif not a.quiet:
-            print("envkit.batch: [%d/%d] %s %s (%.2f s)" % (done[0], len(inputs), r["status"], r["input"],
-                                                           r["seconds"]), file=sys.stderr)
-
-    with client_for(a.scheduler, a.workers, a.threads_per_worker) as client:
-        results = run(inputs, a.out_dir, client, options, progress)
-    counts = {s: sum(r["status"] == s for r in results) for s in ("done", "skipped", "failed")}
-    print("envkit.batch: %d done, %d skipped, %d failed in %.2f s" % (counts["done"], counts["skipped"],
-                                                                     counts["failed"], time.monotonic() - start))
-    if a.json:
-        _write_json_atomic(a.json, {"results": results, "counts": counts})
-    return 1 if counts["failed"] else 0
+    predicted = predict(inputs, options)
+    limit = a.memory_limit
+    if limit is None and not a.scheduler:
+        limit = _memory.default_limit(predicted.values(), a.workers)
+    progress = _progress.Progress(len(inputs), quiet=a.quiet)
+    resources = {"memory": limit} if not a.scheduler else None
+    with client_for(a.scheduler, a.workers, a.threads_per_worker, memory_limit=limit, resources=resources) as client:
+        if limit is None:  # a running scheduler: its workers' smallest dask memory limit, if they have one
+            limit = min((w.get("memory_limit") or 0 for w in client.scheduler_info()["workers"].values()),
+                        default=0) or None
+        results = run(inputs, a.out_dir, client, options, progress, memory_limit=limit,
+                      claim_memory=resources is not None, predicted=predicted)
+        peaks = worker_peaks(client)
+    seconds = progress.elapsed()
+    for line in _progress.summary(results, seconds, peaks, limit):
+        print(line)
+    if a.report:
+        _progress.write_report(a.report, results, seconds, peaks, limit)
+    return 1 if any(r["status"] == "failed" for r in results) else 0
 
 
 if __name__ == "__main__":
