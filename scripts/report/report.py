@@ -155,7 +155,8 @@ if s and s.get("ratios"):
     headline.append(f"Strategies (efficiency = 1/(relMSE x time), geometric mean over {len(scenes)} scenes, relative "
                     f"to {basecfg}): best `{fb}` {fscores[fb]:.2f}x; " +
                     ", ".join(f"{k} {fscores[k]:.2f}x" for k in ("bsdf", "light hierarchical", "mis-compensated",
-                                                                 "product", "product-mis") if k in fscores) + ".")
+                                                                 "product", "product-mis", "auto") if k in fscores)
+                    + ".")
     rec.append(f"**Previews (1 spp, time-normalised).** `{pb}`: {pscores[pb]:.2f}x the efficiency of {basecfg} at "
                f"1 spp (geometric mean over the scenes).")
     rec.append(f"**Final frames.** `{fb}`: {fscores[fb]:.2f}x the efficiency of {basecfg} over the spp ladder "
@@ -169,7 +170,7 @@ if s and s.get("ratios"):
         rec.append(f"**{probe.capitalize()} probe.** Best overall `{pbest}` ({sc[pbest]:.2f}x {basecfg}); per "
                    f"material: {per}.")
     # The default strategy per scene, and over the glossy scenes, against the base.
-    default = "product-mis"
+    default = "auto"
     per_scene = {k: final_eff(k, default) for k in scenes} if default in s["configs"] else {}
     per_scene = {k: v for k, v in per_scene.items() if math.isfinite(v)}
     if per_scene:
@@ -178,6 +179,20 @@ if s and s.get("ratios"):
         headline.append(f"The default strategy (`{default}`) against {basecfg}, equal time: lowest {per_scene[low]:.2f}x "
                         f"({low}), highest {max(per_scene.values()):.2f}x"
                         + (f", geometric mean over the glossy scenes {geomean(glossy):.2f}x" if glossy else "") + ".")
+        # The cited samplers against the default, scene by scene: where one wins, say so.
+        seed = [c for c in s["configs"] if c.startswith(("product-wavelet", "product-steerable", "product-sh"))]
+        wins = [(k, c, final_eff(k, c) / per_scene[k]) for k in per_scene for c in seed
+                if math.isfinite(final_eff(k, c)) and final_eff(k, c) > per_scene[k]]
+        if seed:
+            best_seed = {c: geomean([final_eff(k, c) for k in per_scene if math.isfinite(final_eff(k, c))])
+                         for c in seed}
+            rec.append("**The cited product samplers** (wavelet, steerable, SH; each with its precomputation per "
+                       "render): geometric mean efficiency against " + basecfg + ": " +
+                       ", ".join(f"`{c}` {v:.2f}x" for c, v in best_seed.items() if math.isfinite(v)) +
+                       f"; the default `{default}` {geomean(list(per_scene.values())):.2f}x. " +
+                       ("They beat the default on " + "; ".join(f"{k} (`{c}`, {r:.2f}x the default)"
+                                                                 for k, c, r in wins) + "."
+                        if wins else "None beats the default on any scene."))
 
 # ---------------------------------------------------------------- 4. stratification
 st = S["stratification"]

@@ -25,9 +25,20 @@ ALL_CONFIGS = [
     ("mis-compensated", ["--strategy", "mis-compensated", "--heuristic", "power"]),
     ("product", ["--strategy", "product"]),
     ("product-mis", ["--strategy", "product-mis"]),
+    ("auto", ["--strategy", "auto"]),
+    # The samplers of the literature the seed cites (renderer's integrator.h), alone and with MIS.
+    ("product-wavelet", ["--strategy", "product-wavelet"]),
+    ("product-wavelet-mis", ["--strategy", "product-wavelet-mis"]),
+    ("product-steerable", ["--strategy", "product-steerable"]),
+    ("product-steerable-mis", ["--strategy", "product-steerable-mis"]),
+    ("product-sh", ["--strategy", "product-sh"]),
+    ("product-sh-mis", ["--strategy", "product-sh-mis"]),
 ]
-QUICK_SKIP = {"mis-power 3+1", "mis-power 2+2"}
-SMOKE_KEEP = {"bsdf", "light hierarchical", BASE, "product-mis"}
+DEFAULT = "auto"  # envrender's default strategy
+SEED = ["product-wavelet", "product-wavelet-mis", "product-steerable", "product-steerable-mis", "product-sh",
+        "product-sh-mis"]
+QUICK_SKIP = {"mis-power 3+1", "mis-power 2+2", "product-wavelet", "product-steerable", "product-sh"}
+SMOKE_KEEP = {"bsdf", "light hierarchical", BASE, "product-mis", DEFAULT}
 CONFIGS = [c for c in ALL_CONFIGS if MODE == "full" or (MODE == "quick" and c[0] not in QUICK_SKIP)
            or (MODE == "smoke" and c[0] in SMOKE_KEEP)]
 
