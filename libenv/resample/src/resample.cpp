@@ -11,11 +11,6 @@
 
 namespace envkit {
 
-namespace detail {
-Image resample_area_scatter(const MapRef& src, const TexelSource& source, const Parameterization& dst,
-                            const Mat3& dst_to_src, const ResampleOptions& opt);
-}  // namespace detail
-
 using namespace detail;
 
 namespace {

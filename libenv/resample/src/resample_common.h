@@ -69,4 +69,14 @@ void splat_hot_texels(const MapRef& src, const std::vector<std::size_t>& hot, co
                       const Parameterization& dst, const SolidAngleTable& dst_omega, const Mat3& dst_to_src,
                       Image& out);
 
+/// The area scatter's kernels: both give the same contributions in the same order (so the same output). PerTexel
+/// branches on where each texel's square lies; Batched lists a batch of texels' contributions, then adds them.
+enum class ScatterKernel { Batched, PerTexel };
+
+/// The `area` filter's scatter (resample.h): each source texel's flux spread over the output texels that a square of
+/// its solid angle, centred on its projection, overlaps. Needs a source with data in every texel.
+Image resample_area_scatter(const MapRef& src, const TexelSource& source, const Parameterization& dst,
+                            const Mat3& dst_to_src, const ResampleOptions& opt,
+                            ScatterKernel kernel = ScatterKernel::Batched);
+
 }  // namespace envkit::detail
