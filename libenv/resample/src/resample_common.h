@@ -51,9 +51,10 @@ void apply_texel_copies(const Image& src, const TexelCopies& copies, const Outpu
 /// The whole source, texel for texel, for a destination with the same grid under the identity.
 Image copy_same_grid(const Image& src, const Parameterization& param, const OutputLayout& o);
 
-/// Texels that are both far brighter than the mean and carry a real share of a channel's power (sorted indices).
+/// Texels that are both far brighter than the mean (radiance above `contrast` times power / 4 pi) and carry a real
+/// share (above `fraction`) of a channel's power, the power as total_power() gives it (sorted indices).
 std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,
-                                         double contrast, const std::vector<double>& power);
+                                         double contrast);
 
 /// Corner-sampled outputs (OpenEXR's lat-long and cube) hold texels twice: a lat-long's first and last columns,
 /// and a cube's edge texels, which lie on the cube's edges and corners and belong to two or three faces. Each

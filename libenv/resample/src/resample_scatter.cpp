@@ -493,7 +493,7 @@ Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Pa
   Image out = make_output(img, dst, output_layout(img, source));
   const SolidAngleTable src_omega(sp), dst_omega(dst);
   const std::vector<std::size_t> hot =
-      find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast, total_power(img, sp));
+      find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast);
   ProgressCounter progress(opt.progress, static_cast<std::size_t>(img.height) + 1);
   const double ratio = double(img.texel_count()) / std::max(1.0, double(dst.width()) * double(dst.height()));
   if (ratio <= kFloatAccumulationMaxRatio)
