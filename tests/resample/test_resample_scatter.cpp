@@ -77,7 +77,8 @@ const std::vector<Named>& sources() {
 const std::vector<Named>& outputs() {
   static const std::vector<Named> maps = {
       {"cube 32", std::make_shared<CubeMap>(32)},
-      {"cube 17 corner", std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
+      {"cube 17 corner",
+       std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
       {"cube 13 hcross gl", std::make_shared<CubeMap>(13, CubeLayout::HorizontalCross, CubeBasis::GL)},
       {"latlong 64x32", std::make_shared<LatLongMap>(64, 32)},
       {"latlong 33x17 corner", std::make_shared<LatLongMap>(33, 17, TexelGrid::Corner)},

@@ -117,9 +117,9 @@ struct Chunk {
   std::vector<double> sums;            // per run: C flux-weighted channel sums, then the weight
   std::vector<std::size_t> slot_cell;  // output texel held by each slot, kEmpty when none
   std::vector<double> slot_sums;       // per slot: as sums
-  std::vector<Contribution> list;        // the batched kernel's contributions of a batch of texels
-  std::vector<float> hot_pixels;          // the batched kernel's copies of hot texels, colour zeroed
-  std::vector<Landed> landed;             // the batched kernel's texels of a batch, projected
+  std::vector<Contribution> list;      // the batched kernel's contributions of a batch of texels
+  std::vector<float> hot_pixels;       // the batched kernel's copies of hot texels, colour zeroed
+  std::vector<Landed> landed;          // the batched kernel's texels of a batch, projected
   static constexpr std::size_t kEmpty = std::size_t(-1);
 
   void start(int first, int end, int stride) {
@@ -282,7 +282,8 @@ void add_contributions(const Parameterization& dst, const Contribution* list, in
   Parameterization::TapBlock block;
   // The slots are spread over the accumulator by a hash: each is likely a cache miss, so ask for them ahead.
   constexpr int kAhead = 8;
-  for (int k = 0; k < std::min(n, kAhead); ++k) chunk.prefetch(std::size_t(list[k].cell_j) * DW + list[k].cell_i, stride);
+  for (int k = 0; k < std::min(n, kAhead); ++k)
+    chunk.prefetch(std::size_t(list[k].cell_j) * DW + list[k].cell_i, stride);
   for (int k = 0; k < n; ++k) {
     if (k + kAhead < n) chunk.prefetch(std::size_t(list[k + kAhead].cell_j) * DW + list[k + kAhead].cell_i, stride);
     const Contribution& e = list[k];
@@ -492,8 +493,7 @@ Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Pa
   const Parameterization& sp = s.param;
   Image out = make_output(img, dst, output_layout(img, source));
   const SolidAngleTable src_omega(sp), dst_omega(dst);
-  const std::vector<std::size_t> hot =
-      find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast);
+  const std::vector<std::size_t> hot = find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast);
   ProgressCounter progress(opt.progress, static_cast<std::size_t>(img.height) + 1);
   const double ratio = double(img.texel_count()) / std::max(1.0, double(dst.width()) * double(dst.height()));
   if (ratio <= kFloatAccumulationMaxRatio)
