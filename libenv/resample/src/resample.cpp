@@ -11,11 +11,6 @@
 
 namespace envkit {
 
-namespace detail {
-Image resample_area_scatter(const MapRef& src, const TexelSource& source, const Parameterization& dst,
-                            const Mat3& dst_to_src, const ResampleOptions& opt);
-}  // namespace detail
-
 using namespace detail;
 
 namespace {
@@ -105,14 +100,13 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
   const OutputLayout o = output_layout(img, full_source);
   Image out = make_output(img, dst, o);
   const SolidAngleTable src_omega(sp), dst_omega(dst);
-  const std::vector<double> power = total_power(img, sp);
   const bool rotate = !is_identity(dst_to_src);
   const TexelDirections dirs(dst);
   const std::vector<double> row_extent = latlong_row_extents(dst), src_row_extent = latlong_row_extents(sp);
   std::vector<TexelCopies> copies(static_cast<std::size_t>(dst.height()));
 
   // 1. Split off the hot texels: they are splatted exactly below, the cold remainder is gathered.
-  const std::vector<std::size_t> hot = find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast, power);
+  const std::vector<std::size_t> hot = find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast);
   Image cold_copy;
   const Image* cold = &img;
   if (!hot.empty()) {

@@ -92,22 +92,43 @@ Image copy_same_grid(const Image& src, const Parameterization& param, const Outp
 }
 
 std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,
-                                         double contrast, const std::vector<double>& power) {
+                                         double contrast) {
   const int C = img.channels;
-  std::vector<std::vector<std::size_t>> per_row(img.height);
+  // One pass over the image for the power (as total_power sums it) and, per row, the largest value of each channel
+  // and the largest solid angle: only rows whose peaks could pass both tests are searched texel by texel.
+  std::vector<double> row_power(std::size_t(img.height) * C, 0.0), row_peak(row_power.size(), 0.0);
+  std::vector<double> row_omega(img.height, 0.0);
   tbb::parallel_for(0, img.height, [&](int j) {
+    double* power = row_power.data() + std::size_t(j) * C;
+    double* peak = row_peak.data() + std::size_t(j) * C;
     for (int i = 0; i < img.width; ++i) {
       const double w = omega(i, j);
+      if (w <= 0.0) continue;
+      row_omega[j] = std::max(row_omega[j], w);
       const float* px = img.at(i, j);
       for (int c = 0; c < C; ++c) {
-        if (c == img.alpha_channel || power[c] <= 0.0) continue;
-        // Bright relative to the mean radiance power / (4 pi), and a real share of the power.
-        if (px[c] * kFourPi > contrast * power[c] && px[c] * w > fraction * power[c]) {
-          per_row[j].push_back(static_cast<std::size_t>(j) * img.width + i);
-          break;
-        }
+        if (std::isfinite(px[c])) power[c] += w * px[c];
+        if (px[c] > peak[c]) peak[c] = px[c];  // +inf included, NaN never
       }
     }
+  });
+  std::vector<double> power(C, 0.0);
+  for (int j = 0; j < img.height; ++j)
+    for (int c = 0; c < C; ++c) power[c] += row_power[std::size_t(j) * C + c];
+  const auto is_hot = [&](const float* px, double w) {
+    for (int c = 0; c < C; ++c) {
+      if (c == img.alpha_channel || power[c] <= 0.0) continue;
+      // Bright relative to the mean radiance power / (4 pi), and a real share of the power.
+      if (px[c] * kFourPi > contrast * power[c] && px[c] * w > fraction * power[c]) return true;
+    }
+    return false;
+  };
+  std::vector<std::vector<std::size_t>> per_row(img.height);
+  tbb::parallel_for(0, img.height, [&](int j) {
+    std::vector<float> peak(row_peak.begin() + std::size_t(j) * C, row_peak.begin() + std::size_t(j + 1) * C);
+    if (!is_hot(peak.data(), row_omega[j])) return;  // no texel of the row can pass
+    for (int i = 0; i < img.width; ++i)
+      if (is_hot(img.at(i, j), omega(i, j))) per_row[j].push_back(static_cast<std::size_t>(j) * img.width + i);
   });
   std::vector<std::size_t> hot;
   for (const auto& row : per_row) hot.insert(hot.end(), row.begin(), row.end());

@@ -51,9 +51,10 @@ void apply_texel_copies(const Image& src, const TexelCopies& copies, const Outpu
 /// The whole source, texel for texel, for a destination with the same grid under the identity.
 Image copy_same_grid(const Image& src, const Parameterization& param, const OutputLayout& o);
 
-/// Texels that are both far brighter than the mean and carry a real share of a channel's power (sorted indices).
+/// Texels that are both far brighter than the mean (radiance above `contrast` times power / 4 pi) and carry a real
+/// share (above `fraction`) of a channel's power, the power as total_power() gives it (sorted indices).
 std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,
-                                         double contrast, const std::vector<double>& power);
+                                         double contrast);
 
 /// Corner-sampled outputs (OpenEXR's lat-long and cube) hold texels twice: a lat-long's first and last columns,
 /// and a cube's edge texels, which lie on the cube's edges and corners and belong to two or three faces. Each
@@ -68,5 +69,15 @@ void merge_twin_texels(const Parameterization& dst, const SolidAngleTable& omega
 void splat_hot_texels(const MapRef& src, const std::vector<std::size_t>& hot, const SolidAngleTable& src_omega,
                       const Parameterization& dst, const SolidAngleTable& dst_omega, const Mat3& dst_to_src,
                       Image& out);
+
+/// The area scatter's kernels: both give the same contributions in the same order (so the same output). PerTexel
+/// branches on where each texel's square lies; Batched lists a batch of texels' contributions, then adds them.
+enum class ScatterKernel { Batched, PerTexel };
+
+/// The `area` filter's scatter (resample.h): each source texel's flux spread over the output texels that a square of
+/// its solid angle, centred on its projection, overlaps. Needs a source with data in every texel.
+Image resample_area_scatter(const MapRef& src, const TexelSource& source, const Parameterization& dst,
+                            const Mat3& dst_to_src, const ResampleOptions& opt,
+                            ScatterKernel kernel = ScatterKernel::Batched);
 
 }  // namespace envkit::detail

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <type_traits>
 
 #include "resample_common.h"
 
@@ -79,6 +80,28 @@ inline int overlaps(double lo, double hi, double* fraction, int& count) {
   return first;
 }
 
+/// One share of a source texel's flux: output cell (before resolving across charts), the output texel under the
+/// source texel's centre (the anchor the cell is resolved from), the share's solid angle and the texel's channels.
+struct Contribution {
+  int cell_i, cell_j, anchor_i, anchor_j;
+  double weight;
+  const float* pixel;
+};
+
+/// A source texel projected: its centre's output position, solid angle, output texel, channels.
+struct Landed {
+  Vec2 p;
+  double omega_s;
+  int ti, tj;
+  const float* pixel;
+};
+
+/// Contributions listed before they are added: a batch of source texels at a time, so that listing them (projection
+/// and overlap fractions, without branches on where a square lies) and adding them (slot look-ups) each run as one
+/// tight loop. Sized for one batch: up to four shares per texel, or a whole capped square for the rare large one.
+constexpr int kBatchTexels = 512;
+constexpr int kContributionCapacity = 4 * kBatchTexels + kMaxSplatCellsPerAxis * kMaxSplatCellsPerAxis;
+
 /// Slots of a chunk's accumulator (a power of two). A source row revisits the output texels the row above it
 /// reached, some thousands of them across four cube faces at 8k -> 1024: the slots hold about two rows' worth, so
 /// most contributions are summed in the slot (in cache) and each output texel leaves a chunk a few times at most.
@@ -94,6 +117,9 @@ struct Chunk {
   std::vector<double> sums;            // per run: C flux-weighted channel sums, then the weight
   std::vector<std::size_t> slot_cell;  // output texel held by each slot, kEmpty when none
   std::vector<double> slot_sums;       // per slot: as sums
+  std::vector<Contribution> list;      // the batched kernel's contributions of a batch of texels
+  std::vector<float> hot_pixels;       // the batched kernel's copies of hot texels, colour zeroed
+  std::vector<Landed> landed;          // the batched kernel's texels of a batch, projected
   static constexpr std::size_t kEmpty = std::size_t(-1);
 
   void start(int first, int end, int stride) {
@@ -106,15 +132,19 @@ struct Chunk {
   }
   /// The sums of output texel `cell` (C channel sums, then the weight), zero the first time.
   double* sums_of(std::size_t cell, int stride) {
-    const std::size_t slot = (cell * 0x9E3779B97F4A7C15ull) >> (64 - kSlotBits);
+    const std::size_t slot = slot_of(cell);
     double* held = slot_sums.data() + slot * stride;
-    if (slot_cell[slot] != cell) {
-      if (slot_cell[slot] != kEmpty) emit(slot_cell[slot], held, stride);
-      slot_cell[slot] = cell;
-      std::fill_n(held, stride, 0.0);
-    }
+    if (slot_cell[slot] != cell) [[unlikely]]
+      take(slot, cell, held, stride);
     return held;
   }
+  /// Starts loading the slot of output texel `cell` into the cache (a hint: changes nothing).
+  void prefetch(std::size_t cell, int stride) const {
+    const std::size_t slot = slot_of(cell);
+    __builtin_prefetch(slot_cell.data() + slot);
+    __builtin_prefetch(slot_sums.data() + slot * stride);
+  }
+  static std::size_t slot_of(std::size_t cell) { return (cell * 0x9E3779B97F4A7C15ull) >> (64 - kSlotBits); }
   /// Moves what the slots hold into the runs, in slot order.
   void flush(int stride) {
     for (std::size_t slot = 0; slot < slot_cell.size(); ++slot)
@@ -122,98 +152,272 @@ struct Chunk {
   }
 
  private:
+  /// Gives `slot` to `cell`, with zero sums, after moving what it held into the runs.
+  [[gnu::noinline]] void take(std::size_t slot, std::size_t cell, double* held, int stride) {
+    if (slot_cell[slot] != kEmpty) emit(slot_cell[slot], held, stride);
+    slot_cell[slot] = cell;
+    std::fill_n(held, stride, 0.0);
+  }
   void emit(std::size_t cell, const double* value, int stride) {
     cells.push_back(cell);
     sums.insert(sums.end(), value, value + stride);
   }
 };
 
-template <class Real>
-void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const SolidAngleTable& src_omega,
-                           const SolidAngleTable& dst_omega, const std::vector<std::size_t>& hot,
-                           const Mat3& dst_to_src, ProgressCounter& progress, Image& out) {
-  const Image& img = s.image;
-  const Parameterization& sp = s.param;
-  const int C = img.channels, W = img.width, H = img.height;
-  const int DW = dst.width(), DH = dst.height();
-  const Mat3 src_to_dst = transposed(dst_to_src);
-  const bool rotate = !is_identity(src_to_dst);
-  const TexelDirections directions(sp);
-  const RowScales row_scales = latlong_row_scales(dst);
-  // 1 / sqrt(omega) of each output texel: a source texel's square is sqrt(omega_s) times that on a side.
-  FloatBuffer inverse_side;
-  if (row_scales.x.empty()) {
+/// What projecting a source texel needs: both maps, the rotation between them and the output texels' sizes.
+struct ScatterGeometry {
+  const Parameterization& src;
+  const Parameterization& dst;
+  const SolidAngleTable& src_omega;
+  Mat3 src_to_dst;
+  bool rotate;
+  TexelDirections directions;
+  RowScales row_scales;
+  FloatBuffer inverse_side;  // 1 / sqrt(omega) of each output texel, unless row_scales holds the lat-long rows'
+  bool omega_per_row;        // lat-long texels of a row share one solid angle but the first and last (corner grids)
+  int W, DW, DH;
+
+  ScatterGeometry(const Parameterization& s, const Parameterization& d, const SolidAngleTable& s_omega,
+                  const SolidAngleTable& d_omega, const Mat3& dst_to_src)
+      : src(s),
+        dst(d),
+        src_omega(s_omega),
+        src_to_dst(transposed(dst_to_src)),
+        rotate(!is_identity(src_to_dst)),
+        directions(s),
+        row_scales(latlong_row_scales(d)),
+        omega_per_row(s.latlong_geometry() != nullptr && s.width() > 2),
+        W(s.width()),
+        DW(d.width()),
+        DH(d.height()) {
+    if (!row_scales.x.empty()) return;
     inverse_side.resize(std::size_t(DW) * std::size_t(DH));
     tbb::parallel_for(0, DH, [&](int j) {
       for (int i = 0; i < DW; ++i) {
-        const double omega = dst_omega(i, j);
+        const double omega = d_omega(i, j);
         inverse_side[std::size_t(j) * DW + i] = omega > 0.0 ? static_cast<float>(1.0 / std::sqrt(omega)) : 0.0f;
       }
     });
   }
-  // Lat-long texels of a row share one solid angle but the first and last of a corner-sampled grid.
-  const bool omega_per_row = sp.latlong_geometry() != nullptr && W > 2;
+
+  /// Solid angle of source texel (i, j); `row_omega` is src_omega(1, j) where omega_per_row.
+  double source_omega(int i, int j, double row_omega) const {
+    return omega_per_row && i > 0 && i < W - 1 ? row_omega : src_omega(i, j);
+  }
+  /// Output position of the centre of source texel (i, j); false where it has no data or falls outside a view.
+  bool project(int i, int j, Vec2& p) const {
+    Vec3 d;
+    if (!directions.centre(i, j, d)) return false;
+    p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
+    return !(p.x < 0.0 || p.y < 0.0 || p.x > DW || p.y > DH);
+  }
+  /// Starts loading what square() reads for output texel (ti, tj) (a hint: changes nothing).
+  void prefetch_square(int ti, int tj) const {
+    if (row_scales.x.empty()) __builtin_prefetch(inverse_side.data() + std::size_t(tj) * DW + ti);
+  }
+  /// The source texel's square, sqrt(omega_s) on a side, in output pixels (stretched on lat-long rows), for the
+  /// output texel (ti, tj) under its centre.
+  void square(double root_omega_s, int ti, int tj, double& width, double& height) const {
+    if (!row_scales.x.empty()) {
+      width = std::min(root_omega_s * row_scales.x[tj], kMaxSideInTexels);
+      height = std::min(root_omega_s * row_scales.y[tj], kMaxSideInTexels);
+    } else {
+      const double inverse = inverse_side[std::size_t(tj) * DW + ti];
+      width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
+    }
+  }
+};
+
+/// The reference kernel: each source texel of a chunk in turn, its square's overlaps found by branching on where it
+/// lies, each contribution added at once. Hot texels (splatted exactly afterwards) give their weight, colour zero.
+void project_chunk_per_texel(const ScatterGeometry& g, const Image& img, const std::vector<std::size_t>& hot,
+                             Chunk& chunk) {
+  const int C = img.channels, W = g.W, DW = g.DW, stride = C + 1;
+  double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
+  Parameterization::TapBlock block;  // the anchor's, kept while the anchor stays in it
+  for (int j = chunk.first_row; j < chunk.end_row; ++j) {
+    auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
+    const double row_omega = g.omega_per_row ? g.src_omega(1, j) : 0.0;
+    for (int i = 0; i < W; ++i) {
+      const std::size_t index = std::size_t(j) * W + i;
+      const bool is_hot = next_hot != hot.end() && *next_hot == index;
+      if (is_hot) ++next_hot;
+      const double omega_s = g.source_omega(i, j, row_omega);
+      Vec2 p;
+      if (omega_s <= 0.0 || !g.project(i, j, p)) continue;
+      const int ti = std::clamp(static_cast<int>(p.x), 0, g.DW - 1);
+      const int tj = std::clamp(static_cast<int>(p.y), 0, g.DH - 1);
+      double width, height;
+      g.square(std::sqrt(omega_s), ti, tj, width, height);
+      const float* px = img.pixels.data() + index * C;
+      if (!block.holds(ti, tj)) block = g.dst.tap_block(ti, tj);
+      const auto add = [&](int ci, int cj, double w) {
+        if (!block.holds(ci, cj) && !g.dst.resolve(ti, tj, ci, cj)) return;
+        double* run = chunk.sums_of(std::size_t(cj) * DW + ci, stride);
+        for (int c = 0; c < C; ++c)
+          if (!is_hot || c == img.alpha_channel) run[c] += w * px[c];
+        run[C] += w;
+      };
+      const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
+      if (x0 >= ti && y0 >= tj && x0 + width <= ti + 1 && y0 + height <= tj + 1) {
+        add(ti, tj, omega_s);  // the common case: the square lies inside one output texel
+        continue;
+      }
+      int nx, ny;
+      const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
+      for (int b = 0; b < ny; ++b)
+        for (int a = 0; a < nx; ++a)
+          if (fx[a] * fy[b] > 0.0) add(cx + a, cy + b, omega_s * fx[a] * fy[b]);
+    }
+  }
+  chunk.flush(stride);
+}
+
+/// Adds the listed contributions to the chunk's sums in list order (the order the per-texel kernel adds them in, so
+/// both kernels give the same runs). kC: the channel count, or 0 for any.
+template <int kC>
+void add_contributions(const Parameterization& dst, const Contribution* list, int n, int channels, int DW,
+                       Chunk& chunk) {
+  const int C = kC > 0 ? kC : channels, stride = C + 1;
+  Parameterization::TapBlock block;
+  // The slots are spread over the accumulator by a hash: each is likely a cache miss, so ask for them ahead.
+  constexpr int kAhead = 8;
+  for (int k = 0; k < std::min(n, kAhead); ++k)
+    chunk.prefetch(std::size_t(list[k].cell_j) * DW + list[k].cell_i, stride);
+  for (int k = 0; k < n; ++k) {
+    if (k + kAhead < n) chunk.prefetch(std::size_t(list[k + kAhead].cell_j) * DW + list[k + kAhead].cell_i, stride);
+    const Contribution& e = list[k];
+    if (!block.holds(e.anchor_i, e.anchor_j)) block = dst.tap_block(e.anchor_i, e.anchor_j);
+    int ci = e.cell_i, cj = e.cell_j;
+    if (!block.holds(ci, cj) && !dst.resolve(e.anchor_i, e.anchor_j, ci, cj)) continue;
+    double* run = chunk.sums_of(std::size_t(cj) * DW + ci, stride);
+    for (int c = 0; c < C; ++c) run[c] += e.weight * e.pixel[c];
+    run[C] += e.weight;
+  }
+}
+
+/// The batched kernel: the same contributions as project_chunk_per_texel, in the same order, listed a batch of
+/// texels at a time and then added. A square at most one output texel on a side overlaps the 2 x 2 cells from the
+/// one holding its corner; their fractions are computed alike for every such square and the shares that are zero
+/// dropped from the list by its count, not by branches. Larger squares (rare: near the poles of a lat-long output)
+/// take the per-axis overlap loop. Hot texels point at a copy of their channels with zero colour.
+void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std::vector<std::size_t>& hot,
+                           Chunk& chunk) {
+  const int C = img.channels, W = g.W, stride = C + 1;
+  const auto add = [&](const Contribution* list, int n) {
+    if (C == 3)
+      add_contributions<3>(g.dst, list, n, C, g.DW, chunk);
+    else if (C == 4)
+      add_contributions<4>(g.dst, list, n, C, g.DW, chunk);
+    else
+      add_contributions<0>(g.dst, list, n, C, g.DW, chunk);
+  };
+  // Hot texels' channels with zero colour, alpha kept.
+  const auto hot_begin = std::lower_bound(hot.begin(), hot.end(), std::size_t(chunk.first_row) * W);
+  const auto hot_end = std::lower_bound(hot.begin(), hot.end(), std::size_t(chunk.end_row) * W);
+  chunk.hot_pixels.assign(std::size_t(hot_end - hot_begin) * C, 0.0f);
+  for (auto h = hot_begin; h != hot_end; ++h)
+    if (img.alpha_channel >= 0)
+      chunk.hot_pixels[std::size_t(h - hot_begin) * C + img.alpha_channel] = img.pixels[*h * C + img.alpha_channel];
+  chunk.list.resize(kContributionCapacity);
+  chunk.landed.resize(kBatchTexels);
+  Contribution* list = chunk.list.data();
+  auto next_hot = hot_begin;
+  double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
+  for (int j = chunk.first_row; j < chunk.end_row; ++j) {
+    const double row_omega = g.omega_per_row ? g.src_omega(1, j) : 0.0;
+    for (int i0 = 0; i0 < W; i0 += kBatchTexels) {
+      // Pass 1: where each texel lands. The output texel sizes it needs are then loaded while the rest projects.
+      int m = 0;
+      for (int i = i0; i < std::min(W, i0 + kBatchTexels); ++i) {
+        const std::size_t index = std::size_t(j) * W + i;
+        const float* px = img.pixels.data() + index * C;
+        if (next_hot != hot_end && *next_hot == index) [[unlikely]]
+          px = chunk.hot_pixels.data() + std::size_t(next_hot++ - hot_begin) * C;
+        const double omega_s = g.source_omega(i, j, row_omega);
+        Vec2 p;
+        if (omega_s <= 0.0 || !g.project(i, j, p)) continue;
+        const int ti = std::clamp(static_cast<int>(p.x), 0, g.DW - 1);
+        const int tj = std::clamp(static_cast<int>(p.y), 0, g.DH - 1);
+        g.prefetch_square(ti, tj);
+        chunk.landed[m++] = {p, omega_s, ti, tj, px};
+      }
+      // Pass 2: each landed texel's shares.
+      int n = 0;
+      for (int k = 0; k < m; ++k) {
+        if (n > kContributionCapacity - kMaxSplatCellsPerAxis * kMaxSplatCellsPerAxis) [[unlikely]] {
+          add(list, n);  // room for one more texel's shares, however large its square
+          n = 0;
+        }
+        const auto [p, omega_s, ti, tj, px] = chunk.landed[k];
+        double width, height;
+        g.square(std::sqrt(omega_s), ti, tj, width, height);
+        const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
+        if (width > 1.0 || height > 1.0) [[unlikely]] {
+          int nx, ny;
+          const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
+          for (int b = 0; b < ny; ++b)
+            for (int a = 0; a < nx; ++a)
+              if (fx[a] * fy[b] > 0.0) list[n++] = {cx + a, cy + b, ti, tj, omega_s * fx[a] * fy[b], px};
+          continue;
+        }
+        // As overlaps(): the fraction of [x0, x0 + width) in the cell holding x0, the rest in the next cell.
+        const double cx = std::floor(x0), cy = std::floor(y0);
+        const double x1 = x0 + width, y1 = y0 + height;
+        const double fx0 = x1 <= cx + 1.0 ? 1.0 : (cx + 1.0 - x0) * (1.0 / (x1 - x0));
+        const double fy0 = y1 <= cy + 1.0 ? 1.0 : (cy + 1.0 - y0) * (1.0 / (y1 - y0));
+        const double fx1 = 1.0 - fx0, fy1 = 1.0 - fy0;
+        const int ci = static_cast<int>(cx), cj = static_cast<int>(cy);
+        list[n] = {ci, cj, ti, tj, omega_s * fx0 * fy0, px};
+        n += 1;
+        list[n] = {ci + 1, cj, ti, tj, omega_s * fx1 * fy0, px};
+        n += fx1 * fy0 > 0.0;
+        list[n] = {ci, cj + 1, ti, tj, omega_s * fx0 * fy1, px};
+        n += fx0 * fy1 > 0.0;
+        list[n] = {ci + 1, cj + 1, ti, tj, omega_s * fx1 * fy1, px};
+        n += fx1 * fy1 > 0.0;
+      }
+      add(list, n);
+    }
+  }
+  chunk.flush(stride);
+}
+
+template <class Real>
+void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const SolidAngleTable& src_omega,
+                           const SolidAngleTable& dst_omega, const std::vector<std::size_t>& hot,
+                           const Mat3& dst_to_src, ScatterKernel kernel, ProgressCounter& progress, Image& out) {
+  const Image& img = s.image;
+  const Parameterization& sp = s.param;
+  const int C = img.channels, W = img.width, H = img.height;
+  const int DW = dst.width(), DH = dst.height();
+  const ScatterGeometry geometry(sp, dst, src_omega, dst_omega, dst_to_src);
   const int stride = C + 1;
 
   // Stage 2 of the pipeline: project a chunk's texels and spread each one's flux over the output texels its
   // square overlaps, summed per output texel in the chunk's slots and handed on as runs.
   const auto project = [&](Chunk& chunk) {
-    double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
-    Parameterization::TapBlock block;  // the anchor's, kept while the anchor stays in it
-    for (int j = chunk.first_row; j < chunk.end_row; ++j) {
-      // Hot texels (splatted exactly afterwards) still give their weight here, with zero colour.
-      auto next_hot = std::lower_bound(hot.begin(), hot.end(), std::size_t(j) * W);
-      const double row_omega = omega_per_row ? src_omega(1, j) : 0.0;
-      for (int i = 0; i < W; ++i) {
-        const std::size_t index = std::size_t(j) * W + i;
-        const bool is_hot = next_hot != hot.end() && *next_hot == index;
-        if (is_hot) ++next_hot;
-        const double omega_s = omega_per_row && i > 0 && i < W - 1 ? row_omega : src_omega(i, j);
-        Vec3 d;
-        if (omega_s <= 0.0 || !directions.centre(i, j, d)) continue;
-        const double root_omega_s = std::sqrt(omega_s);
-        const Vec2 p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
-        if (p.x < 0.0 || p.y < 0.0 || p.x > DW || p.y > DH) continue;  // outside a camera view
-        const int ti = std::clamp(static_cast<int>(p.x), 0, DW - 1);
-        const int tj = std::clamp(static_cast<int>(p.y), 0, DH - 1);
-        // The source texel's square, sqrt(omega_s) on a side, in output pixels (stretched on lat-long rows).
-        double width, height;
-        if (!row_scales.x.empty()) {
-          width = std::min(root_omega_s * row_scales.x[tj], kMaxSideInTexels);
-          height = std::min(root_omega_s * row_scales.y[tj], kMaxSideInTexels);
-        } else {
-          const double inverse = inverse_side[std::size_t(tj) * DW + ti];
-          width = height = inverse > 0.0 ? std::min(root_omega_s * inverse, kMaxSideInTexels) : 1.0;
-        }
-        const float* px = img.pixels.data() + index * C;
-        if (!block.holds(ti, tj)) block = dst.tap_block(ti, tj);
-        const auto add = [&](int ci, int cj, double w) {
-          if (!block.holds(ci, cj) && !dst.resolve(ti, tj, ci, cj)) return;
-          double* run = chunk.sums_of(std::size_t(cj) * DW + ci, stride);
-          for (int c = 0; c < C; ++c)
-            if (!is_hot || c == img.alpha_channel) run[c] += w * px[c];
-          run[C] += w;
-        };
-        const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
-        if (x0 >= ti && y0 >= tj && x0 + width <= ti + 1 && y0 + height <= tj + 1) {
-          add(ti, tj, omega_s);  // the common case: the square lies inside one output texel
-          continue;
-        }
-        int nx, ny;
-        const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
-        for (int b = 0; b < ny; ++b)
-          for (int a = 0; a < nx; ++a)
-            if (fx[a] * fy[b] > 0.0) add(cx + a, cy + b, omega_s * fx[a] * fy[b]);
-      }
-    }
-    chunk.flush(stride);
+    if (kernel == ScatterKernel::PerTexel)
+      project_chunk_per_texel(geometry, img, hot, chunk);
+    else
+      project_chunk_batched(geometry, img, hot, chunk);
   };
 
-  // Per output texel: the flux-weighted sum of each channel, then the weight (the solid angle received).
-  std::vector<Real, UninitialisedAllocator<Real>> sum(std::size_t(DW) * std::size_t(DH) * stride);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sum.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-    std::fill(sum.begin() + r.begin(), sum.begin() + r.end(), Real(0));
-  });
+  // Per output texel: the flux-weighted sum of each channel, and the weight (the solid angle received). Float sums
+  // of every channel are kept in the output image itself, which is zero and normalised in place below: the only
+  // fresh memory to touch is the weights.
+  const int Co = out.channels;
+  const bool in_output = std::is_same_v<Real, float> && Co == C;
+  const auto zeroed = [](std::size_t n) {
+    std::vector<Real, UninitialisedAllocator<Real>> v(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](const tbb::blocked_range<std::size_t>& r) {
+      std::fill(v.begin() + r.begin(), v.begin() + r.end(), Real(0));
+    });
+    return v;
+  };
+  auto separate_sums = zeroed(in_output ? 0 : std::size_t(DW) * std::size_t(DH) * C);
+  auto weight = zeroed(std::size_t(DW) * std::size_t(DH));
+  Real* sum = in_output ? reinterpret_cast<Real*>(out.pixels.data()) : separate_sums.data();
   int next_row = 0;
   // Chunks are recycled: fresh buffers per chunk would page-fault all over again. A chunk's runs are at most one
   // per contribution, and in practice about one per output texel the chunk reaches.
@@ -247,9 +451,10 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
                 return chunk;
               }) & tbb::make_filter<Chunk*, void>(tbb::filter_mode::serial_in_order, [&](Chunk* chunk) {
                 for (std::size_t r = 0; r < chunk->cells.size(); ++r) {
-                  Real* cell = sum.data() + chunk->cells[r] * stride;
+                  Real* cell = sum + chunk->cells[r] * C;
                   const double* run = chunk->sums.data() + r * stride;
-                  for (int c = 0; c < stride; ++c) cell[c] += static_cast<Real>(run[c]);
+                  for (int c = 0; c < C; ++c) cell[c] += static_cast<Real>(run[c]);
+                  weight[chunk->cells[r]] += static_cast<Real>(run[C]);
                 }
                 progress.add(static_cast<std::size_t>(chunk->end_row - chunk->first_row));
                 free_chunks.push(chunk);
@@ -258,15 +463,14 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
   // Normalise by the weight each output texel received (a constant map stays exactly constant). An output texel no
   // square reached (possible only where output texels are smaller than source texels) takes the nearest source
   // texel that is not hot.
-  const int Co = out.channels;
   tbb::parallel_for(0, DH, [&](int tj) {
     for (int ti = 0; ti < DW; ++ti) {
       if (dst_omega(ti, tj) <= 0.0) continue;
       const std::size_t t = std::size_t(tj) * DW + ti;
-      const Real* value = sum.data() + t * stride;
+      const Real* value = sum + t * C;
       float* px = out.pixels.data() + t * Co;
-      if (value[C] > Real(0)) {
-        for (int c = 0; c < C; ++c) px[c] = static_cast<float>(double(value[c]) / double(value[C]));
+      if (weight[t] > Real(0)) {
+        for (int c = 0; c < C; ++c) px[c] = static_cast<float>(double(value[c]) / double(weight[t]));
         continue;
       }
       Vec3 d;
@@ -284,19 +488,18 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
 }  // namespace
 
 Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Parameterization& dst,
-                            const Mat3& dst_to_src, const ResampleOptions& opt) {
+                            const Mat3& dst_to_src, const ResampleOptions& opt, ScatterKernel kernel) {
   const Image& img = s.image;
   const Parameterization& sp = s.param;
   Image out = make_output(img, dst, output_layout(img, source));
   const SolidAngleTable src_omega(sp), dst_omega(dst);
-  const std::vector<std::size_t> hot =
-      find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast, total_power(img, sp));
+  const std::vector<std::size_t> hot = find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast);
   ProgressCounter progress(opt.progress, static_cast<std::size_t>(img.height) + 1);
   const double ratio = double(img.texel_count()) / std::max(1.0, double(dst.width()) * double(dst.height()));
   if (ratio <= kFloatAccumulationMaxRatio)
-    scatter_and_normalise<float>(s, dst, src_omega, dst_omega, hot, dst_to_src, progress, out);
+    scatter_and_normalise<float>(s, dst, src_omega, dst_omega, hot, dst_to_src, kernel, progress, out);
   else
-    scatter_and_normalise<double>(s, dst, src_omega, dst_omega, hot, dst_to_src, progress, out);
+    scatter_and_normalise<double>(s, dst, src_omega, dst_omega, hot, dst_to_src, kernel, progress, out);
   progress.add(1);
   splat_hot_texels(s, hot, src_omega, dst, dst_omega, dst_to_src, out);
   // Each copy of a twin texel received only its own side of the seam or cube edge.
