@@ -186,8 +186,8 @@ if s and s.get("ratios"):
         if seed:
             best_seed = {c: geomean([final_eff(k, c) for k in per_scene if math.isfinite(final_eff(k, c))])
                          for c in seed}
-            rec.append("**The cited product samplers** (wavelet, steerable, SH; each with its precomputation per "
-                       "render): geometric mean efficiency against " + basecfg + ": " +
+            rec.append("**The cited product samplers** (wavelet, steerable, SH; their precomputation is set-up, "
+                       "like the tables', and not in the time): geometric mean efficiency against " + basecfg + ": " +
                        ", ".join(f"`{c}` {v:.2f}x" for c, v in best_seed.items() if math.isfinite(v)) +
                        f"; the default `{default}` {geomean(list(per_scene.values())):.2f}x. " +
                        ("They beat the default on " + "; ".join(f"{k} (`{c}`, {r:.2f}x the default)"

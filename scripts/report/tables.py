@@ -18,9 +18,9 @@ SPP = ctx.pick(2, 8, 32)
 REF_SPP = ctx.pick(16, 256, 1024)
 STRATS = ctx.pick([("light hierarchical", ["--strategy", "light", "--light-method", "hierarchical"])],
                   [("light hierarchical", ["--strategy", "light", "--light-method", "hierarchical"]),
-                   ("mis-power 1+1", ["--strategy", "mis", "--heuristic", "power"])],
+                   ("mis-power", ["--strategy", "mis", "--heuristic", "power"])],
                   [("light hierarchical", ["--strategy", "light", "--light-method", "hierarchical"]),
-                   ("mis-power 1+1", ["--strategy", "mis", "--heuristic", "power"])])
+                   ("mis-power", ["--strategy", "mis", "--heuristic", "power"])])
 TABLES = "cdf,alias,hierarchical,compensated"
 machine = machine_line()
 
