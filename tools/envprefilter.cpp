@@ -103,8 +103,10 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--accuracy", o.accuracy, "quadrature refinement threshold (smaller: slower, more exact)")
       ->check(tools::number_in(0.01, 1.0))
       ->capture_default_str();
-  app.add_option("--sh-order", o.sh_order, "SH order: 2 (9 coefficients) or 3 (16)")
-      ->check(CLI::IsMember({1, 2, 3}))
+  app.add_option("--sh-order", o.sh_order,
+                 "SH order L (bands 0..L, (L+1)^2 coefficients: 2 gives 9, the irradiance's; up to " +
+                     std::to_string(envkit::kMaxShOrder) + ")")
+      ->transform(tools::integer_in(1, envkit::kMaxShOrder))
       ->capture_default_str();
   tools::add_parsed_option(app, "--sh-window", o.sh_window, envkit::parse_sh_window,
                            "SH windowing against ringing: none|hanning|lanczos")

@@ -163,6 +163,9 @@ export const SH_MAX = 16;
 /**
  * Reads envprefilter's SH JSON (--sh): the `irradiance_over_pi` coefficients of R, G and B (E(n) / pi =
  * sum c_i Y_i(n), index i = l (l + 1) + m, envkit's basis: real, orthonormal, no Condon-Shortley phase).
+ * Files of a higher order (--sh-order 4..16) are truncated to order 3: the basis is orthonormal, so the first
+ * SH_MAX coefficients are the order-3 irradiance, and the clamped cosine leaves little past it (A_4 = pi / 24,
+ * odd bands 0).
  * @returns {THREE.Vector3[]} SH_MAX coefficients (RGB each), zero past the file's order.
  */
 export async function loadShIrradiance(source) {
@@ -173,9 +176,10 @@ export async function loadShIrradiance(source) {
   if (!c || !Array.isArray(channels) || channels.length < 3)
     throw new Error(`${url}: not envprefilter's SH JSON (no irradiance_over_pi coefficients of 3 channels)`);
   const rgb = channels.slice(0, 3).map((name) => c[name]);
-  const count = rgb[0].length;
-  if (count > SH_MAX || rgb.some((v) => !Array.isArray(v) || v.length !== count || v.some((x) => !Number.isFinite(x))))
-    throw new Error(`${url}: SH coefficients must be ${SH_MAX} or fewer finite numbers per channel`);
+  const count = Array.isArray(rgb[0]) ? rgb[0].length : 0;
+  const square = Math.round(Math.sqrt(count)) ** 2 === count && count > 0;
+  if (!square || rgb.some((v) => !Array.isArray(v) || v.length !== count || v.some((x) => !Number.isFinite(x))))
+    throw new Error(`${url}: SH coefficients must be (order + 1)^2 finite numbers per channel`);
   const out = [];
   for (let i = 0; i < SH_MAX; i++) {
     out.push(i < count ? new THREE.Vector3(rgb[0][i], rgb[1][i], rgb[2][i]) : new THREE.Vector3());

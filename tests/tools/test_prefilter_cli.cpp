@@ -5,7 +5,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <envkit/envmap/envmap.h>
+#include <envkit/ibl/sh.h>
+#include <envkit/maps/latlong.h>
+
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "cli_support.h"
@@ -106,6 +111,28 @@ TEST_F(PrefilterCli, ExrChainWritesOneFilePerLevel) {
     EXPECT_EQ(level.metadata.at("envkit:ibl_level"), std::to_string(m));
   }
   EXPECT_FALSE(fs::exists(dir_ / "level3.exr"));
+}
+
+// Every order the library projects is offered: the file holds the library's coefficients for the input map, and
+// an order past the library's limit is a usage error naming the option.
+TEST_F(PrefilterCli, ShOrdersUpToTheLibrarysLimit) {
+  const test::CommandResult r = run({input_, "--sh", path("sh8.json"), "--sh-order", "8", "-q"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(path("sh8.json"));
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["order"], 8);
+  EXPECT_EQ(j["coefficients_per_channel"], 81);
+  EnvMap map;  // the file the tool read, as it read it (envkit convention: the map frame is the world's)
+  map.param = std::make_unique<LatLongMap>(64, 32);
+  map.image = read_image(input_);
+  const ShCoefficients want = project_sh(map.ref(), 8);
+  const std::vector<double> got = j["radiance"]["coefficients"]["R"].get<std::vector<double>>();
+  ASSERT_EQ(got.size(), 81u);
+  for (int i = 0; i < 81; ++i) EXPECT_NEAR(got[std::size_t(i)], want.radiance[0][std::size_t(i)], 1e-6) << i;
+  const test::CommandResult bad = run({input_, "--sh", path("sh17.json"), "--sh-order", "17"});
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--sh-order"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir_ / "sh17.json"));
 }
 
 TEST_F(PrefilterCli, ErrorsAreOneLineAndLeaveNoOutput) {
