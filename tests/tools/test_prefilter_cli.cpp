@@ -1,13 +1,12 @@
 // envprefilter run as a process: every output kind, its metadata (KTX2 key/value data read by ktx-parse), the SH
 // JSON, the LUT's stored values, exit codes and one-line errors that leave no output behind.
+#include <envkit/envmap/envmap.h>
 #include <envkit/ibl/dfg.h>
+#include <envkit/ibl/sh.h>
 #include <envkit/io/image_io.h>
+#include <envkit/maps/latlong.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
-
-#include <envkit/envmap/envmap.h>
-#include <envkit/ibl/sh.h>
-#include <envkit/maps/latlong.h>
 
 #include <filesystem>
 #include <fstream>
