@@ -31,12 +31,14 @@ struct Named {
 const Mat3 kRotation(0.36, 0.48, -0.8, -0.8, 0.6, 0.0, 0.48, 0.64, 0.6);  // a proper rotation, no symmetry
 
 std::vector<Named> cubes() {
-  return {{"cube 1", std::make_shared<CubeMap>(1)},
-          {"cube 2 corner", std::make_shared<CubeMap>(2, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
-          {"cube 17 corner", std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
-          {"cube 32", std::make_shared<CubeMap>(32)},
-          {"cube 13 hcross gl", std::make_shared<CubeMap>(13, CubeLayout::HorizontalCross, CubeBasis::GL)},
-          {"cube 67", std::make_shared<CubeMap>(67)}};
+  return {
+      {"cube 1", std::make_shared<CubeMap>(1)},
+      {"cube 2 corner", std::make_shared<CubeMap>(2, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
+      {"cube 17 corner",
+       std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
+      {"cube 32", std::make_shared<CubeMap>(32)},
+      {"cube 13 hcross gl", std::make_shared<CubeMap>(13, CubeLayout::HorizontalCross, CubeBasis::GL)},
+      {"cube 67", std::make_shared<CubeMap>(67)}};
 }
 
 // Bitwise equality of two arrays of doubles (so -0 and 0 differ, as they would in what follows).
@@ -72,9 +74,9 @@ TEST(CubeProjectionLanes, MatchToImageBitForBitOnLatLongRows) {
       const auto a = ll.centre_angles();
       for (const bool rotate : {false, true})
         for (int j = 0; j < ll.height(); ++j)
-          expect_lanes_match(cube, kRotation, rotate, a.sin_lon, a.cos_lon, a.sin_lat[j], a.cos_lat[j],
-                             c.name + " <- " + ll.describe() + (rotate ? " rotated" : "") + " row " +
-                                 std::to_string(j));
+          expect_lanes_match(
+              cube, kRotation, rotate, a.sin_lon, a.cos_lon, a.sin_lat[j], a.cos_lat[j],
+              c.name + " <- " + ll.describe() + (rotate ? " rotated" : "") + " row " + std::to_string(j));
     }
   }
 }

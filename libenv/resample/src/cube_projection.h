@@ -39,7 +39,8 @@ void project_latlong_row_to_cube(const CubeMap& cube, const CubeProjectionTables
 /// first: what the scatter (lat-long -> cube) and the gather (cube -> lat-long) project, a row at a time.
 class LatLongRowsInCube {
  public:
-  /// The projector when `from` is a lat-long map (Kind::LatLong) and `to` a cube map, else null. `lanes` false: per direction.
+  /// The projector when `from` is a lat-long map (Kind::LatLong) and `to` a cube map, else null. `lanes` false: per
+  /// direction.
   static std::unique_ptr<LatLongRowsInCube> make(const Parameterization& from, const Parameterization& to,
                                                  const Mat3& rotation, bool rotate, bool lanes = true);
   /// to.to_image of the (rotated) centres of texels [i0, i1) of row j, into x[0, i1 - i0), y[0, i1 - i0).
@@ -48,7 +49,10 @@ class LatLongRowsInCube {
                                 angles_.sin_lat[j], angles_.cos_lat[j], i1 - i0, x, y, lanes_);
   }
   LatLongRowsInCube(const LatLongMap& from, const CubeMap& to, const Mat3& rotation, bool rotate, bool lanes)
-      : cube_(to), tables_(cube_projection_tables(to, rotation, rotate)), angles_(from.centre_angles()), lanes_(lanes) {}
+      : cube_(to),
+        tables_(cube_projection_tables(to, rotation, rotate)),
+        angles_(from.centre_angles()),
+        lanes_(lanes) {}
 
  private:
   const CubeMap& cube_;

@@ -2,7 +2,6 @@
 #include <envkit/maps/latlong.h>
 #include <envkit/maps/texel_directions.h>
 #include <envkit/resample/resample.h>
-#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -144,9 +143,11 @@ Image detail::resample_area_gather(const MapRef& s, const TexelSource& full_sour
   // angles must agree), and whether every one is magnified (no more than one sub-sample per axis).
   const double min_source_omega = rows ? smallest_positive_texel(sp, src_omega) : 0.0;
   ProgressCounter progress(opt.progress, static_cast<std::size_t>(dst.height()));
-  tbb::parallel_for(tbb::blocked_range<int>(0, dst.height()), [&](const tbb::blocked_range<int>& range) {
-   std::vector<double> sum(C), row_x(rows ? dst.width() : 0), row_y(row_x.size());
-   for (int j = range.begin(); j < range.end(); ++j) {
+  tbb::parallel_for(0, dst.height(), [&](int j) {
+    std::vector<double> sum(C);
+    const std::size_t row_size = rows ? static_cast<std::size_t>(dst.width()) : 0;
+    const auto row_x = std::make_unique_for_overwrite<double[]>(row_size);
+    const auto row_y = std::make_unique_for_overwrite<double[]>(row_size);
     Tap taps[16];
     const auto add_taps = [&](Vec2 p, double w) {
       const int k = source.taps(p, Filter::Bilinear, taps);
@@ -159,7 +160,7 @@ Image detail::resample_area_gather(const MapRef& s, const TexelSource& full_sour
     };
     bool row_cannot_coincide = false, row_magnified = false;
     if (rows) {
-      rows->project(j, 0, dst.width(), row_x.data(), row_y.data());
+      rows->project(j, 0, dst.width(), row_x.get(), row_y.get());
       const double largest = std::max(dst_omega(0, j), dst_omega(std::min(1, dst.width() - 1), j));  // lat-long rows
       row_cannot_coincide = largest < (1.0 - 1e-3) * min_source_omega;
       row_magnified = opt.supersampling * row_extent[j] <= std::sqrt(min_source_omega) * (1.0 + 1e-6);
@@ -263,7 +264,6 @@ Image detail::resample_area_gather(const MapRef& s, const TexelSource& full_sour
         px[o.alpha] = static_cast<float>(sum[o.alpha] / total_weight);  // source alpha, fading where uncovered
     }
     progress.add(1);
-   }
   });
 
   // 3. Splat the hot texels: flux L x (exact sub-cell solid angle) into the output texel that sees each sub-cell.
