@@ -4,7 +4,7 @@
 # default) and the floor: the time the same library takes to read IN and write OUT's pixels in the same format and
 # compression with no resampling (`io_throughput envkit floor`, timed in-process: the floor leaves out the ~12 ms of
 # process start-up that envconvert's wall time includes). Median of N interleaved repeats (default 3); the ratio
-# envconvert / floor is the figure (target <= 1.5).
+# envconvert / floor is the figure (targets <= 1.25 for OpenEXR, <= 2 for .hdr).
 #
 #   scripts/bench/bench_io_floor.sh [--build DIR] [--size WxH] [--face N] [--repeats N] [--work DIR]
 set -euo pipefail

@@ -64,23 +64,8 @@ void catmull_rom(double t, double w[4]) {
 
 int TexelSource::taps(Vec2 p, Filter filter, Tap* out) const {
   const int W = image_.width, H = image_.height;
-  if (filter == Filter::Bilinear) {
-    // The common case first: four covered taps inside the image on one chart need neither resolving nor
-    // renormalising.
-    const double fx = p.x - 0.5, fy = p.y - 0.5;
-    const int i0 = static_cast<int>(std::floor(fx)), j0 = static_cast<int>(std::floor(fy));
-    const int cell = param_.tap_cell();
-    if (i0 >= 0 && j0 >= 0 && i0 + 1 < W && j0 + 1 < H && covered_.empty() &&
-        (cell == 0 || (cell > 0 && i0 / cell == (i0 + 1) / cell && j0 / cell == (j0 + 1) / cell))) {
-      const float tx = static_cast<float>(fx - i0), ty = static_cast<float>(fy - j0);
-      const std::size_t t = static_cast<std::size_t>(j0) * W + i0;
-      out[0] = Tap{t, (1 - tx) * (1 - ty)};
-      out[1] = Tap{t + 1, tx * (1 - ty)};
-      out[2] = Tap{t + W, (1 - tx) * ty};
-      out[3] = Tap{t + W + 1, tx * ty};
-      return 4;
-    }
-  }
+  // The common case first: four covered taps inside the image on one chart need neither resolving nor renormalising.
+  if (filter == Filter::Bilinear && interior_bilinear_taps(p, out)) return 4;
   const int ai = std::clamp(static_cast<int>(std::floor(p.x)), 0, W - 1);
   const int aj = std::clamp(static_cast<int>(std::floor(p.y)), 0, H - 1);
   int count = 0;

@@ -6,7 +6,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
+#include "cube_projection.h"
 #include "resample_common.h"
 
 namespace envkit {
@@ -92,8 +94,19 @@ std::vector<double> latlong_row_extents(const Parameterization& dst) {
   return extent;
 }
 
-Image resample_area_gather(const MapRef& s, const TexelSource& full_source, const Parameterization& dst,
-                           const Mat3& dst_to_src, const ResampleOptions& opt) {
+// Solid angle of the source's smallest texel that holds data (0 if none does).
+double smallest_positive_texel(const Parameterization& p, const SolidAngleTable& omega) {
+  double smallest = 0.0;
+  for (int j = 0; j < p.height(); ++j)
+    for (int i = 0; i < p.width(); ++i)
+      if (const double w = omega(i, j); w > 0.0 && (smallest == 0.0 || w < smallest)) smallest = w;
+  return smallest;
+}
+
+}  // namespace
+
+Image detail::resample_area_gather(const MapRef& s, const TexelSource& full_source, const Parameterization& dst,
+                                   const Mat3& dst_to_src, const ResampleOptions& opt, GatherKernel kernel) {
   const Image& img = s.image;
   const Parameterization& sp = s.param;
   const int C = img.channels;
@@ -119,10 +132,22 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
   const TexelSource source(*cold, sp);
 
   // 2. Gather the cold part: supersample each output texel on an n x n grid, n adapted to how many source texels
-  // its footprint spans; weights = the sub-cells' solid angles.
+  // its footprint spans; weights = the sub-cells' solid angles. The batched kernel projects a row's centres at once
+  // (on lanes: lat-long rows into a cube) and asks whether a texel coincides with a source texel only where their
+  // solid angles agree; the per-texel kernel is the reference.
+  const bool batched = kernel == GatherKernel::Batched;
+  const std::unique_ptr<LatLongRowsInCube> rows =
+      batched ? LatLongRowsInCube::make(dst, sp, dst_to_src, rotate) : nullptr;
+  // With rows, the source's smallest texel answers for a whole output row (the cube source's texels all hold data)
+  // what the per-texel tests would: whether any texel of the row could coincide with a source texel (their solid
+  // angles must agree), and whether every one is magnified (no more than one sub-sample per axis).
+  const double min_source_omega = rows ? smallest_positive_texel(sp, src_omega) : 0.0;
   ProgressCounter progress(opt.progress, static_cast<std::size_t>(dst.height()));
   tbb::parallel_for(0, dst.height(), [&](int j) {
     std::vector<double> sum(C);
+    const std::size_t row_size = rows ? static_cast<std::size_t>(dst.width()) : 0;
+    const auto row_x = std::make_unique_for_overwrite<double[]>(row_size);
+    const auto row_y = std::make_unique_for_overwrite<double[]>(row_size);
     Tap taps[16];
     const auto add_taps = [&](Vec2 p, double w) {
       const int k = source.taps(p, Filter::Bilinear, taps);
@@ -133,15 +158,34 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
       }
       return k > 0;
     };
+    bool row_cannot_coincide = false, row_magnified = false;
+    if (rows) {
+      rows->project(j, 0, dst.width(), row_x.get(), row_y.get());
+      const double largest = std::max(dst_omega(0, j), dst_omega(std::min(1, dst.width() - 1), j));  // lat-long rows
+      row_cannot_coincide = largest < (1.0 - 1e-3) * min_source_omega;
+      row_magnified = opt.supersampling * row_extent[j] <= std::sqrt(min_source_omega) * (1.0 + 1e-6);
+    }
     for (int i = 0; i < dst.width(); ++i) {
       const double omega_t = dst_omega(i, j);
       if (omega_t <= 0.0) continue;
       double covered_weight = 0.0, total_weight = 0.0;
-      Vec3 centre;
+      Vec3 centre(0.0, 0.0, 0.0);  // set where rows does not project: texel_extent reads it for other outputs only
       Vec2 pc;
-      const bool centre_ok = dirs.centre(i, j, centre);
-      const bool centre_in_source = centre_ok && source_position(sp, dst_to_src, rotate, centre, pc);
-      if (centre_in_source) {
+      bool centre_in_source;
+      if (rows) {  // a lat-long output: every centre has a direction, and a cube source sees every direction
+        pc = Vec2(row_x[i], row_y[i]);
+        centre_in_source = true;
+      } else {
+        centre_in_source = dirs.centre(i, j, centre) && source_position(sp, dst_to_src, rotate, centre, pc);
+      }
+      // A texel can coincide with a source texel only if their solid angles agree (to well within this, whatever
+      // the tables' float precision): others need not be asked.
+      const auto may_coincide = [&] {
+        const int si = std::clamp(static_cast<int>(pc.x), 0, sp.width() - 1);
+        const int sj = std::clamp(static_cast<int>(pc.y), 0, sp.height() - 1);
+        return std::abs(omega_t - src_omega(si, sj)) <= 1e-3 * src_omega(si, sj);
+      };
+      if (centre_in_source && !row_cannot_coincide && (!batched || may_coincide())) {
         const auto t = coincident_source_texel(sp, dst, dst_to_src, rotate, i, j, pc);
         if (t >= 0) {
           // Written after the hot texels' splat, which also reaches this texel from its own source texel only.
@@ -151,7 +195,9 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
       }
       // Sub-samples per axis: `supersampling` per source texel across the footprint, at most max_subsamples.
       int n = opt.max_subsamples;
-      if (centre_in_source) {
+      if (row_magnified) {
+        n = 1;  // what the test below gives each texel of the row, its source texel being no smaller
+      } else if (centre_in_source) {
         const double extent = texel_extent(dst, row_extent, centre, i, j);
         const int si = std::clamp(static_cast<int>(pc.x), 0, sp.width() - 1);
         const int sj = std::clamp(static_cast<int>(pc.y), 0, sp.height() - 1);
@@ -173,7 +219,7 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
       }
       if (n == 1 && centre_in_source) {
         // Magnifying (the common case here): the bilinear reconstruction at the centre, written directly.
-        const int k = source.taps(pc, Filter::Bilinear, taps);
+        const int k = source.interior_bilinear_taps(pc, taps) ? 4 : source.taps(pc, Filter::Bilinear, taps);
         if (k > 0) {
           float* px = out.at(i, j);
           for (int c = 0; c < C; ++c) {
@@ -227,6 +273,8 @@ Image resample_area_gather(const MapRef& s, const TexelSource& full_source, cons
   return out;
 }
 
+namespace {
+
 /// Mean solid angle of the texels that hold data.
 double mean_texel_solid_angle(const Parameterization& p, const SolidAngleTable& omega) {
   return omega.total() / std::max(1.0, double(p.width()) * double(p.height()));
@@ -278,7 +326,7 @@ Image resample(const MapRef& src, const Parameterization& dst, const Mat3& dst_t
     if (!source.fully_covered()) throw Error("area scatter needs a source with data in every texel");
     return resample_area_scatter(src, source, dst, dst_to_src, opt);
   }
-  return resample_area_gather(src, source, dst, dst_to_src, opt);
+  return resample_area_gather(src, source, dst, dst_to_src, opt, GatherKernel::Batched);
 }
 
 }  // namespace envkit

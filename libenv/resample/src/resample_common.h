@@ -70,6 +70,17 @@ void splat_hot_texels(const MapRef& src, const std::vector<std::size_t>& hot, co
                       const Parameterization& dst, const SolidAngleTable& dst_omega, const Mat3& dst_to_src,
                       Image& out);
 
+/// The area gather's kernels: both give the same output. PerTexel projects each output texel's centre through the
+/// maps' virtual calls and asks of each whether it coincides with a source texel; Batched projects a row of centres
+/// at once (lat-long rows into a cube on vector lanes, bit for bit) and asks only where the solid angles agree.
+enum class GatherKernel { Batched, PerTexel };
+
+/// The `area` filter's gather (resample.h): each output texel supersampled over its footprint, magnified texels
+/// written as the bilinear reconstruction at their centre.
+Image resample_area_gather(const MapRef& src, const TexelSource& source, const Parameterization& dst,
+                           const Mat3& dst_to_src, const ResampleOptions& opt,
+                           GatherKernel kernel = GatherKernel::Batched);
+
 /// The area scatter's kernels: both give the same contributions in the same order (so the same output). PerTexel
 /// branches on where each texel's square lies; Batched lists a batch of texels' contributions, then adds them.
 enum class ScatterKernel { Batched, PerTexel };

@@ -14,6 +14,7 @@
 #include <memory>
 #include <type_traits>
 
+#include "cube_projection.h"
 #include "resample_common.h"
 
 namespace envkit::detail {
@@ -120,6 +121,7 @@ struct Chunk {
   std::vector<Contribution> list;      // the batched kernel's contributions of a batch of texels
   std::vector<float> hot_pixels;       // the batched kernel's copies of hot texels, colour zeroed
   std::vector<Landed> landed;          // the batched kernel's texels of a batch, projected
+  std::vector<double> row_x, row_y;    // the batched kernel's output positions of a batch (ScatterGeometry::rows)
   static constexpr std::size_t kEmpty = std::size_t(-1);
 
   void start(int first, int end, int stride) {
@@ -176,6 +178,7 @@ struct ScatterGeometry {
   FloatBuffer inverse_side;  // 1 / sqrt(omega) of each output texel, unless row_scales holds the lat-long rows'
   bool omega_per_row;        // lat-long texels of a row share one solid angle but the first and last (corner grids)
   int W, DW, DH;
+  std::unique_ptr<LatLongRowsInCube> rows;  // lat-long source rows projected into a cube output at once, else null
 
   ScatterGeometry(const Parameterization& s, const Parameterization& d, const SolidAngleTable& s_omega,
                   const SolidAngleTable& d_omega, const Mat3& dst_to_src)
@@ -189,7 +192,8 @@ struct ScatterGeometry {
         omega_per_row(s.latlong_geometry() != nullptr && s.width() > 2),
         W(s.width()),
         DW(d.width()),
-        DH(d.height()) {
+        DH(d.height()),
+        rows(LatLongRowsInCube::make(s, d, src_to_dst, rotate)) {
     if (!row_scales.x.empty()) return;
     inverse_side.resize(std::size_t(DW) * std::size_t(DH));
     tbb::parallel_for(0, DH, [&](int j) {
@@ -209,8 +213,10 @@ struct ScatterGeometry {
     Vec3 d;
     if (!directions.centre(i, j, d)) return false;
     p = dst.to_image(rotate ? apply(src_to_dst, d) : d);
-    return !(p.x < 0.0 || p.y < 0.0 || p.x > DW || p.y > DH);
+    return inside(p);
   }
+  /// Whether an output position lies in the output's image (a view maps directions it does not see outside it).
+  bool inside(Vec2 p) const { return !(p.x < 0.0 || p.y < 0.0 || p.x > DW || p.y > DH); }
   /// Starts loading what square() reads for output texel (ti, tj) (a hint: changes nothing).
   void prefetch_square(int ti, int tj) const {
     if (row_scales.x.empty()) __builtin_prefetch(inverse_side.data() + std::size_t(tj) * DW + ti);
@@ -321,6 +327,8 @@ void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std
       chunk.hot_pixels[std::size_t(h - hot_begin) * C + img.alpha_channel] = img.pixels[*h * C + img.alpha_channel];
   chunk.list.resize(kContributionCapacity);
   chunk.landed.resize(kBatchTexels);
+  chunk.row_x.resize(g.rows ? kBatchTexels : 0);
+  chunk.row_y.resize(chunk.row_x.size());
   Contribution* list = chunk.list.data();
   auto next_hot = hot_begin;
   double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
@@ -328,15 +336,22 @@ void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std
     const double row_omega = g.omega_per_row ? g.src_omega(1, j) : 0.0;
     for (int i0 = 0; i0 < W; i0 += kBatchTexels) {
       // Pass 1: where each texel lands. The output texel sizes it needs are then loaded while the rest projects.
+      const int i_end = std::min(W, i0 + kBatchTexels);
+      if (g.rows) g.rows->project(j, i0, i_end, chunk.row_x.data(), chunk.row_y.data());
       int m = 0;
-      for (int i = i0; i < std::min(W, i0 + kBatchTexels); ++i) {
+      for (int i = i0; i < i_end; ++i) {
         const std::size_t index = std::size_t(j) * W + i;
         const float* px = img.pixels.data() + index * C;
         if (next_hot != hot_end && *next_hot == index) [[unlikely]]
           px = chunk.hot_pixels.data() + std::size_t(next_hot++ - hot_begin) * C;
         const double omega_s = g.source_omega(i, j, row_omega);
         Vec2 p;
-        if (omega_s <= 0.0 || !g.project(i, j, p)) continue;
+        if (g.rows) {
+          p = Vec2(chunk.row_x[i - i0], chunk.row_y[i - i0]);
+          if (omega_s <= 0.0 || !g.inside(p)) continue;
+        } else if (omega_s <= 0.0 || !g.project(i, j, p)) {
+          continue;
+        }
         const int ti = std::clamp(static_cast<int>(p.x), 0, g.DW - 1);
         const int tj = std::clamp(static_cast<int>(p.y), 0, g.DH - 1);
         g.prefetch_square(ti, tj);

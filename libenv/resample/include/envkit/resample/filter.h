@@ -45,6 +45,26 @@ class TexelSource {
   /// covered taps. Returns the number of taps written to `taps` (at most 16), 0 where no covered texel is near.
   int taps(Vec2 p, Filter filter, Tap* taps) const;
 
+  /// Bilinear's common case, which taps() takes first: the 2 x 2 texels around p lie inside the image, on one chart,
+  /// and hold data. Writes their four taps and returns true; false (nothing written) otherwise. Inline for loops
+  /// that reconstruct every texel of a map.
+  bool interior_bilinear_taps(Vec2 p, Tap* out) const {
+    const double fx = p.x - 0.5, fy = p.y - 0.5;
+    // Truncation is the floor here: both are at least 0 (and NaN fails the test).
+    if (!(fx >= 0.0 && fy >= 0.0 && fx < image_.width && fy < image_.height) || !covered_.empty()) return false;
+    const int i0 = static_cast<int>(fx), j0 = static_cast<int>(fy), cell = param_.tap_cell();
+    if (i0 + 1 >= image_.width || j0 + 1 >= image_.height ||
+        !(cell == 0 || (cell > 0 && i0 / cell == (i0 + 1) / cell && j0 / cell == (j0 + 1) / cell)))
+      return false;
+    const float tx = static_cast<float>(fx - i0), ty = static_cast<float>(fy - j0);
+    const std::size_t t = static_cast<std::size_t>(j0) * image_.width + i0;
+    out[0] = Tap{t, (1 - tx) * (1 - ty)};
+    out[1] = Tap{t + 1, tx * (1 - ty)};
+    out[2] = Tap{t + image_.width, (1 - tx) * ty};
+    out[3] = Tap{t + image_.width + 1, tx * ty};
+    return true;
+  }
+
   /// Filtered value of all channels at p; returns false (and zeros) where there is no data.
   bool sample(Vec2 p, Filter filter, float* out) const;
 
