@@ -1,36 +1,10 @@
 #include "cube_projection.h"
 
+#include <envkit/core/simd/simd_level.h>
+
 #include <cmath>
-#include <cstdlib>
-#include <cstring>
 
 namespace envkit::detail {
-
-namespace {
-
-enum class LaneLevel { None, Avx2, Avx512 };
-
-// The samplers' choice (sampling/src/simd_level.cpp, a group above this one): the best the CPU has, capped by
-// ENVKIT_SIMD ("none", "avx2"). Read once per process.
-LaneLevel lane_level() {
-  static const LaneLevel chosen = [] {
-#if defined(__x86_64__) && defined(__GNUC__)
-    __builtin_cpu_init();
-    LaneLevel best = LaneLevel::None;
-    if (__builtin_cpu_supports("avx2")) best = LaneLevel::Avx2;
-    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq")) best = LaneLevel::Avx512;
-    const char* wanted = std::getenv("ENVKIT_SIMD");
-    if (wanted && std::strcmp(wanted, "none") == 0) return LaneLevel::None;
-    if (wanted && std::strcmp(wanted, "avx2") == 0 && best == LaneLevel::Avx512) return LaneLevel::Avx2;
-    return best;
-#else
-    return LaneLevel::None;
-#endif
-  }();
-  return chosen;
-}
-
-}  // namespace
 
 CubeProjectionTables cube_projection_tables(const CubeMap& cube, const Mat3& rotation, bool rotate) {
   CubeProjectionTables t{};
@@ -63,9 +37,9 @@ void project_latlong_row_to_cube(const CubeMap& cube, const CubeProjectionTables
                                  const double* cos_lon, double sin_lat, double cos_lat, int n, double* x, double* y,
                                  bool lanes) {
   int done = 0;
-  if (lanes && lane_level() == LaneLevel::Avx512)
+  if (lanes && use_avx512())
     done = project_latlong_row_to_cube_avx512(t, sin_lon, cos_lon, sin_lat, cos_lat, n, x, y);
-  else if (lanes && lane_level() == LaneLevel::Avx2)
+  else if (lanes && use_avx2())
     done = project_latlong_row_to_cube_avx2(t, sin_lon, cos_lon, sin_lat, cos_lat, n, x, y);
   Mat3 rotation;
   for (int a = 0; a < 3; ++a)

@@ -5,7 +5,7 @@
 //
 // The lane kernels evaluate CubeMap::to_image's expressions in its order, on doubles, compiled without FMA
 // contraction: they return its positions bit for bit (test_resample_gather holds them to it). The lane operations
-// are the resample group's own: the samplers' lane types live in the sampling group, above this one.
+// are libenv's (envkit/core/simd/), which the samplers use too.
 #include <envkit/maps/cubemap.h>
 #include <envkit/maps/latlong.h>
 
@@ -29,7 +29,7 @@ CubeProjectionTables cube_projection_tables(const CubeMap& cube, const Mat3& rot
 
 /// Positions in the cube of the directions (sin_lon[i] cos_lat, sin_lat, cos_lon[i] cos_lat), rotated first when
 /// t.rotate, for i in [0, n): CubeMap::to_image(apply(rotation, d)). Lanes when the CPU has them (AVX-512 or AVX2,
-/// chosen once per process; ENVKIT_SIMD=none or avx2 caps the choice as for the samplers); `lanes` false forces the
+/// use_avx512() / use_avx2(), envkit/core/simd/simd_level.h); `lanes` false forces the
 /// per-direction reference.
 void project_latlong_row_to_cube(const CubeMap& cube, const CubeProjectionTables& t, const double* sin_lon,
                                  const double* cos_lon, double sin_lat, double cos_lat, int n, double* x, double* y,

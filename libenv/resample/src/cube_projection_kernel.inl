@@ -1,13 +1,13 @@
 // The lane kernel of project_latlong_row_to_cube (cube_projection.h), for a lane type L (cube_projection_avx2.cpp,
 // cube_projection_avx512.cpp). Every expression is CubeMap::to_image's (and apply()'s and TexelDirections'), in its
-// order: the result is the same double, bit for bit. L::pick(m, yes, no) is yes where m holds. ENVKIT_LANES_TARGET
+// order: the result is the same double, bit for bit. L::select(m, no, yes) is yes where m holds. ENVKIT_LANES_TARGET
 // marks the functions for the including file's instruction set.
 namespace envkit::detail {
 
 template <class L>
 ENVKIT_LANES_TARGET inline typename L::D clamp_lanes(typename L::D v, typename L::D lo, typename L::D hi) {
   // std::clamp: v < lo ? lo : (hi < v ? hi : v)
-  return L::pick(L::less(v, lo), lo, L::pick(L::less(hi, v), hi, v));
+  return L::select(L::less(v, lo), L::select(L::less(hi, v), v, hi), lo);
 }
 
 template <class L>
@@ -22,13 +22,13 @@ ENVKIT_LANES_TARGET int project_row_lanes(const CubeProjectionTables& t, const d
   using D = typename L::D;
   constexpr int kWidth = L::kWidth;
   const int done = n - n % kWidth;
-  const D slat = L::set(sin_lat), clat = L::set(cos_lat), zero = L::set(0.0), one = L::set(1.0);
-  const D half = L::set(0.5), minus_one = L::set(-1.0), scale = L::set(t.scale), offset = L::set(t.offset);
+  const D slat = L::setd(sin_lat), clat = L::setd(cos_lat), zero = L::setd(0.0), one = L::setd(1.0);
+  const D half = L::setd(0.5), minus_one = L::setd(-1.0), scale = L::setd(t.scale), offset = L::setd(t.offset);
   D r[3][3];
   for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) r[a][b] = L::set(t.rotation[a][b]);
+    for (int b = 0; b < 3; ++b) r[a][b] = L::setd(t.rotation[a][b]);
   for (int i = 0; i < done; i += kWidth) {
-    D dx = L::mul(L::load(sin_lon + i), clat), dy = slat, dz = L::mul(L::load(cos_lon + i), clat);
+    D dx = L::mul(L::loadu(sin_lon + i), clat), dy = slat, dz = L::mul(L::loadu(cos_lon + i), clat);
     if (t.rotate) {
       const D rx = dot_lanes<L>(dx, dy, dz, r[0][0], r[0][1], r[0][2]);
       const D ry = dot_lanes<L>(dx, dy, dz, r[1][0], r[1][1], r[1][2]);
@@ -40,10 +40,10 @@ ENVKIT_LANES_TARGET int project_row_lanes(const CubeProjectionTables& t, const d
     // The major axis picks the face; ties go to the first face in order.
     const D ax = L::abs(dx), ay = L::abs(dy), az = L::abs(dz);
     const auto on_x = L::both(L::at_least(ax, ay), L::at_least(ax, az)), on_y = L::at_least(ay, az);
-    const D face_x = L::pick(L::at_least(dx, zero), L::set(0.0), L::set(1.0));
-    const D face_y = L::pick(L::at_least(dy, zero), L::set(2.0), L::set(3.0));
-    const D face_z = L::pick(L::at_least(dz, zero), L::set(4.0), L::set(5.0));
-    const auto f = L::index(L::pick(on_x, face_x, L::pick(on_y, face_y, face_z)));
+    const D face_x = L::select(L::at_least(dx, zero), L::setd(1.0), L::setd(0.0));
+    const D face_y = L::select(L::at_least(dy, zero), L::setd(3.0), L::setd(2.0));
+    const D face_z = L::select(L::at_least(dz, zero), L::setd(5.0), L::setd(4.0));
+    const auto f = L::index(L::select(on_x, L::select(on_y, face_z, face_y), face_x));
     const D major = dot_lanes<L>(dx, dy, dz, L::lookup(t.axis[0], f), L::lookup(t.axis[1], f), L::lookup(t.axis[2], f));
     const D inverse_major = L::div(one, major);
     const D a = clamp_lanes<L>(
@@ -65,8 +65,8 @@ ENVKIT_LANES_TARGET int project_row_lanes(const CubeProjectionTables& t, const d
     const D py = clamp_lanes<L>(L::add(y0, lb), y0, L::lookup(t.max_y, f));
     // A zero vector (no major component) looks at the face's centre.
     const auto valid = L::greater(major, zero);
-    L::store(x + i, L::pick(valid, px, L::lookup(t.centre_x, f)));
-    L::store(y + i, L::pick(valid, py, L::lookup(t.centre_y, f)));
+    L::storeu(x + i, L::select(valid, L::lookup(t.centre_x, f), px));
+    L::storeu(y + i, L::select(valid, L::lookup(t.centre_y, f), py));
   }
   return done;
 }

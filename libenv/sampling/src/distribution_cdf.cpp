@@ -1,3 +1,4 @@
+#include <envkit/core/simd/simd_level.h>
 #include <envkit/sampling/distribution_cdf.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -7,7 +8,6 @@
 #include <string>
 
 #include "distribution_cdf_simd.h"
-#include "simd_level.h"
 
 namespace envkit {
 

@@ -1,10 +1,10 @@
 // Built with -ffp-contract=off (libenv/CMakeLists.txt): a fused multiply-add would round differently from find().
+#include <envkit/core/simd/lanes_avx2.h>
 #include <envkit/sampling/distribution.h>
 
 #include <algorithm>
 
 #include "distribution_cdf_simd.h"
-#include "lanes_avx2.h"
 
 namespace envkit::detail {
 

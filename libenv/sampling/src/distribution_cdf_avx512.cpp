@@ -4,7 +4,8 @@
 #include <algorithm>
 
 #include "distribution_cdf_simd.h"
-#include "lanes_avx512.h"
+// Last: its pragma holds for the rest of the file.
+#include <envkit/core/simd/lanes_avx512.h>
 
 namespace envkit::detail {
 

@@ -1,3 +1,4 @@
+#include <envkit/core/simd/simd_level.h>
 #include <envkit/sampling/distribution_hierarchical.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -9,7 +10,6 @@
 #include <string>
 
 #include "distribution_hierarchical_simd.h"
-#include "simd_level.h"
 
 namespace envkit {
 

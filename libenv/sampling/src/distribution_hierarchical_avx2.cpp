@@ -1,8 +1,9 @@
 // Built with -ffp-contract=off (libenv/CMakeLists.txt): a fused multiply-add would round differently from pick().
+#include <envkit/core/simd/lanes_avx2.h>
+
 #include <cstdint>
 
 #include "distribution_hierarchical_simd.h"
-#include "lanes_avx2.h"
 
 namespace envkit::detail {
 

@@ -2,7 +2,8 @@
 #include <cstdint>
 
 #include "distribution_hierarchical_simd.h"
-#include "lanes_avx512.h"
+// Last: its pragma holds for the rest of the file.
+#include <envkit/core/simd/lanes_avx512.h>
 
 namespace envkit::detail {
 

@@ -1,4 +1,5 @@
 #pragma once
+// Internal to libenv (its vector kernels).
 // Which vector code paths this process uses: the best the CPU has, unless ENVKIT_SIMD caps it: "none" for the portable
 // paths only, "avx2" for AVX2 even on an AVX-512 CPU (to rule a path out when chasing a problem, and for the tests that
 // hold every path to the portable one bit for bit).

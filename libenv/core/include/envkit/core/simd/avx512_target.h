@@ -1,4 +1,5 @@
 #pragma once
+// Internal to libenv (its vector kernels).
 // For the files whose functions are compiled for AVX-512 (F + DQ) alone and called only when use_avx512()
 // (simd_level.h): the intrinsics and the attribute that marks those functions. Include it last: its pragma holds for
 // the rest of the file.

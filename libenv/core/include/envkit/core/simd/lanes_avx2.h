@@ -1,7 +1,8 @@
 #pragma once
-// The lane operations of the vector sampling kernels (distribution_hierarchical_descent.inl,
-// distribution_cdf_search.inl) on AVX2: four lanes of doubles and 64-bit integers; masks are whole lanes of ones (the
-// comparisons' results), held as doubles. Call only when use_avx2() (simd_level.h).
+// Internal to libenv: the lane operations of its vector kernels (the samplers' distribution_hierarchical_descent.inl
+// and distribution_cdf_search.inl, resample's cube_projection_kernel.inl) on AVX2: four lanes of doubles and 64-bit
+// integers; masks are whole lanes of ones (the comparisons' results), held as doubles. Call only when use_avx2()
+// (simd_level.h).
 #include <cstddef>
 #include <cstdint>
 
@@ -18,6 +19,9 @@ struct Avx2Lanes {
   using M = __m256d;
   ENVKIT_AVX2 static D loadd(const double* p) { return _mm256_load_pd(p); }
   ENVKIT_AVX2 static void stored(double* p, D v) { _mm256_store_pd(p, v); }
+  /// Unaligned forms of loadd and stored.
+  ENVKIT_AVX2 static D loadu(const double* p) { return _mm256_loadu_pd(p); }
+  ENVKIT_AVX2 static void storeu(double* p, D v) { _mm256_storeu_pd(p, v); }
   ENVKIT_AVX2 static I loadi(const std::int64_t* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
   ENVKIT_AVX2 static void storei(std::int64_t* p, I v) { _mm256_store_si256(reinterpret_cast<__m256i*>(p), v); }
   ENVKIT_AVX2 static D setd(double x) { return _mm256_set1_pd(x); }
@@ -27,6 +31,7 @@ struct Avx2Lanes {
   ENVKIT_AVX2 static D mul(D a, D b) { return _mm256_mul_pd(a, b); }
   ENVKIT_AVX2 static D div(D a, D b) { return _mm256_div_pd(a, b); }
   ENVKIT_AVX2 static D min(D a, D b) { return _mm256_min_pd(a, b); }
+  ENVKIT_AVX2 static D abs(D a) { return _mm256_andnot_pd(_mm256_set1_pd(-0.0), a); }
   ENVKIT_AVX2 static I plus(I a, I b) { return _mm256_add_epi64(a, b); }
   ENVKIT_AVX2 static I minus(I a, I b) { return _mm256_sub_epi64(a, b); }
   ENVKIT_AVX2 static I half(I a) { return _mm256_srli_epi64(a, 1); }
@@ -39,6 +44,7 @@ struct Avx2Lanes {
   ENVKIT_AVX2 static M less(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
   ENVKIT_AVX2 static M at_least(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_GE_OQ); }
   ENVKIT_AVX2 static M not_less(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_NLT_UQ); }
+  ENVKIT_AVX2 static M greater(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
   ENVKIT_AVX2 static M greater(I a, I b) { return _mm256_castsi256_pd(_mm256_cmpgt_epi64(a, b)); }
   ENVKIT_AVX2 static M both(M a, M b) { return _mm256_and_pd(a, b); }
   ENVKIT_AVX2 static M either(M a, M b) { return _mm256_or_pd(a, b); }
@@ -47,6 +53,10 @@ struct Avx2Lanes {
   ENVKIT_AVX2 static M first(std::size_t c) {
     return greater(_mm256_set1_epi64x(std::int64_t(c)), _mm256_setr_epi64x(0, 1, 2, 3));
   }
+  /// Small whole numbers held as doubles, as 64-bit lane indices.
+  ENVKIT_AVX2 static I index(D v) { return _mm256_cvtepi32_epi64(_mm256_cvttpd_epi32(v)); }
+  /// table[i] per lane, from a table of at least 8 doubles.
+  ENVKIT_AVX2 static D lookup(const double* table, I i) { return _mm256_i64gather_pd(table, i, 8); }
   /// base[index] in double where m, 0 elsewhere. The gather of four floats takes a 32-bit mask: the low half of each
   /// 64-bit mask lane.
   ENVKIT_AVX2 static D gather(const float* base, M m, I index) {

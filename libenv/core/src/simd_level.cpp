@@ -1,4 +1,4 @@
-#include "simd_level.h"
+#include <envkit/core/simd/simd_level.h>
 
 #include <cstdlib>
 #include <cstring>
