@@ -17,8 +17,9 @@ Per region (each sphere, the ground: bench_cycles' analytic masks):
   seconds = envrender: envkit:seconds (the render loop; the product tables of the widened materials are built
             before it); Cycles: wall time of bpy.ops.render.render() after a warm-up (cycles_scene.py)
   efficiency = 1 / (relMSE x seconds); ratio = envrender / Cycles at the same spp
-Tables: efficiency ratios (envrender unbiased vs Cycles Filter Glossy 0; each envrender value vs Cycles' default),
-and bias against noise for each regularization value.
+Tables: a summary (per HDRI, depth, spp and value: the efficiency ratio's geometric mean over the regions and its
+range), efficiency ratios per region (envrender unbiased vs Cycles Filter Glossy 0; each envrender value vs Cycles'
+default), and bias against noise for each regularization value.
 
   scripts/bench/bench_indirect.sh --quick     reduced run: sunrise, depth 3 only, 64x36, 16/64 spp, references
                                               1024 spp, regularize 0,0.5,1,2 (for a loaded machine)
@@ -138,6 +139,26 @@ def efficiency(run, region):
     return 1.0 / (m * run["seconds"]) if m > 0 else None
 
 
+def summary_rows(res):
+    """Per HDRI, depth, spp and envrender value: the efficiency ratio against unbiased Cycles (value 0) and against
+    Cycles' default, as the geometric mean over the regions and their range."""
+    rows = []
+    for h, H in res["hdris"].items():
+        for R in H:
+            for v, E in R["envrender"].items():
+                for g, C in R["cycles"].items():
+                    if v != "0" and g == "0":
+                        continue  # a biased envrender against unbiased Cycles says little
+                    for spp in map(str, res["spp"]):
+                        a, b = E["runs"][spp], C["runs"][spp]
+                        r = [efficiency(a, reg) / efficiency(b, reg) for reg in res["regions"]
+                             if efficiency(a, reg) and efficiency(b, reg)]
+                        if r:
+                            rows.append(f"| {h} | {R['depth']} | {spp} | {v} | {g} | "
+                                        f"**{float(np.exp(np.mean(np.log(r)))):.2f}** | {min(r):.2f}-{max(r):.2f} |")
+    return rows
+
+
 def write_markdown(res, out):
     L = [f"envrender --max-depth D vs Cycles max_bounces D - 1, {res['date_utc']} UTC, {res['size'][0]}x"
          f"{res['size'][1]} px, references {res['ref_spp']} spp (each renderer's own, unbiased), bias renders "
@@ -145,6 +166,9 @@ def write_markdown(res, out):
          f"{' '.join(res['load_end'])} at end, {res['wall_minutes']:.1f} min.", "",
          "Efficiency = 1 / (relMSE x seconds) against the renderer's UNBIASED reference (bias counts); "
          "ratio = envrender / Cycles.", "",
+         "Summary: the ratio's geometric mean over the regions, and its range.", "",
+         "| HDRI | depth | spp | envrender regularize | Cycles Filter Glossy | ratio (geo mean) | regions |",
+         "|---|---:|---:|---:|---:|---:|---|"] + summary_rows(res) + ["",
          "| HDRI | depth | spp | envrender regularize | Cycles Filter Glossy | region | relMSE envrender | "
          "relMSE Cycles | s envrender | s Cycles | ratio |",
          "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|"]

@@ -5,6 +5,9 @@
 #
 #   scripts/bench/bench_indirect.sh --quick     reduced run (sunrise, depth 3, 64x36, references 1024 spp)
 #   scripts/bench/bench_indirect.sh             full run (sunrise, forest, interior; depths 2, 3, 5; 160x90; 4096 spp)
+#   scripts/bench/bench_indirect.sh --depths 3 --spp 64,256 --size 96x54 --ref-spp 2048 --regularize 0,0.5,1
+#                                               three HDRIs at depth 3 in about 15 min on 2 loaded cores
+#                                               (docs/report/indirect_96x54.md)
 #
 # Output (default out/bench_indirect/): every EXR, results.json, results.md (tables), bias_noise.png.
 set -euo pipefail

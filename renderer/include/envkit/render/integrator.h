@@ -9,6 +9,10 @@
 /// by one extra BSDF-sampled continuation ray that only counts when it hits a surface; an escaping
 /// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
 /// --max-depth 1 (the default) is direct illumination only.
+/// Every vertex of a path estimates D as the camera hit does, with its material's sample counts (sample_counts()),
+/// and draws its continuation apart. Taking one light and one BSDF sample at the vertices after the camera hit, and
+/// continuing along that BSDF sample (the classic path tracer), cost more in noise than they saved in time: the
+/// light samples at a glossy vertex are what find the sun through a caustic path (docs/RENDERER-INDIRECT.md).
 ///
 /// Russian roulette. The continuation ray leaving vertex d (d = 0: the camera ray's hit) is traced for certain when
 /// d < kRouletteStartVertex; from there on it survives with probability q = clamp(max RGB component of the path's
