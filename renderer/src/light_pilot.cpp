@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -28,20 +29,21 @@ constexpr double kProductDescentCost = 0.25;
 constexpr double kRelMseFloor = 1e-2;
 constexpr std::uint32_t kPilotSeed = 0x9e3779b9u;
 
-double luminance(const Vec3& v) { return 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z; }
-
 /// A primary hit as a shading point's parts.
 struct PilotPoint {
   Vec3 position;
   SurfaceView view;
 };
 
-/// The first moments of kRepeats estimates.
+/// The first moments of kRepeats estimates of one colour channel.
 struct Moments {
   double sum = 0.0, sum_sq = 0.0;
   double mean() const { return sum / kRepeats; }
   double variance() const { return std::max(0.0, sum_sq / kRepeats - mean() * mean()) * kRepeats / (kRepeats - 1); }
 };
+/// Per channel (R, G, B): the images are judged by relMSE over every channel, so a channel that is dim under this
+/// light (the blue of a warm interior) weighs as much as the others, which a luminance would hide.
+using ChannelMoments = std::array<Moments, 3>;
 
 /// Per scene material, the primary hits of the camera lattice that see its front.
 std::vector<std::vector<PilotPoint>> pilot_points(const Scene& scene, const Camera& camera) {
@@ -65,23 +67,26 @@ std::vector<PilotPoint> thinned(const std::vector<PilotPoint>& all) {
   return points;
 }
 
-/// scores[p x C + c]: point p's relative variance under candidate c, as the images are judged (relMSE: the
-/// variance over the squared mean plus kRelMseFloor, the mean over every candidate since they estimate the same
-/// value), times the candidate's cost per shading point.
-std::vector<double> scores(const std::vector<Moments>& moments, const std::vector<LightChoice>& candidates,
+/// scores[p x C + c]: point p's relative variance under candidate c, as the images are judged (relMSE: per channel
+/// the variance over the squared mean plus kRelMseFloor, the mean over every candidate since they estimate the same
+/// value; averaged over the channels), times the candidate's cost per shading point.
+std::vector<double> scores(const std::vector<ChannelMoments>& moments, const std::vector<LightChoice>& candidates,
                            SampleCounts n, int sun_samples) {
   const std::size_t count = candidates.size(), points = moments.size() / count;
-  std::vector<double> out(moments.size());
-  for (std::size_t p = 0; p < points; ++p) {
-    double mean = 0.0;
-    for (std::size_t c = 0; c < count; ++c) mean += moments[p * count + c].mean() / double(count);
+  std::vector<double> out(moments.size(), 0.0);
+  for (std::size_t p = 0; p < points; ++p)
+    for (std::size_t ch = 0; ch < 3; ++ch) {
+      double mean = 0.0;
+      for (std::size_t c = 0; c < count; ++c) mean += moments[p * count + c][ch].mean() / double(count);
+      for (std::size_t c = 0; c < count; ++c)
+        out[p * count + c] += moments[p * count + c][ch].variance() / (mean * mean + kRelMseFloor) / 3.0;
+    }
+  for (std::size_t p = 0; p < points; ++p)
     for (std::size_t c = 0; c < count; ++c) {
       const LightChoice& k = candidates[c];
-      const double cost =
+      out[p * count + c] *=
           1.0 + n.bsdf + n.light * (1.0 + (k.product ? kProductDescentCost : 0.0)) + (k.sun_apart ? sun_samples : 0);
-      out[p * count + c] = moments[p * count + c].variance() / (mean * mean + kRelMseFloor) * cost;
     }
-  }
   return out;
 }
 
@@ -121,7 +126,7 @@ void Integrator::choose_by_pilot(const Camera& camera) {
     const std::vector<PilotPoint> points = thinned(found[std::size_t(m)]);
     if (material.is_pure_delta() || points.empty()) continue;
     // moments[p x C + c]: each point's slots are its own, so the sums do not depend on the threads.
-    std::vector<Moments> moments(points.size() * candidates.size());
+    std::vector<ChannelMoments> moments(points.size() * candidates.size());
     tbb::parallel_for(std::size_t(0), points.size(), [&](std::size_t p) {
       const SurfaceView& v = points[p].view;
       const ShadingPoint x{Scene::offset_origin(points[p].position, v.ng), v.frame, v.ng, v.wo, material};
@@ -129,10 +134,13 @@ void Integrator::choose_by_pilot(const Camera& camera) {
       for (std::size_t c = 0; c < candidates.size(); ++c)
         for (int r = 0; r < kRepeats; ++r) {
           sampler.start_sample(std::uint32_t(c * kRepeats + r));
-          const double e = luminance(direct_mis_with(x, sampler, candidates[c]));
-          Moments& mo = moments[p * candidates.size() + c];
-          mo.sum += std::isfinite(e) ? e : 0.0;
-          mo.sum_sq += std::isfinite(e) ? e * e : 0.0;
+          const Vec3 e = direct_mis_with(x, sampler, candidates[c]);
+          for (int ch = 0; ch < 3; ++ch) {
+            const double value = std::isfinite(e[ch]) ? e[ch] : 0.0;
+            Moments& mo = moments[p * candidates.size() + c][std::size_t(ch)];
+            mo.sum += value;
+            mo.sum_sq += value * value;
+          }
         }
     });
     const LightChoice mis_choice{false, sun_ && takes_sun_samples(material)};

@@ -1,6 +1,7 @@
 // Strategy auto's pilot (light_pilot.cpp): without a camera auto is product-mis, pixel for pixel; with one, each
-// material's choice depends on the scene alone, not on the thread count. (Unbiasedness, crop and tile independence
-// and finiteness under a 1e6 sun: test_render_strategies.cpp, which renders auto beside every other strategy.)
+// material's choice depends on the scene alone, not on the thread count, and weighs the colour channels alike.
+// (Unbiasedness, crop and tile independence and finiteness under a 1e6 sun: test_render_strategies.cpp, which
+// renders auto beside every other strategy.)
 #include <envkit/render/integrator.h>
 #include <envkit/render/render.h>
 #include <envkit/render/scene_loader.h>
@@ -70,6 +71,46 @@ TEST(LightPilot, ExplicitStrategiesKeepTheirRule) {
           << strategy_name(s) << " " << m;
     }
   }
+}
+
+/// A sunny scene lit in one colour channel only (`channel`: 0 red, 2 blue): the sun and the sky hold their radiance
+/// there, the materials are grey. Its maps differ from one channel to another only in the channel the radiance sits
+/// in, so every candidate draws the same directions with the same densities in both.
+LoadedScene one_channel_scene(int channel) {
+  const auto rgb = [channel](double v) {
+    std::string out = "[";
+    out += channel == 0 ? std::to_string(v) : "0";
+    out += ", 0, ";
+    out += channel == 2 ? std::to_string(v) : "0";
+    return out + "]";
+  };
+  std::string text = R"({"camera": {"position": [0, 1.6, -7.5], "look_at": [0, 0.55, 0], "resolution": [48, 24]},
+    "environment": {"probe": "sun", "size": [256, 128], "elevation_deg": 20, "radius_deg": 1.5, "radiance": )";
+  text += rgb(300.0) + R"(, "sky": )" + rgb(0.2) + R"(},
+    "materials": {"ground": {"type": "diffuse", "albedo": 0.5},
+                  "c005": {"type": "conductor", "roughness": 0.05},
+                  "c030": {"type": "conductor", "roughness": 0.3},
+                  "p010": {"type": "plastic", "diffuse": 0.4, "roughness": 0.1}},
+    "shapes": [{"type": "triangles", "material": "ground", "vertices": [[-50, 0, -50], [50, 0, -50], [50, 0, 50],
+                [-50, 0, 50]], "triangles": [[0, 2, 1], [0, 3, 2]]},
+               {"type": "sphere", "center": [-1.3, 0.55, 0], "radius": 0.55, "material": "c005"},
+               {"type": "sphere", "center": [0, 0.55, 0], "radius": 0.55, "material": "c030"},
+               {"type": "sphere", "center": [1.3, 0.55, 0], "radius": 0.55, "material": "p010"}]})";
+  return load_scene_text(text, "one_channel.json", SceneLoadOptions{});
+}
+
+TEST(LightPilot, WeighsTheColourChannelsAlike) {
+  // The images are judged by relMSE over every channel, each against its own mean: a scene lit in red alone and the
+  // same scene lit in blue alone have the same errors in their lit channel and must get the same choices. (A score
+  // on the luminance sees the blue scene three times dimmer than the red one, so that relMSE's floor weighs its
+  // points otherwise.)
+  std::vector<LightChoice> choices[2];
+  for (int k = 0; k < 2; ++k) {
+    const LoadedScene scene = one_channel_scene(2 * k);
+    const Integrator integrator(*scene.scene, *scene.light, with(Strategy::Auto), &scene.camera);
+    for (int m = 0; m < scene.scene->material_count(); ++m) choices[k].push_back(integrator.light_choice(m));
+  }
+  EXPECT_EQ(choices[0], choices[1]);
 }
 
 }  // namespace
