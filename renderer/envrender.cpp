@@ -264,7 +264,8 @@ int main(int argc, char** argv) {
                      std::to_string(envkit::render::kNarrowBsdfSamples) +
                      " for materials with a lobe narrower than GGX alpha " + narrow +
                      " (a glossy metal or coat), "
-                     "else 1 (powers of two stratify best)")
+                     "else 1 (powers of two stratify best); with --max-depth > 1, " +
+                     std::to_string(envkit::render::kPathBsdfSamples) + " for every material")
       ->transform(tools::integer_in(0, 1024));
   app.add_option("--light-samples", a.light_samples,
                  "light (or product) samples per shading point (M) for every material; default: by the material's "
@@ -272,7 +273,8 @@ int main(int argc, char** argv) {
                      std::to_string(envkit::render::kWideLightSamples) +
                      " for materials whose lobes are all at least as wide as GGX alpha " + narrow +
                      " (Lambertian, rough metal) and " + std::to_string(envkit::render::kNarrowLightSamples) +
-                     " for the others")
+                     " for the others; with --max-depth > 1, " + std::to_string(envkit::render::kPathLightSamples) +
+                     " for every material")
       ->transform(tools::integer_in(0, 1024));
   app.add_option("--sun-samples", a.sun_samples,
                  "light, mis, mis-compensated, product, product-mis: samples of the map's sun per shading point, drawn "

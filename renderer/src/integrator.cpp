@@ -20,8 +20,9 @@ Vec3 mul(const Vec3& a, const Vec3& b) { return Vec3(a.x * b.x, a.y * b.y, a.z *
 
 SampleCounts sample_counts(const IntegratorOptions& options, const Material& material) {
   const bool narrow = material.narrowest_lobe_alpha() < kWideLobeAlpha;
-  const SampleCounts by_lobe =
-      narrow ? SampleCounts{kNarrowBsdfSamples, kNarrowLightSamples} : SampleCounts{1, kWideLightSamples};
+  const SampleCounts by_lobe = options.max_depth > 1 ? SampleCounts{kPathBsdfSamples, kPathLightSamples}
+                               : narrow              ? SampleCounts{kNarrowBsdfSamples, kNarrowLightSamples}
+                                                     : SampleCounts{1, kWideLightSamples};
   return {options.bsdf_samples.value_or(by_lobe.bsdf), options.light_samples.value_or(by_lobe.light)};
 }
 

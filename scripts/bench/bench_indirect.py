@@ -42,10 +42,28 @@ from bench.bench_cycles import (HDRI_DIR, SCENES, cycles_shadowing, envrender_sc
 from bench.common import EPS, exr_attr, read_exr, region_masks, rel_mse
 
 
-def run_envrender(args, scene_path, depth, regularize, spp, seed, out):
+def counts_args(counts):
+    """envrender's options for a --counts entry: "default" (by the material's lobe) or "N+M" (N BSDF + M light
+    samples per shading point for every material)."""
+    if counts == "default":
+        return []
+    n, m = counts.split("+")
+    return ["--bsdf-samples", n, "--light-samples", m]
+
+
+def variant_key(regularize, counts):
+    """results.json's key of one envrender variant: the --regularize value, and its counts unless the default."""
+    return f"{regularize:g}" + ("" if counts == "default" else f" {counts}")
+
+
+def is_unbiased(key):
+    return float(key.split()[0]) == 0.0
+
+
+def run_envrender(args, scene_path, depth, regularize, spp, seed, out, counts="default"):
     cmd = [args.envrender, "--scene", scene_path, "--spp", str(spp), "--seed", str(seed), "--bake",
            "--max-depth", str(depth), "--regularize", repr(regularize), "--threads", str(args.threads), "-q", "-f",
-           "-o", out]
+           "-o", out] + counts_args(counts)
     if not (args.reuse and os.path.exists(out)):
         subprocess.run(cmd, check=True)
     return float(exr_attr(out, "envkit:seconds"))
@@ -102,36 +120,55 @@ def measure_depth(args, hdri, d, depth, size, mask, regions):
     R["agreement_median_abs_rel_diff"] = {r: float(np.median(np.abs(rel[mask == i]))) for i, r in enumerate(regions)}
     print(f"bench_indirect: depth {depth}: references {time.time() - t0:.0f} s", flush=True)
     for v in args.regularize:
-        runs = {}
-        for spp in args.spp:
-            path = os.path.join(d, f"envrender_{tag}_reg{v:g}_{spp}spp.exr")
-            sec = run_envrender(args, scene_path, depth, v, spp, 17 + spp, path)
-            runs[str(spp)] = {"seconds": sec, "relmse": region_errors(read_exr(path), ref["envrender"], mask, regions)}
+        # One bias render per value, at the default counts: the counts do not change what a render converges to.
         bias_path = os.path.join(d, f"envrender_{tag}_reg{v:g}_bias.exr")
         run_envrender(args, scene_path, depth, v, args.bias_spp, 4242, bias_path)
         bias_img = read_exr(bias_path)
-        noise = {}
-        for spp in args.spp:
-            path = os.path.join(d, f"envrender_{tag}_reg{v:g}_{spp}spp.exr")
-            noise[str(spp)] = region_errors(read_exr(path), bias_img, mask, regions)
-        R["envrender"][f"{v:g}"] = {"runs": runs, "bias": region_errors(bias_img, ref["envrender"], mask, regions),
-                                    "noise": noise}
-        print(f"bench_indirect: depth {depth}: envrender --regularize {v:g} done", flush=True)
+        bias = region_errors(bias_img, ref["envrender"], mask, regions)
+        for c in args.counts:
+            suffix = "" if c == "default" else f"_c{c}"
+            runs, noise = {}, {}
+            for spp in args.spp:
+                reps = []
+                for r in range(args.repeats):
+                    rep = "" if r == 0 else f"_r{r}"
+                    path = os.path.join(d, f"envrender_{tag}_reg{v:g}{suffix}_{spp}spp{rep}.exr")
+                    sec = run_envrender(args, scene_path, depth, v, spp, 17 + spp + 1000 * r, path, c)
+                    img = read_exr(path)
+                    reps.append((sec, region_errors(img, ref["envrender"], mask, regions),
+                                 region_errors(img, bias_img, mask, regions)))
+                runs[str(spp)] = mean_repeats(reps, regions)
+                noise[str(spp)] = {reg: float(np.mean([x[2][reg] for x in reps])) for reg in regions}
+            R["envrender"][variant_key(v, c)] = {"runs": runs, "bias": bias, "noise": noise}
+            print(f"bench_indirect: depth {depth}: envrender --regularize {v:g} counts {c} done", flush=True)
     for g in args.filter_glossy:
-        renders = [{"spp": spp, "seed": 17 + spp, "output": os.path.join(d, f"cycles_{tag}_fg{g:g}_{spp}spp.exr")}
-                   for spp in args.spp]
+        renders = [{"spp": spp, "seed": 17 + spp + 1000 * r,
+                    "output": os.path.join(d, f"cycles_{tag}_fg{g:g}_{spp}spp{'' if r == 0 else f'_r{r}'}.exr")}
+                   for spp in args.spp for r in range(args.repeats)]
         renders.append({"spp": args.bias_spp, "seed": 4242, "output": os.path.join(d, f"cycles_{tag}_fg{g:g}_bias.exr")})
         t = run_cycles(args, hdri, size, bounces, g, renders, os.path.join(d, f"cycles_{tag}_fg{g:g}"))
         bias_img = read_exr(renders[-1]["output"])
         runs, noise = {}, {}
-        for r in t["renders"][:-1]:
-            img = read_exr(r["output"])
-            runs[str(r["spp"])] = {"seconds": r["seconds"], "relmse": region_errors(img, ref["cycles"], mask, regions)}
-            noise[str(r["spp"])] = region_errors(img, bias_img, mask, regions)
+        for spp in args.spp:
+            reps = []
+            for r in t["renders"][:-1]:
+                if r["spp"] != spp:
+                    continue
+                img = read_exr(r["output"])
+                reps.append((r["seconds"], region_errors(img, ref["cycles"], mask, regions),
+                             region_errors(img, bias_img, mask, regions)))
+            runs[str(spp)] = mean_repeats(reps, regions)
+            noise[str(spp)] = {reg: float(np.mean([x[2][reg] for x in reps])) for reg in regions}
         R["cycles"][f"{g:g}"] = {"runs": runs, "bias": region_errors(bias_img, ref["cycles"], mask, regions),
                                  "noise": noise}
         print(f"bench_indirect: depth {depth}: Cycles Filter Glossy {g:g} done", flush=True)
     return R
+
+
+def mean_repeats(reps, regions):
+    """The repeats of one render ((seconds, relMSE per region, noise per region) each): mean seconds, mean relMSE."""
+    return {"seconds": float(np.mean([x[0] for x in reps])), "repeats": len(reps),
+            "relmse": {reg: float(np.mean([x[1][reg] for x in reps])) for reg in regions}}
 
 
 def efficiency(run, region):
@@ -147,7 +184,7 @@ def summary_rows(res):
         for R in H:
             for v, E in R["envrender"].items():
                 for g, C in R["cycles"].items():
-                    if v != "0" and g == "0":
+                    if not is_unbiased(v) and g == "0":
                         continue  # a biased envrender against unbiased Cycles says little
                     for spp in map(str, res["spp"]):
                         a, b = E["runs"][spp], C["runs"][spp]
@@ -159,6 +196,27 @@ def summary_rows(res):
     return rows
 
 
+def counts_rows(res):
+    """Per HDRI, depth, spp and value: each counts variant's efficiency over the default counts' (same value), as
+    the geometric mean over the regions, their range, and the time ratio."""
+    rows = []
+    for h, H in res["hdris"].items():
+        for R in H:
+            for key, E in R["envrender"].items():
+                if len(key.split()) < 2 or key.split()[0] not in R["envrender"]:
+                    continue
+                base = R["envrender"][key.split()[0]]
+                for spp in map(str, res["spp"]):
+                    a, b = E["runs"][spp], base["runs"][spp]
+                    r = [efficiency(a, reg) / efficiency(b, reg) for reg in res["regions"]
+                         if efficiency(a, reg) and efficiency(b, reg)]
+                    if r:
+                        rows.append(f"| {h} | {R['depth']} | {spp} | {key.split()[0]} | {key.split()[1]} | "
+                                    f"**{float(np.exp(np.mean(np.log(r)))):.2f}** | {min(r):.2f}-{max(r):.2f} | "
+                                    f"{a['seconds'] / b['seconds']:.2f} |")
+    return rows
+
+
 def write_markdown(res, out):
     L = [f"envrender --max-depth D vs Cycles max_bounces D - 1, {res['date_utc']} UTC, {res['size'][0]}x"
          f"{res['size'][1]} px, references {res['ref_spp']} spp (each renderer's own, unbiased), bias renders "
@@ -167,8 +225,15 @@ def write_markdown(res, out):
          "Efficiency = 1 / (relMSE x seconds) against the renderer's UNBIASED reference (bias counts); "
          "ratio = envrender / Cycles.", "",
          "Summary: the ratio's geometric mean over the regions, and its range.", "",
-         "| HDRI | depth | spp | envrender regularize | Cycles Filter Glossy | ratio (geo mean) | regions |",
-         "|---|---:|---:|---:|---:|---:|---|"] + summary_rows(res) + ["",
+         "| HDRI | depth | spp | envrender regularize [counts] | Cycles Filter Glossy | ratio (geo mean) | regions |",
+         "|---|---:|---:|---:|---:|---:|---|"] + summary_rows(res) + [""]
+    if any(c != "default" for c in res.get("counts", [])):
+        L += [f"Sample counts (N BSDF + M light per shading point, every vertex; {res.get('repeats', 1)} repeat(s), "
+              "means) against the default counts (by the material's lobe), same --regularize value: efficiency "
+              "ratio, geometric mean over the regions, range, and time ratio.", "",
+              "| HDRI | depth | spp | regularize | counts | ratio (geo mean) | regions | time |",
+              "|---|---:|---:|---:|---|---:|---|---:|"] + counts_rows(res) + [""]
+    L += [
          "| HDRI | depth | spp | envrender regularize | Cycles Filter Glossy | region | relMSE envrender | "
          "relMSE Cycles | s envrender | s Cycles | ratio |",
          "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|"]
@@ -176,7 +241,7 @@ def write_markdown(res, out):
         for R in H:
             for v, E in R["envrender"].items():
                 for g, C in R["cycles"].items():
-                    if v != "0" and g == "0":
+                    if not is_unbiased(v) and g == "0":
                         continue  # a biased envrender against unbiased Cycles says little
                     for spp in map(str, res["spp"]):
                         a, b = E["runs"][spp], C["runs"][spp]
@@ -244,6 +309,11 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=4096)
     ap.add_argument("--bias-spp", type=int, default=None, help="default: --ref-spp / 4")
     ap.add_argument("--regularize", default="0,0.25,0.5,1,2", help="envrender --regularize values")
+    ap.add_argument("--counts", default="default",
+                    help="envrender sample counts per shading point: default (by the material's lobe) or N+M "
+                         "(--bsdf-samples N --light-samples M for every material), comma-separated")
+    ap.add_argument("--repeats", type=int, default=1, help="renders per measured setting (seeds 17 + spp + 1000 r); "
+                    "relMSE and seconds are their means")
     ap.add_argument("--filter-glossy", default="0,1", help="Cycles Filter Glossy values")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--quick", action="store_true",
@@ -263,6 +333,7 @@ def main():
     args.spp = [int(s) for s in args.spp.split(",")]
     args.regularize = [float(v) for v in args.regularize.split(",")]
     args.filter_glossy = [float(v) for v in args.filter_glossy.split(",")]
+    args.counts = args.counts.split(",")
     depths = [int(v) for v in args.depths.split(",")]
     size = tuple(int(v) for v in args.size.lower().split("x"))
     os.makedirs(args.out, exist_ok=True)
@@ -276,7 +347,8 @@ def main():
     results = {"date_utc": start.strftime("%Y-%m-%d %H:%M"), "size": list(size), "spp": args.spp,
                "ref_spp": args.ref_spp, "bias_spp": args.bias_spp, "threads": args.threads, "eps": EPS,
                "regions": regions, "scene": spec_for_json(args.spec), "regularize": args.regularize,
-               "filter_glossy": args.filter_glossy, "quick": args.quick, "hdris": {}}
+               "filter_glossy": args.filter_glossy, "counts": args.counts, "repeats": args.repeats,
+               "quick": args.quick, "hdris": {}}
     for hdri_name in args.hdris.split(","):
         hdri = os.path.join(HDRI_DIR, hdri_name + ".exr")
         d = os.path.join(out, hdri_name)

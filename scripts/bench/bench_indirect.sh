@@ -8,6 +8,10 @@
 #   scripts/bench/bench_indirect.sh --depths 3 --spp 64,256 --size 96x54 --ref-spp 2048 --regularize 0,0.5,1
 #                                               three HDRIs at depth 3 in about 15 min on 2 loaded cores
 #                                               (docs/report/indirect_96x54.md)
+#   ... --regularize 0,0.5 --counts default,1+1,1+2,2+2 --repeats 2
+#                                               sample counts N+M (--bsdf-samples N --light-samples M) against the
+#                                               default, 2 repeats (23 min); time them apart with
+#                                               bench_indirect_timing.py (the bench's own times are too noisy)
 #
 # Output (default out/bench_indirect/): every EXR, results.json, results.md (tables), bias_noise.png.
 set -euo pipefail

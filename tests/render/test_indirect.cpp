@@ -7,6 +7,8 @@
 // - regularization > 0 cuts the variance of caustic paths (diffuse wall -> near-specular floor -> sun) and stays
 //   finite under a 1e6 sun;
 // - pixels do not depend on the crop, the tile size or the thread count at depth 3;
+// - paths take one BSDF and two light samples per vertex unless the options set counts, and converge to the image
+//   of other counts;
 // - bad values of the option are refused.
 #include <envkit/render/integrator.h>
 #include <envkit/render/material.h>
@@ -378,6 +380,47 @@ TEST(Indirect, CropTileAndThreadCountDoNotChangePixelsAtDepthThree) {
     ro.seed = 11;
     envkit::test::expect_crop_matches(scene, options, ro, Crop{3, 2, 14, 9}, 3);
   }
+}
+
+TEST(Indirect, PathsTakeOneBsdfAndTwoLightSamplesPerVertexUnlessTheOptionsSetCounts) {
+  const std::unique_ptr<Material> diffuse = make_diffuse(Vec3(0.5));
+  const std::unique_ptr<Material> glossy = make_conductor(Vec3(0.2), Vec3(3.0), 0.05);
+  for (const Material* m : {diffuse.get(), glossy.get()}) {
+    SCOPED_TRACE(m->name());
+    IntegratorOptions direct_only, paths;
+    paths.max_depth = 3;
+    // Direct light alone keeps the counts by lobe.
+    EXPECT_EQ(sample_counts(direct_only, *m).light, m == glossy.get() ? kNarrowLightSamples : kWideLightSamples);
+    EXPECT_EQ(sample_counts(paths, *m).bsdf, kPathBsdfSamples);
+    EXPECT_EQ(sample_counts(paths, *m).light, kPathLightSamples);
+    paths.bsdf_samples = 2;
+    paths.light_samples = 8;
+    EXPECT_EQ(sample_counts(paths, *m).bsdf, 2);
+    EXPECT_EQ(sample_counts(paths, *m).light, 8);
+  }
+  EXPECT_EQ(kPathBsdfSamples, 1);
+  EXPECT_EQ(kPathLightSamples, 2);
+}
+
+TEST(Indirect, PathCountsConvergeToTheImageOfTheCountsByLobe) {
+  // A glossy sphere on a diffuse ground under a sun, depth 3: the default counts (one BSDF and two light samples
+  // per vertex) and four of each estimate the same image; compared by the image mean, within the two renders' noise.
+  const LoadedScene scene = load(caustic_json(200.0), "caustic.json");
+  IntegratorOptions by_default, four;
+  by_default.max_depth = four.max_depth = 3;
+  four.bsdf_samples = four.light_samples = 4;
+  RenderOptions ro;
+  ro.spp = 256;
+  double var_a = 0.0, var_b = 0.0;
+  const Integrator a(*scene.scene, *scene.light, by_default, &scene.camera);
+  const Integrator b(*scene.scene, *scene.light, four, &scene.camera);
+  const double mean_a = image_mean(render_image(scene.camera, a, ro), &var_a);
+  ro.seed = 2;
+  const double mean_b = image_mean(render_image(scene.camera, b, ro), &var_b);
+  EXPECT_NEAR(mean_a, mean_b, 4.0 * std::sqrt(var_a + var_b));
+  EXPECT_GT(mean_a, 0.0);
+  for (int m = 0; m < scene.scene->material_count(); ++m)
+    EXPECT_EQ(a.counts(scene.scene->material(m)).light, kPathLightSamples);
 }
 
 TEST(Indirect, BadRegularizationIsRefused) {

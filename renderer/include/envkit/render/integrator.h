@@ -9,10 +9,12 @@
 /// by one extra BSDF-sampled continuation ray that only counts when it hits a surface; an escaping
 /// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
 /// --max-depth 1 (the default) is direct illumination only.
-/// Every vertex of a path estimates D as the camera hit does, with its material's sample counts (sample_counts()),
-/// and draws its continuation apart. Taking one light and one BSDF sample at the vertices after the camera hit, and
-/// continuing along that BSDF sample (the classic path tracer), cost more in noise than they saved in time: the
-/// light samples at a glossy vertex are what find the sun through a caustic path (docs/RENDERER-INDIRECT.md).
+/// Every vertex of a path, the camera hit included, estimates D by the chosen strategy with the same sample counts
+/// (sample_counts()) and draws its continuation apart. When paths are followed (max_depth > 1) the counts the
+/// options leave unset are one BSDF and two light samples (and the sun's) for every material: much of a pixel's
+/// noise is then the indirect part's, which one continuation per vertex estimates, so the counts by lobe that direct
+/// light alone takes spend more time than they remove noise (docs/RENDERER-INDIRECT.md). Direct light alone
+/// (max_depth 1) keeps the counts by lobe.
 ///
 /// Russian roulette. The continuation ray leaving vertex d (d = 0: the camera ray's hit) is traced for certain when
 /// d < kRouletteStartVertex; from there on it survives with probability q = clamp(max RGB component of the path's
@@ -156,8 +158,8 @@ struct IntegratorOptions {
   Strategy strategy = Strategy::Auto;
   SamplingMethod light_method = SamplingMethod::Hierarchical;
   Heuristic heuristic = Heuristic::Power;
-  /// BSDF (N) and light (M) samples per shading point, for every material; unset: by the material's lobe
-  /// (sample_counts()).
+  /// BSDF (N) and light (M) samples per shading point, for every material; unset: by the material's lobe, or
+  /// kPathBsdfSamples and kPathLightSamples when max_depth > 1 (sample_counts()).
   std::optional<int> bsdf_samples;
   std::optional<int> light_samples;
   int max_depth = 1;  ///< scattering events per path (1 = direct only)
@@ -228,11 +230,15 @@ void validate(const IntegratorOptions& options);
 inline constexpr double kWideLobeAlpha = 0.25;
 /// Materials whose widest lobe is at least this GGX alpha take sun samples (takes_sun_samples()).
 inline constexpr double kSunSampleAlpha = 0.1;
-/// Light samples of a wide lobe when the options leave the counts unset.
+/// Light samples of a wide lobe when the options leave the counts unset (direct light only, max_depth 1).
 inline constexpr int kWideLightSamples = 4;
-/// A narrow lobe's BSDF and light samples when the options leave the counts unset.
+/// A narrow lobe's BSDF and light samples when the options leave the counts unset (direct light only).
 inline constexpr int kNarrowBsdfSamples = 4;
 inline constexpr int kNarrowLightSamples = 4;
+/// Every material's BSDF and light samples when the options leave the counts unset and paths are followed
+/// (max_depth > 1), at every vertex (sample_counts()).
+inline constexpr int kPathBsdfSamples = 1;
+inline constexpr int kPathLightSamples = 2;
 
 /// Russian roulette (the file comment): the first vertex whose continuation may be cut, and the smallest
 /// survival probability (bounds the weight 1 / q of a surviving path).
@@ -253,7 +259,11 @@ struct SampleCounts {
   int bsdf = 1;
   int light = 1;
 };
-/// The options' counts where set, else by the material's lobes. A material whose lobes are all wide (Lambertian,
+/// The options' counts where set; else, when paths are followed (options.max_depth > 1), kPathBsdfSamples and
+/// kPathLightSamples for every material and vertex: much of a pixel's noise is then its indirect light's, estimated
+/// by one continuation per vertex, and the counts by lobe spend more time than they remove noise (why:
+/// docs/RENDERER-INDIRECT.md, "Sample counts when paths are followed"). Else (direct light only) by the material's
+/// lobes. A material whose lobes are all wide (Lambertian,
 /// GGX alpha >= kWideLobeAlpha) has the noise of its light samples (and of the shadows): kWideLightSamples light
 /// samples and 1 BSDF sample. One with a narrow lobe (a glossy metal, a plastic's glossy coat) sees the sky through
 /// a small window that light and BSDF samples find about as well: kNarrowBsdfSamples and kNarrowLightSamples.
