@@ -176,23 +176,29 @@ def efficiency(run, region):
     return 1.0 / (m * run["seconds"]) if m > 0 else None
 
 
-def summary_rows(res):
-    """Per HDRI, depth, spp and envrender value: the efficiency ratio against unbiased Cycles (value 0) and against
-    Cycles' default, as the geometric mean over the regions and their range."""
-    rows = []
+def compared_runs(res):
+    """(HDRI, depth record, envrender value, Cycles Filter Glossy, spp, envrender run, Cycles run) for every pair the
+    tables compare: a biased envrender against unbiased Cycles says little, so it is left out."""
     for h, H in res["hdris"].items():
         for R in H:
             for v, E in R["envrender"].items():
                 for g, C in R["cycles"].items():
                     if not is_unbiased(v) and g == "0":
-                        continue  # a biased envrender against unbiased Cycles says little
+                        continue
                     for spp in map(str, res["spp"]):
-                        a, b = E["runs"][spp], C["runs"][spp]
-                        r = [efficiency(a, reg) / efficiency(b, reg) for reg in res["regions"]
-                             if efficiency(a, reg) and efficiency(b, reg)]
-                        if r:
-                            rows.append(f"| {h} | {R['depth']} | {spp} | {v} | {g} | "
-                                        f"**{float(np.exp(np.mean(np.log(r)))):.2f}** | {min(r):.2f}-{max(r):.2f} |")
+                        yield h, R, v, g, spp, E["runs"][spp], C["runs"][spp]
+
+
+def summary_rows(res):
+    """Per HDRI, depth, spp and envrender value: the efficiency ratio against unbiased Cycles (value 0) and against
+    Cycles' default, as the geometric mean over the regions and their range."""
+    rows = []
+    for h, R, v, g, spp, a, b in compared_runs(res):
+        r = [efficiency(a, reg) / efficiency(b, reg) for reg in res["regions"]
+             if efficiency(a, reg) and efficiency(b, reg)]
+        if r:
+            rows.append(f"| {h} | {R['depth']} | {spp} | {v} | {g} | "
+                        f"**{float(np.exp(np.mean(np.log(r)))):.2f}** | {min(r):.2f}-{max(r):.2f} |")
     return rows
 
 
@@ -237,20 +243,13 @@ def write_markdown(res, out):
          "| HDRI | depth | spp | envrender regularize | Cycles Filter Glossy | region | relMSE envrender | "
          "relMSE Cycles | s envrender | s Cycles | ratio |",
          "|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|"]
-    for h, H in res["hdris"].items():
-        for R in H:
-            for v, E in R["envrender"].items():
-                for g, C in R["cycles"].items():
-                    if not is_unbiased(v) and g == "0":
-                        continue  # a biased envrender against unbiased Cycles says little
-                    for spp in map(str, res["spp"]):
-                        a, b = E["runs"][spp], C["runs"][spp]
-                        for reg in res["regions"]:
-                            ea, eb = efficiency(a, reg), efficiency(b, reg)
-                            ratio = ea / eb if ea and eb else None
-                            L.append(f"| {h} | {R['depth']} | {spp} | {v} | {g} | {reg} | {fmt(a['relmse'][reg])} | "
-                                     f"{fmt(b['relmse'][reg])} | {fmt(a['seconds'])} | {fmt(b['seconds'])} | "
-                                     f"**{fmt(ratio, 2)}** |")
+    for h, R, v, g, spp, a, b in compared_runs(res):
+        for reg in res["regions"]:
+            ea, eb = efficiency(a, reg), efficiency(b, reg)
+            ratio = ea / eb if ea and eb else None
+            L.append(f"| {h} | {R['depth']} | {spp} | {v} | {g} | {reg} | {fmt(a['relmse'][reg])} | "
+                     f"{fmt(b['relmse'][reg])} | {fmt(a['seconds'])} | {fmt(b['seconds'])} | "
+                     f"**{fmt(ratio, 2)}** |")
     L += ["", "Bias against noise per regularization value (relMSE, mean over the regions): bias = the "
           f"{res['bias_spp']}-spp render against the unbiased reference (includes both images' noise: an upper "
           "bound); noise = the spp render against the bias render; total = against the unbiased reference.", "",
