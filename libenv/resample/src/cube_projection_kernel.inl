@@ -11,14 +11,14 @@ ENVKIT_LANES_TARGET inline typename L::D clamp_lanes(typename L::D v, typename L
 }
 
 template <class L>
-ENVKIT_LANES_TARGET inline typename L::D dot_lanes(typename L::D x, typename L::D y, typename L::D z, typename L::D vx, typename L::D vy,
-                               typename L::D vz) {
+ENVKIT_LANES_TARGET inline typename L::D dot_lanes(typename L::D x, typename L::D y, typename L::D z, typename L::D vx,
+                                                   typename L::D vy, typename L::D vz) {
   return L::add(L::add(L::mul(x, vx), L::mul(y, vy)), L::mul(z, vz));
 }
 
 template <class L>
-ENVKIT_LANES_TARGET int project_row_lanes(const CubeProjectionTables& t, const double* sin_lon, const double* cos_lon, double sin_lat,
-                      double cos_lat, int n, double* x, double* y) {
+ENVKIT_LANES_TARGET int project_row_lanes(const CubeProjectionTables& t, const double* sin_lon, const double* cos_lon,
+                                          double sin_lat, double cos_lat, int n, double* x, double* y) {
   using D = typename L::D;
   constexpr int kWidth = L::kWidth;
   const int done = n - n % kWidth;
