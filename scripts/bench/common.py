@@ -37,8 +37,8 @@ def load_scene(path):
 def read_exr(path, channels="R,G,B", subimage=0):
     """Channels of one subimage (EXR part, by index or name) as float64 H x W x C, row 0 on top: the data window (a
     render of a --crop window holds only the window). oiiotool extracts them to a float EXR and prints its pixels
-    (--dumpdata, 9 significant digits: float32 exactly). Not through FITS: OpenImageIO 2.4 writes FITS rows bottom-up
-    shifted by one (the top row is lost)."""
+    (--dumpdata, 9 decimals: 5e-10 absolute, negligible against rel_mse's EPS). Not through FITS: OpenImageIO 2.4
+    writes FITS rows bottom-up shifted by one (the top row is lost)."""
     tmp = "%s.%d.read.exr" % (path, os.getpid())
     subprocess.run(["oiiotool", path, "--subimage", str(subimage), "--ch", channels, "-d", "float", "-o", tmp],
                    check=True, capture_output=True, text=True)

@@ -100,7 +100,7 @@ Image gather(const Image& src, const Parameterization& sp, const Mat3& to_world,
   ResampleOptions opt;
   opt.area_method = AreaMethod::Gather;
   return detail::resample_area_gather({src, sp, to_world}, TexelSource(src, sp), dst, transposed(to_world), opt,
-                                      kernel);
+                                      detail::AreaTables(sp, dst), kernel);
 }
 
 std::vector<Named> gather_sources() {

@@ -106,13 +106,15 @@ double smallest_positive_texel(const Parameterization& p, const SolidAngleTable&
 }  // namespace
 
 Image detail::resample_area_gather(const MapRef& s, const TexelSource& full_source, const Parameterization& dst,
-                                   const Mat3& dst_to_src, const ResampleOptions& opt, GatherKernel kernel) {
+                                   const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
+                                   GatherKernel kernel) {
   const Image& img = s.image;
   const Parameterization& sp = s.param;
   const int C = img.channels;
   const OutputLayout o = output_layout(img, full_source);
   Image out = make_output(img, dst, o);
-  const SolidAngleTable src_omega(sp), dst_omega(dst);
+  const SolidAngleTable& src_omega = omega.src;
+  const SolidAngleTable& dst_omega = omega.dst;
   const bool rotate = !is_identity(dst_to_src);
   const TexelDirections dirs(dst);
   const std::vector<double> row_extent = latlong_row_extents(dst), src_row_extent = latlong_row_extents(sp);
@@ -301,15 +303,19 @@ std::vector<double> total_power(const Image& image, const Parameterization& para
   return power;
 }
 
-AreaMethod choose_area_method(const Parameterization& src, const Parameterization& dst, const TexelSource& source) {
+AreaMethod detail::choose_area_method(const Parameterization& src, const Parameterization& dst,
+                                      const TexelSource& source, const AreaTables& omega) {
   // The scatter needs a direction for every source texel: sources with blank texels (balls, crosses) gather.
   if (!source.fully_covered()) return AreaMethod::Gather;
   // Disk maps' rim texels are long and thin, far from the squares the scatter spreads over.
   if (dst.kind() == Kind::MirrorBall || dst.kind() == Kind::AngularMap) return AreaMethod::Gather;
-  const SolidAngleTable src_omega(src), dst_omega(dst);
-  if (src_omega.total() < 0.999 * kFourPi) return AreaMethod::Gather;
-  const double ratio = mean_texel_solid_angle(dst, dst_omega) / mean_texel_solid_angle(src, src_omega);
+  if (omega.src.total() < 0.999 * kFourPi) return AreaMethod::Gather;
+  const double ratio = mean_texel_solid_angle(dst, omega.dst) / mean_texel_solid_angle(src, omega.src);
   return ratio >= kScatterMinRatio ? AreaMethod::Scatter : AreaMethod::Gather;
+}
+
+AreaMethod choose_area_method(const Parameterization& src, const Parameterization& dst, const TexelSource& source) {
+  return detail::choose_area_method(src, dst, source, detail::AreaTables(src, dst));
 }
 
 Image resample(const MapRef& src, const Parameterization& dst, const Mat3& dst_to_world, const ResampleOptions& opt) {
@@ -320,13 +326,14 @@ Image resample(const MapRef& src, const Parameterization& dst, const Mat3& dst_t
   if (is_identity(dst_to_src, 1e-12) && src.param.same_grid(dst))
     return copy_same_grid(src.image, dst, output_layout(src.image, source));
   if (opt.filter != Filter::Area) return resample_point(src, source, dst, dst_to_src, opt);
+  const detail::AreaTables omega(src.param, dst);
   AreaMethod method = opt.area_method;
-  if (method == AreaMethod::Auto) method = choose_area_method(src.param, dst, source);
+  if (method == AreaMethod::Auto) method = detail::choose_area_method(src.param, dst, source, omega);
   if (method == AreaMethod::Scatter) {
     if (!source.fully_covered()) throw Error("area scatter needs a source with data in every texel");
-    return resample_area_scatter(src, source, dst, dst_to_src, opt);
+    return resample_area_scatter(src, source, dst, dst_to_src, opt, omega);
   }
-  return resample_area_gather(src, source, dst, dst_to_src, opt, GatherKernel::Batched);
+  return resample_area_gather(src, source, dst, dst_to_src, opt, omega, GatherKernel::Batched);
 }
 
 }  // namespace envkit

@@ -70,6 +70,17 @@ void splat_hot_texels(const MapRef& src, const std::vector<std::size_t>& hot, co
                       const Parameterization& dst, const SolidAngleTable& dst_omega, const Mat3& dst_to_src,
                       Image& out);
 
+/// Both maps' exact texel solid angles (a cube's is a per-texel table: tens of MB at 8k), built once per resampling
+/// and shared by the choice of the area method and the method itself.
+struct AreaTables {
+  AreaTables(const Parameterization& src_param, const Parameterization& dst_param) : src(src_param), dst(dst_param) {}
+  SolidAngleTable src, dst;
+};
+
+/// choose_area_method (resample.h) on tables already built.
+AreaMethod choose_area_method(const Parameterization& src, const Parameterization& dst, const TexelSource& source,
+                              const AreaTables& omega);
+
 /// The area gather's kernels: both give the same output. PerTexel projects each output texel's centre through the
 /// maps' virtual calls and asks of each whether it coincides with a source texel; Batched projects a row of centres
 /// at once (lat-long rows into a cube on vector lanes, bit for bit) and asks only where the solid angles agree.
@@ -78,7 +89,7 @@ enum class GatherKernel { Batched, PerTexel };
 /// The `area` filter's gather (resample.h): each output texel supersampled over its footprint, magnified texels
 /// written as the bilinear reconstruction at their centre.
 Image resample_area_gather(const MapRef& src, const TexelSource& source, const Parameterization& dst,
-                           const Mat3& dst_to_src, const ResampleOptions& opt,
+                           const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
                            GatherKernel kernel = GatherKernel::Batched);
 
 /// The area scatter's kernels: both give the same contributions in the same order (so the same output). PerTexel
@@ -88,7 +99,7 @@ enum class ScatterKernel { Batched, PerTexel };
 /// The `area` filter's scatter (resample.h): each source texel's flux spread over the output texels that a square of
 /// its solid angle, centred on its projection, overlaps. Needs a source with data in every texel.
 Image resample_area_scatter(const MapRef& src, const TexelSource& source, const Parameterization& dst,
-                            const Mat3& dst_to_src, const ResampleOptions& opt,
+                            const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
                             ScatterKernel kernel = ScatterKernel::Batched);
 
 }  // namespace envkit::detail

@@ -503,11 +503,12 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
 }  // namespace
 
 Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Parameterization& dst,
-                            const Mat3& dst_to_src, const ResampleOptions& opt, ScatterKernel kernel) {
+                            const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
+                            ScatterKernel kernel) {
   const Image& img = s.image;
-  const Parameterization& sp = s.param;
   Image out = make_output(img, dst, output_layout(img, source));
-  const SolidAngleTable src_omega(sp), dst_omega(dst);
+  const SolidAngleTable& src_omega = omega.src;
+  const SolidAngleTable& dst_omega = omega.dst;
   const std::vector<std::size_t> hot = find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast);
   ProgressCounter progress(opt.progress, static_cast<std::size_t>(img.height) + 1);
   const double ratio = double(img.texel_count()) / std::max(1.0, double(dst.width()) * double(dst.height()));
