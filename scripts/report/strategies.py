@@ -46,8 +46,12 @@ CONFIGS = [c for c in ALL_CONFIGS if MODE == "full" or (MODE == "quick" and c[0]
 RES = ctx.pick(8, 48, 64)
 LEVELS = ctx.pick([1], [1, 8], [1, 4, 16, 64, 256])
 # The reference's own noise must stay well below what the best strategy reaches at the top of the ladder, or that
-# level drops out as unreliable and the best strategy is judged where fixed costs dominate.
-REF_SPP = ctx.pick(16, 1024, 8192)
+# level drops out as unreliable and the best strategy is judged where fixed costs dominate. Rendered with the default
+# strategy (less noise per sample than power MIS on most scenes, about the same on the rest) at half the samples that
+# power MIS references took, which were most of the section's time; `reliable` below still drops a level whose error
+# the reference's noise could blur.
+REF_SPP = ctx.pick(16, 1024, 4096)
+REF_OPTIONS = ["--strategy", "auto"]
 RELIABLE = 3.0  # a level counts when its raw relMSE is at least this many times the reference's own noise
 CAP = ctx.pick(2.0, 3.0, 10.0)  # seconds: do not climb to a level predicted (linearly in spp) to take longer
 MATERIALS = ctx.pick(["glossy"], ["diffuse", "glossy", "mirror"], ["diffuse", "glossy", "mirror"])
@@ -70,7 +74,7 @@ for probe in PROBES:
         template = f"sphere_{mat}_{probe if probe in ('sunny', 'overcast') else 'sunny'}"
         scene = scene_with_image(ctx, template, f"{mat}_{probe}", skies[probe], (RES, RES))
         ctx.info(f"{key}: reference")
-        ref = Reference(ctx, scene, REF_SPP, ["--strategy", "mis", "--heuristic", "power"], f"ref_{mat}_{probe}")
+        ref = Reference(ctx, scene, REF_SPP, REF_OPTIONS, f"ref_{mat}_{probe}")
         refs[key] = ref
         results[key] = {c[0]: [] for c in CONFIGS}
         active = {c[0] for c in CONFIGS}
@@ -177,7 +181,7 @@ text = [f"## 3. Sampling strategies\n",
         f"and real captures: blender's studio-light HDRIs "
         f"{', '.join(p for p in PROBES if p not in ('sunny', 'overcast')) or '(none in this run)'} (scenes of the "
         f"sunny templates with the image replaced). "
-        f"Reference: `--strategy mis --heuristic power` at {REF_SPP} spp; its own noise (from its variance AOV, "
+        f"Reference: `{' '.join(REF_OPTIONS)}` at {REF_SPP} spp (its own seed); its own noise (from its variance AOV, "
         f"mean Var/(R^2+0.01)) is subtracted from every relMSE. Time: envrender's render time (scene loading and "
         f"baking excluded), both cores. Each strategy climbs the spp ladder {LEVELS} while the next level is "
         f"predicted (linearly in spp) to take <= {CAP:g} s; all strategies run at one level before the next (interleaved). Efficiency = geometric mean of "
