@@ -74,8 +74,9 @@ TEST(LightPilot, ExplicitStrategiesKeepTheirRule) {
 }
 
 /// A sunny scene lit in one colour channel only (`channel`: 0 red, 2 blue): the sun and the sky hold their radiance
-/// there, the materials are grey. Its maps differ from one channel to another only in the channel the radiance sits
-/// in, so every candidate draws the same directions with the same densities in both.
+/// there, the materials are grey (the conductors too: the default conductor is gold, brighter in red than in blue,
+/// and would make the two scenes differ). Its maps differ from one channel to another only in the channel the
+/// radiance sits in, so every candidate draws the same directions with the same densities in both.
 LoadedScene one_channel_scene(int channel) {
   const auto rgb = [channel](double v) {
     std::string out = "[";
@@ -88,8 +89,8 @@ LoadedScene one_channel_scene(int channel) {
     "environment": {"probe": "sun", "size": [256, 128], "elevation_deg": 20, "radius_deg": 1.5, "radiance": )";
   text += rgb(300.0) + R"(, "sky": )" + rgb(0.2) + R"(},
     "materials": {"ground": {"type": "diffuse", "albedo": 0.5},
-                  "c005": {"type": "conductor", "roughness": 0.05},
-                  "c030": {"type": "conductor", "roughness": 0.3},
+                  "c005": {"type": "conductor", "eta": 1.5, "k": 3, "roughness": 0.05},
+                  "c030": {"type": "conductor", "eta": 1.5, "k": 3, "roughness": 0.3},
                   "p010": {"type": "plastic", "diffuse": 0.4, "roughness": 0.1}},
     "shapes": [{"type": "triangles", "material": "ground", "vertices": [[-50, 0, -50], [50, 0, -50], [50, 0, 50],
                 [-50, 0, 50]], "triangles": [[0, 2, 1], [0, 3, 2]]},

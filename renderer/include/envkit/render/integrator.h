@@ -68,7 +68,7 @@
 ///           candidate's estimate of D is drawn a fixed number of times. A point's score is its relative variance
 ///           (over its mean squared) times the candidate's cost per shading point (rays, a product table's descent).
 ///           MIS's own choice (the plain table, the sun by takes_sun_samples()) stands unless another candidate's
-///           mean score is lower by more than twice the standard error of the per-point differences. Deterministic
+///           mean score is lower by more than 1.5 standard errors of the per-point differences. Deterministic
 ///           (a fixed seed, per-point slots summed in order): the image depends on neither threads, tiles nor crop.
 ///           Materials the camera does not see, and every material when there is no camera, take product-mis's
 ///           choice.
