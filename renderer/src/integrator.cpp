@@ -310,6 +310,13 @@ void Integrator::build_product_tables(bool every_lobe) {
 
 Integrator::~Integrator() = default;
 
+double roulette_survival(double throughput, int depth, int max_depth) {
+  // Vertices shaded before the decision (0 .. depth) against those a survivor can still shade.
+  const double shaded = double(depth) + 1.0, remaining = double(std::max(max_depth - depth - 1, 1));
+  const double q = throughput * std::sqrt(shaded / remaining);
+  return std::isfinite(q) ? std::clamp(q, kRouletteMinSurvival, 1.0) : 1.0;
+}
+
 double regularization_floor(double regularization, double min_pdf) {
   if (!(regularization > 0.0) || !(min_pdf < regularization)) return 0.0;
   const double blur = 0.5 * std::sqrt(1.0 - std::max(min_pdf, 0.0) / regularization);
@@ -611,7 +618,7 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
       if (!bs.is_delta) min_pdf = std::min(min_pdf, bs.pdf);
       if (depth >= kRouletteStartVertex) {
         const double survival =
-            std::clamp(std::max({throughput.x, throughput.y, throughput.z}), kRouletteMinSurvival, 1.0);
+            roulette_survival(std::max({throughput.x, throughput.y, throughput.z}), depth, options_.max_depth);
         if (sampler.next_1d() >= survival) break;
         throughput = throughput / survival;
       }

@@ -440,3 +440,52 @@ TEST(Indirect, BadRegularizationIsRefused) {
   fine.regularization = 2.5;
   EXPECT_NO_THROW(validate(fine));
 }
+
+TEST(Indirect, RouletteSurvivalWeighsTheVerticesLeftToTheSurvivor) {
+  // Where as many vertices are shaded as are left to a survivor, the plain rule: the throughput.
+  EXPECT_DOUBLE_EQ(roulette_survival(0.4, 1, 4), 0.4);
+  // The only decision of a depth-3 path (a diffuse bounce's caustic carrier): two vertices shaded, one left.
+  EXPECT_DOUBLE_EQ(roulette_survival(0.4, 1, 3), 0.4 * std::sqrt(2.0));
+  EXPECT_DOUBLE_EQ(roulette_survival(0.1, 3, 5), 0.2);
+  // The first decision of a deep path, most of whose cost lies ahead, cuts harder.
+  EXPECT_DOUBLE_EQ(roulette_survival(0.4, 1, 8), 0.4 * std::sqrt(2.0 / 6.0));
+  EXPECT_EQ(roulette_survival(0.9, 1, 3), 1.0);
+  EXPECT_EQ(roulette_survival(1e-9, 1, 3), kRouletteMinSurvival);
+  EXPECT_EQ(roulette_survival(0.0, 1, 64), kRouletteMinSurvival);
+  EXPECT_EQ(roulette_survival(std::numeric_limits<double>::infinity(), 1, 3), 1.0);
+  EXPECT_EQ(roulette_survival(std::numeric_limits<double>::quiet_NaN(), 1, 3), 1.0);
+}
+
+TEST(Indirect, RouletteKeepsTheMeanOfTheLoopWithoutItAtEveryDepth) {
+  // The cavity at depths 3 (one decision, survival above the throughput) and 8 (first decisions below it).
+  const LoadedScene scene = load(cavity_json(0.8), "cavity.json");
+  for (int depth : {3, 8}) {
+    SCOPED_TRACE("depth " + std::to_string(depth));
+    IntegratorOptions options;
+    options.max_depth = depth;
+    const Integrator integrator(*scene.scene, *scene.light, options);
+    double sum[2] = {0, 0}, sum2[2] = {0, 0};
+    std::size_t n = 0;
+    for (int py = 0; py < scene.camera.height(); ++py)
+      for (int px = 0; px < scene.camera.width(); ++px)
+        for (std::uint32_t i = 0; i < 128; ++i, ++n)
+          for (int which = 0; which < 2; ++which) {
+            Sampler sampler(std::uint32_t(21 + which), px, py);
+            sampler.start_sample(i);
+            const Vec2 jitter = sampler.next_2d();
+            const Ray ray = scene.camera.generate(px + jitter.x, py + jitter.y);
+            const double v = which == 0 ? integrator.radiance(ray, sampler).y
+                                        : radiance_without_roulette(integrator, *scene.scene, ray, sampler,
+                                                                    scene.light->radiance(ray.direction))
+                                              .y;
+            sum[which] += v;
+            sum2[which] += v * v;
+          }
+    double mean[2], var_of_mean[2];
+    for (int k = 0; k < 2; ++k) {
+      mean[k] = sum[k] / double(n);
+      var_of_mean[k] = (sum2[k] / double(n) - mean[k] * mean[k]) / double(n - 1);
+    }
+    EXPECT_NEAR(mean[0], mean[1], 4.0 * std::sqrt(var_of_mean[0] + var_of_mean[1]));
+  }
+}

@@ -17,8 +17,8 @@
 /// (max_depth 1) keeps the counts by lobe.
 ///
 /// Russian roulette. The continuation ray leaving vertex d (d = 0: the camera ray's hit) is traced for certain when
-/// d < kRouletteStartVertex; from there on it survives with probability q = clamp(max RGB component of the path's
-/// throughput including this bounce's f cos / pdf, kRouletteMinSurvival, 1) and its throughput is divided by q
+/// d < kRouletteStartVertex; from there on it survives with probability q = roulette_survival() of the max RGB
+/// component of the path's throughput including this bounce's f cos / pdf, and its throughput is divided by q
 /// (unbiased: E[1{u < q} / q] = 1). Its random number is the next 1D dimension of the pixel's sampler, drawn
 /// whenever the rule applies (d >= kRouletteStartVertex), so pixels stay independent of tiles, threads and crop.
 /// max_depth 2 never plays it.
@@ -244,6 +244,20 @@ inline constexpr int kPathLightSamples = 2;
 /// survival probability (bounds the weight 1 / q of a surviving path).
 inline constexpr int kRouletteStartVertex = 1;
 inline constexpr double kRouletteMinSurvival = 0.05;
+
+/// Russian roulette's survival probability for the continuation leaving vertex `depth` (0 = the camera hit) of a path
+/// of at most `max_depth` vertices, whose throughput after this bounce has `throughput` as its largest RGB component:
+///   q = clamp(throughput sqrt((depth + 1) / (max_depth - depth - 1)), kRouletteMinSurvival, 1).
+/// Why: roulette trades variance for time, and the survival that minimises variance x time (Rath et al. 2022,
+/// "EARS") is q = sqrt(S T_a / ((V - S) T_b)): S the second moment of what the continuation brings, V the sample's
+/// variance, T_a the sample's cost without the continuation, T_b what a survivor adds. The plain rule q = throughput is
+/// that optimum when T_a = T_b; counting cost in shaded vertices (depth + 1 shaded before the decision, at most
+/// max_depth - depth - 1 left to a survivor) gives the square root. A survivor near the end of a short path costs
+/// little, so roulette cuts less there (the last continuation of a depth-3 path survives with sqrt(2) x throughput):
+/// such a continuation often carries caustics (diffuse -> near-specular -> sun), whose variance it would multiply by
+/// 1 / q. Deep paths are cut harder at their first decisions, where most of their cost lies ahead. NaN-free: 1 for a
+/// non-finite product.
+double roulette_survival(double throughput, int depth, int max_depth);
 /// Regularization floors are multiples of this GGX alpha (at most kRegularizationMaxFloor, Cycles' largest blur
 /// roughness): a few widened materials and product tables instead of one per path.
 inline constexpr double kRegularizationStep = 0.125;
