@@ -30,7 +30,7 @@ Image scatter(const Image& src, const Parameterization& sp, const Mat3& to_world
   ResampleOptions opt;
   opt.area_method = AreaMethod::Scatter;
   return detail::resample_area_scatter({src, sp, to_world}, TexelSource(src, sp), dst, transposed(to_world), opt,
-                                      detail::AreaTables(sp, dst), kernel);
+                                       detail::AreaTables(sp, dst), kernel);
 }
 
 const std::vector<Named>& sources() {
