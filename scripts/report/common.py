@@ -170,8 +170,18 @@ class Context:
         data["commands"] = self.commands[:400]
         data["seconds_total"] = time.time() - self.t0
         data["generated"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+        data["commit"] = commit()
         with open(os.path.join(self.out, f"{self.section}.json"), "w") as f:
             json.dump(data, f, indent=1, default=float)
+
+
+def commit():
+    """The checkout's HEAD (short hash), or a note when this is not a git checkout."""
+    try:
+        return subprocess.run(["git", "-C", REPORT_DIR, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown (not a git checkout)"
 
 
 def max_rel_pixel_error(img, ref):
