@@ -119,12 +119,11 @@ fig.savefig(f"{ctx.out}/conversion.png")
 rows = []
 texel_rows = []
 for F in FACES:
-    best = min(conv[(F, f)]["relmse"] for f in FILTERS)
     for f in FILTERS:
         c = conv[(F, f)]
         rows.append([f"{F}", f, c["time"]] + [c["seen"][k] for k in SEEN] +
                     [smooth.get((F, f), {}).get("seen_worst", "-")])
-        texel_rows.append([f"{F}", f, c["rmse"], c["relmse"], f"{c['relmse'] / best:.2f}x", c["max"],
+        texel_rows.append([f"{F}", f, c["rmse"], c["relmse"], c["max"],
                            smooth.get((F, f), {}).get("relmse", "-")])
 sun_rows = [[f] + [sun_res[f]["seen"][k] for k in SEEN] + [sun_res[f]["relmse"], sun_res[f]["max"]] for f in FILTERS]
 text = ["## 1. Conversion\n",
@@ -144,9 +143,10 @@ text = ["## 1. Conversion\n",
         "kept for comparison with other tools' reports, with a caveat: they are dominated by the sun. Energy that "
         "the source's own resolution spread into a sky texel next to the sun costs (I - R)^2 / R^2 with R ~ 1, up "
         "to ~1e5 per texel, while a sun lost altogether costs at most 1 per sun texel: relMSE ranks a filter that "
-        "loses the sun above one that keeps it. Do not choose a filter by this table.\n",
-        md_table(["face size", "filter", "RMSE", "relMSE", "relMSE / best", "max abs err", "overcast relMSE"],
-                 texel_rows, ["---:", "---", "---:", "---:", "---:", "---:", "---:"]),
+        "loses the sun above one that keeps it. Do not choose a filter by this table; it ranks nothing (no column "
+        "compares the filters).\n",
+        md_table(["face size", "filter", "RMSE", "relMSE", "max abs err", "overcast relMSE"],
+                 texel_rows, ["---:", "---", "---:", "---:", "---:", "---:"]),
         f"\n### Sub-texel sun\n\n`envprobe sun --radiance 1e6 --sky 1e-3 --radius-deg {SUN_RADIUS}` at "
         f"{2 * SUN_N}x{SUN_N} (one texel spans {180 / SUN_N:.3f} deg, the sun's diameter {2 * SUN_RADIUS} deg) converted "
         f"to cube {SUN_FACE}; reference: the same probe rasterized into the cube.\n",
