@@ -296,10 +296,15 @@ def measured():
     rerun alone, or REPORT.md reassembled later, keeps its own date."""
     runs = [v for v in S.values() if v]
     dates = sorted(v["generated"] for v in runs if v.get("generated"))
-    commits = sorted({v["commit"] for v in runs if v.get("commit")})
+    by_commit = {}
+    for name, v in S.items():
+        if v:
+            by_commit.setdefault(v.get("commit") or "a commit they did not record", []).append(name)
     when = (f"sections finished {dates[0]}" + (f" to {dates[-1]}" if dates[-1] != dates[0] else "")) if dates else \
         "sections finished at unknown times"
-    return when + (f" at commit{'s' if len(commits) > 1 else ''} {', '.join(commits)}" if commits else "")
+    if len(by_commit) == 1:
+        return f"{when} at {next(iter(by_commit))}"
+    return when + " (" + "; ".join(f"{', '.join(names)} at {c}" for c, names in by_commit.items()) + ")"
 
 
 now = datetime.datetime.now(datetime.timezone.utc)
