@@ -120,8 +120,8 @@ class Context:
 
     def read_image(self, path, channels="R,G,B", subimage="0"):
         """One subimage (EXR part, by index or name) of an image; ToolFailed when it cannot be read. The colour of part
-        0 comes through the envkit module, in process: oiiotool's two runs per image (bench/common.py read_exr) cost
-        about a second each, which over the strategies section's thousand renders was a third of the report's time.
+        0 comes through the envkit module, in process: oiiotool's two runs per image (bench/common.py read_exr) took
+        about a second per image, much of the report's time over the strategies section's thousand renders.
         The first such image of a section is also read through oiiotool, and a disagreement beyond the precision
         of the numbers oiiotool prints sends every later read back to oiiotool."""
         if channels == "R,G,B" and str(subimage) == "0" and self.fast_read:
@@ -140,7 +140,7 @@ class Context:
 
     def _fast_read_agrees(self, path, img):
         """Compares one in-process read with oiiotool's; on disagreement notes it and turns the in-process read off."""
-        slow = self.read_exr_checked(path)
+        slow = self._read_exr_checked(path)
         self.fast_read_checked = True
         # oiiotool --dumpdata prints 9 decimals (5e-10 absolute) or, for large values, float32's own precision
         if slow.shape == img.shape and np.all(np.abs(img - slow) <= 1e-7 * np.abs(slow) + 1e-9):
@@ -149,7 +149,7 @@ class Context:
         self.note(f"{path}: envkit.read_image disagrees with oiiotool; every image is read through oiiotool")
         return False
 
-    def read_exr_checked(self, path):
+    def _read_exr_checked(self, path):
         try:
             return read_exr(path)
         except subprocess.CalledProcessError as e:

@@ -302,8 +302,8 @@ def measured():
             by_commit.setdefault(v.get("commit") or "a commit they did not record", []).append(name)
     when = (f"sections finished {dates[0]}" + (f" to {dates[-1]}" if dates[-1] != dates[0] else "")) if dates else \
         "sections finished at unknown times"
-    if len(by_commit) == 1:
-        return f"{when} at {next(iter(by_commit))}"
+    if len(by_commit) <= 1:
+        return f"{when} at {next(iter(by_commit))}" if by_commit else when
     return when + " (" + "; ".join(f"{', '.join(names)} at {c}" for c, names in by_commit.items()) + ")"
 
 

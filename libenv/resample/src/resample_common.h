@@ -70,8 +70,8 @@ void splat_hot_texels(const MapRef& src, const std::vector<std::size_t>& hot, co
                       const Parameterization& dst, const SolidAngleTable& dst_omega, const Mat3& dst_to_src,
                       Image& out);
 
-/// Both maps' exact texel solid angles (a cube's is a per-texel table: tens of MB at 8k), built once per resampling
-/// and shared by the choice of the area method and the method itself.
+/// Both maps' exact texel solid angles (a cube's is a per-texel table: 25 MB for faces of 1024), built once per
+/// resampling and shared by the choice of the area method and the method itself.
 struct AreaTables {
   AreaTables(const Parameterization& src_param, const Parameterization& dst_param) : src(src_param), dst(dst_param) {}
   SolidAngleTable src, dst;
