@@ -26,6 +26,7 @@ import envkit
 from bench.common import read_exr, rel_mse
 
 REPORT_DIR = os.path.dirname(os.path.abspath(__file__))
+DEFAULT_STRATEGY = "auto"  # envrender's default strategy (what a user gets without --strategy)
 SCENE_DIR = os.path.join(REPORT_DIR, "scenes")
 
 
@@ -133,14 +134,11 @@ class Context:
                 img = img[..., :3].astype(np.float64)
                 if self.fast_read_checked or self._fast_read_agrees(path, img):
                     return img
-        try:
-            return read_exr(path, channels, subimage)
-        except subprocess.CalledProcessError as e:
-            raise ToolFailed(f"{path}: no channels {channels} in part {subimage}: {e.stderr.strip()[-200:]}") from e
+        return self._read_through_oiiotool(path, channels, subimage)
 
     def _fast_read_agrees(self, path, img):
         """Compares one in-process read with oiiotool's; on disagreement notes it and turns the in-process read off."""
-        slow = self._read_exr_checked(path)
+        slow = self._read_through_oiiotool(path)
         self.fast_read_checked = True
         # oiiotool --dumpdata prints 9 decimals (5e-10 absolute) or, for large values, float32's own precision
         if slow.shape == img.shape and np.all(np.abs(img - slow) <= 1e-7 * np.abs(slow) + 1e-9):
@@ -149,11 +147,12 @@ class Context:
         self.note(f"{path}: envkit.read_image disagrees with oiiotool; every image is read through oiiotool")
         return False
 
-    def _read_exr_checked(self, path):
+    @staticmethod
+    def _read_through_oiiotool(path, channels="R,G,B", subimage="0"):
         try:
-            return read_exr(path)
+            return read_exr(path, channels, subimage)
         except subprocess.CalledProcessError as e:
-            raise ToolFailed(f"{path}: oiiotool cannot read it: {e.stderr.strip()[-200:]}") from e
+            raise ToolFailed(f"{path}: no channels {channels} in part {subimage}: {e.stderr.strip()[-200:]}") from e
 
     # ------------------------------------------------------------------ output
     def write_md(self, name, text):

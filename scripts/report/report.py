@@ -8,7 +8,7 @@ import platform
 import re
 import sys
 
-from report.common import commit, g, geomean
+from report.common import DEFAULT_STRATEGY, commit, g, geomean
 
 out_dir, mode, seconds, failed = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4].split()
 base = os.path.basename(out_dir.rstrip("/"))
@@ -120,7 +120,6 @@ if t:
                        "section 4).")
 
 # ---------------------------------------------------------------- 3. strategies
-DEFAULT_STRATEGY = "auto"  # envrender's default
 TIE = 0.95  # efficiency ratio above which the default is recommended over the measured best
 s = S["strategies"]
 if s and s.get("ratios"):
@@ -170,7 +169,7 @@ if s and s.get("ratios"):
         rec.append(f"**{probe.capitalize()} probe.** Best overall `{pbest}` ({sc[pbest]:.2f}x {basecfg}); per "
                    f"material: {per}.")
     # The default strategy per scene, and over the glossy scenes, against the base.
-    default = "auto"
+    default = DEFAULT_STRATEGY
     per_scene = {k: final_eff(k, default) for k in scenes} if default in s["configs"] else {}
     per_scene = {k: v for k, v in per_scene.items() if math.isfinite(v)}
     if per_scene:

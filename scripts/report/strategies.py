@@ -4,8 +4,8 @@ glossy (roughness 0.1) and a near-mirror (0.01) sphere under a sunny and an over
 import math
 import sys
 
-from report.common import (Context, Reference, ToolFailed, commands_block, g, geomean, machine_line, make_probe_images, md_table,
-                    plt, scene_with_image)
+from report.common import (DEFAULT_STRATEGY, Context, Reference, ToolFailed, commands_block, g, geomean, machine_line,
+                           make_probe_images, md_table, plt, scene_with_image)
 
 ctx = Context("strategies")
 MODE = ctx.mode
@@ -35,11 +35,10 @@ ALL_CONFIGS = [
     ("product-sh", ["--strategy", "product-sh"]),
     ("product-sh-mis", ["--strategy", "product-sh-mis"]),
 ]
-DEFAULT = "auto"  # envrender's default strategy
 SEED = ["product-wavelet", "product-wavelet-mis", "product-steerable", "product-steerable-mis", "product-sh",
         "product-sh-mis"]
 QUICK_SKIP = {"mis-power 3+1", "mis-power 2+2", "product-wavelet", "product-steerable", "product-sh"}
-SMOKE_KEEP = {"bsdf", "light hierarchical", BASE, "product-mis", DEFAULT}
+SMOKE_KEEP = {"bsdf", "light hierarchical", BASE, "product-mis", DEFAULT_STRATEGY}
 CONFIGS = [c for c in ALL_CONFIGS if MODE == "full" or (MODE == "quick" and c[0] not in QUICK_SKIP)
            or (MODE == "smoke" and c[0] in SMOKE_KEEP)]
 
@@ -51,7 +50,7 @@ LEVELS = ctx.pick([1], [1, 8], [1, 4, 16, 64, 256])
 # power MIS references took, which were most of the section's time; `reliable` below still drops a level whose error
 # the reference's noise could blur.
 REF_SPP = ctx.pick(16, 1024, 4096)
-REF_OPTIONS = ["--strategy", "auto"]
+REF_OPTIONS = ["--strategy", DEFAULT_STRATEGY]
 RELIABLE = 3.0  # a level counts when its raw relMSE is at least this many times the reference's own noise
 CAP = ctx.pick(2.0, 3.0, 10.0)  # seconds: do not climb to a level predicted (linearly in spp) to take longer
 MATERIALS = ctx.pick(["glossy"], ["diffuse", "glossy", "mirror"], ["diffuse", "glossy", "mirror"])
