@@ -4,4 +4,4 @@
 #   scripts/bench/bench_bake_sizing.sh [--spp 64] [--ref-spp 1024] [--repeats 3] [--probe-size 8192x4096] [--out DIR]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_bake_sizing "$@"
+PYTHONPATH="$PWD/scripts:$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_bake_sizing "$@"

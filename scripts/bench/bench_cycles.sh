@@ -15,4 +15,4 @@
 # references and their relative difference), results.json (all figures), results.md (tables), efficiency.png.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_cycles "$@"
+PYTHONPATH="$PWD/scripts:$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_cycles "$@"

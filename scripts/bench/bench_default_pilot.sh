@@ -5,4 +5,4 @@
 #   scripts/bench/bench_default_pilot.sh --hdris sunrise --scenes spheres --seeds 1   (a quick look)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_default_pilot "$@"
+PYTHONPATH="$PWD/scripts:$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_default_pilot "$@"

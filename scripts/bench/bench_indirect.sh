@@ -16,4 +16,4 @@
 # Output (default out/bench_indirect/): every EXR, results.json, results.md (tables), bias_noise.png.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_indirect "$@"
+PYTHONPATH="$PWD/scripts:$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_indirect "$@"

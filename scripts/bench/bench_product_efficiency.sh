@@ -35,5 +35,5 @@ else
 fi
 config_args=()
 for c in "${configs[@]}"; do config_args+=(--config "$c"); done
-PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m bench.bench_product_efficiency --envrender "$ENVRENDER" "${scene_args[@]}" --out "$OUT" \
+PYTHONPATH="$PWD/scripts:$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 -m bench.bench_product_efficiency --envrender "$ENVRENDER" "${scene_args[@]}" --out "$OUT" \
   --md docs/bench_product.md --ref-spp "$REF_SPP" --seeds "$SEEDS" --threads "$THREADS" "${config_args[@]}"

@@ -5,4 +5,4 @@
 #   scripts/bench/bench_spheres_alone.sh --hdris sunrise --seeds 3 --ref-spp 1024   (a quick look)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_spheres_alone "$@"
+PYTHONPATH="$PWD/scripts:$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_spheres_alone "$@"

@@ -5,4 +5,4 @@
 #   scripts/bench/bench_strategies.sh --hdris sunrise,forest --config "1+1=--bsdf-samples 1 --light-samples 1" --config "by lobe="
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-PYTHONPATH="$PWD/scripts${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_strategies "$@"
+PYTHONPATH="$PWD/scripts:$PWD/build/python${PYTHONPATH:+:$PYTHONPATH}" exec /usr/bin/python3 -m bench.bench_strategies "$@"

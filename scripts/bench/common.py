@@ -5,7 +5,7 @@ PYTHONPATH=scripts python3 -m bench.bench_cycles ...), so that they import each 
 editing sys.path.
 
   load_scene(path)               envrender scene JSON (// and /* */ comments allowed)
-  read_exr(path, channels, sub)  one part of an image as float64 H x W x C, row 0 on top (oiiotool --dumpdata)
+  read_exr(path, channels, sub)  one part of an image as float64 H x W x C, row 0 on top (envkit or oiiotool)
   exr_attr(path, key)            one header attribute as text (oiiotool --info -v)
   rel_mse(img, ref, ...)         mean((I - R)^2 / (R^2 + 1e-2)), optionally over a mask and minus R's own variance
   camera_rays(camera, w, h, ...) envrender's pinhole camera (renderer/src/camera.cpp) through image points
@@ -17,12 +17,22 @@ import math
 import os
 import re
 import subprocess
+import sys
 
 import numpy as np
+
+try:
+    import envkit  # the module built beside the tools: read_exr's in-process path
+except ImportError:
+    envkit = None
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 # relMSE's offset: keeps dark reference pixels from dominating the mean.
 EPS = 1e-2
+
+
+class ReadFailed(RuntimeError):
+    """An image read_exr cannot read (the file and the problem in its message)."""
 
 
 def load_scene(path):
@@ -36,16 +46,58 @@ def load_scene(path):
 
 def read_exr(path, channels="R,G,B", subimage=0):
     """Channels of one subimage (EXR part, by index or name) as float64 H x W x C, row 0 on top: the data window (a
-    render of a --crop window holds only the window). oiiotool extracts them to a float EXR and prints its pixels
-    (--dumpdata, 9 decimals: 5e-10 absolute, negligible against rel_mse's EPS). Not through FITS: OpenImageIO 2.4
-    writes FITS rows bottom-up shifted by one (the top row is lost)."""
-    tmp = "%s.%d.read.exr" % (path, os.getpid())
-    subprocess.run(["oiiotool", path, "--subimage", str(subimage), "--ch", channels, "-d", "float", "-o", tmp],
-                   check=True, capture_output=True, text=True)
+    render of a --crop window holds only the window). Part 0's R,G,B come through envkit.read_image, in process, when
+    the module is importable (the .sh wrappers put build/python on the path): oiiotool's two runs per image took about
+    a second each. The first such read of a process is compared with oiiotool's, and a disagreement beyond the
+    precision oiiotool prints sends every later read back to oiiotool (IN_PROCESS_READ says so). Other parts and
+    channels come through oiiotool."""
+    if channels == "R,G,B" and str(subimage) == "0" and IN_PROCESS_READ["on"]:
+        img = _read_in_process(path)
+        if img is not None:
+            return img
+    return _read_through_oiiotool(path, channels, subimage)
+
+
+# Whether read_exr reads part 0's colour in process, whether that was checked against oiiotool, and why it was turned
+# off (None while it is on).
+IN_PROCESS_READ = {"on": envkit is not None, "checked": False, "off_because": None}
+
+
+def _read_in_process(path):
+    """Part 0's R,G,B through envkit, or None when that read does not serve (not an RGB(A) image, or disagreeing)."""
     try:
+        img = envkit.read_image(path)
+    except envkit.Error as e:
+        raise ReadFailed(str(e) if path in str(e) else f"{path}: {e}") from e
+    if img.ndim != 3 or img.shape[2] not in (3, 4):
+        return None
+    img = img[..., :3].astype(np.float64)
+    if IN_PROCESS_READ["checked"]:
+        return img
+    IN_PROCESS_READ["checked"] = True
+    slow = _read_through_oiiotool(path)
+    # oiiotool --dumpdata prints 9 decimals (5e-10 absolute), or float32's own precision for large values
+    if slow.shape == img.shape and np.all(np.abs(img - slow) <= 1e-7 * np.abs(slow) + 1e-9):
+        return img
+    IN_PROCESS_READ.update(on=False, off_because=f"{path}: envkit.read_image disagrees with oiiotool")
+    print(f"read_exr: {IN_PROCESS_READ['off_because']}; every later image is read through oiiotool", file=sys.stderr)
+    return slow
+
+
+def _read_through_oiiotool(path, channels="R,G,B", subimage=0):
+    """read_exr through oiiotool: it extracts the channels to a float EXR and prints its pixels (--dumpdata, 9
+    decimals: 5e-10 absolute, negligible against rel_mse's EPS). Not through FITS: OpenImageIO 2.4 writes FITS rows
+    bottom-up shifted by one (the top row is lost)."""
+    tmp = "%s.%d.read.exr" % (path, os.getpid())
+    try:
+        subprocess.run(["oiiotool", path, "--subimage", str(subimage), "--ch", channels, "-d", "float", "-o", tmp],
+                       check=True, capture_output=True, text=True)
         text = subprocess.run(["oiiotool", "--dumpdata", tmp], check=True, capture_output=True, text=True).stdout
+    except subprocess.CalledProcessError as e:
+        raise ReadFailed(f"{path}: no channels {channels} in part {subimage}: {e.stderr.strip()[-200:]}") from e
     finally:
-        os.remove(tmp)
+        if os.path.exists(tmp):
+            os.remove(tmp)
     lines = text.splitlines()
     w, h = map(int, lines[0].split(":", 1)[1].split(",")[0].split("x"))
     values = [ln.split(":", 1)[1] for ln in lines[1:] if ln.strip().startswith("Pixel (")]

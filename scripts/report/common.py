@@ -5,8 +5,8 @@ Every section gets a Context (tool paths, work directory, output directory, mode
   run(...)            run one command, log it (commands.log), return stdout, stderr and wall time
   timed_interleaved   median wall time of several commands over repeats, interleaved so that load hits all alike
   render(...)         one envrender run: parses the render seconds and spp it prints, returns the image as numpy
-  read_image(...)     one part of an image (EXR with AOVs included) as a numpy array H x W x C: the beauty through
-                      envkit.read_image, other parts through oiiotool (bench/common.py)
+  read_image(...)     one part of an image (EXR with AOVs included) as a numpy array H x W x C (bench/common.py
+                      read_exr: the beauty in process through envkit, other parts through oiiotool)
   rel_mse(I, R)       mean((I - R)^2 / (R^2 + 1e-2)) over pixels and colour channels (bench/common.py)
   md_table / write_md / plot helpers / save_summary (JSON read by the final REPORT.md assembly)
 """
@@ -22,8 +22,7 @@ import time
 
 import numpy as np
 
-import envkit
-from bench.common import read_exr, rel_mse
+from bench.common import IN_PROCESS_READ, ReadFailed, read_exr, rel_mse
 
 REPORT_DIR = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_STRATEGY = "auto"  # envrender's default strategy (what a user gets without --strategy)
@@ -51,8 +50,7 @@ class Context:
         self.commands = []
         self.notes = []
         self.t0 = time.time()
-        self.fast_read = True  # read_image's colour through envkit (see read_image)
-        self.fast_read_checked = False
+        self.read_note_given = False  # whether the notes say that images are read through oiiotool
 
     def tool(self, name):
         return os.path.join(self.bin, name)
@@ -120,39 +118,16 @@ class Context:
         return res
 
     def read_image(self, path, channels="R,G,B", subimage="0"):
-        """One subimage (EXR part, by index or name) of an image; ToolFailed when it cannot be read. The colour of part
-        0 comes through the envkit module, in process: oiiotool's two runs per image (bench/common.py read_exr) took
-        about a second per image, much of the report's time over the strategies section's thousand renders.
-        The first such image of a section is also read through oiiotool, and a disagreement beyond the precision
-        of the numbers oiiotool prints sends every later read back to oiiotool."""
-        if channels == "R,G,B" and str(subimage) == "0" and self.fast_read:
-            try:
-                img = envkit.read_image(path)
-            except envkit.Error as e:
-                raise ToolFailed(f"{path}: {e}") from e
-            if img.ndim == 3 and img.shape[2] in (3, 4):
-                img = img[..., :3].astype(np.float64)
-                if self.fast_read_checked or self._fast_read_agrees(path, img):
-                    return img
-        return self._read_through_oiiotool(path, channels, subimage)
-
-    def _fast_read_agrees(self, path, img):
-        """Compares one in-process read with oiiotool's; on disagreement notes it and turns the in-process read off."""
-        slow = self._read_through_oiiotool(path)
-        self.fast_read_checked = True
-        # oiiotool --dumpdata prints 9 decimals (5e-10 absolute) or, for large values, float32's own precision
-        if slow.shape == img.shape and np.all(np.abs(img - slow) <= 1e-7 * np.abs(slow) + 1e-9):
-            return True
-        self.fast_read = False
-        self.note(f"{path}: envkit.read_image disagrees with oiiotool; every image is read through oiiotool")
-        return False
-
-    @staticmethod
-    def _read_through_oiiotool(path, channels="R,G,B", subimage="0"):
+        """One subimage (EXR part, by index or name) of an image (bench/common.py read_exr: part 0's colour in
+        process, checked once against oiiotool); ToolFailed when it cannot be read."""
         try:
-            return read_exr(path, channels, subimage)
-        except subprocess.CalledProcessError as e:
-            raise ToolFailed(f"{path}: no channels {channels} in part {subimage}: {e.stderr.strip()[-200:]}") from e
+            img = read_exr(path, channels, subimage)
+        except ReadFailed as e:
+            raise ToolFailed(str(e)) from e
+        if IN_PROCESS_READ["off_because"] and not self.read_note_given:
+            self.read_note_given = True
+            self.note(IN_PROCESS_READ["off_because"] + "; every later image is read through oiiotool")
+        return img
 
     # ------------------------------------------------------------------ output
     def write_md(self, name, text):
