@@ -3,8 +3,8 @@
 #
 # Builds the libFuzzer targets (tests/fuzz, clang, ASan + UBSan + libFuzzer) into ${ENVKIT_FUZZ_BUILD_DIR:-build-fuzz},
 # replays the seed corpora and every past crash (CTest, label fuzz), then runs every target for N seconds
-# (default 60; CI passes 20 through scripts/test-sanitize.sh) on one core, and prints executions, coverage and
-# findings per target. --runs N runs each target for N executions instead, with no time limit (the long runs of
+# (default 60; CI passes 12 through scripts/test-sanitize.sh) on one core each, as many targets side by side as
+# there are cores (ENVKIT_JOBS), and prints executions, coverage and findings per target. --runs N runs each target for N executions instead, with no time limit (the long runs of
 # BENCHMARKS.md: scripts/fuzz.sh --runs 10000000 --targets "fuzz_codecs fuzz_scene"); --processes P splits that
 # budget (or runs for the seconds) across P libFuzzer processes sharing one corpus, one per core (the long runs of
 # the slower targets; logs <target>.log.1 .. .P). The growing corpora live in
@@ -61,9 +61,10 @@ echo "== replaying seed corpora and regression inputs (ctest -L fuzz)"
 
 work="$build/fuzz/run"
 mkdir -p "$work"
-status=0
-summary=()
-for t in $targets; do
+# One target's run: its report on stdout, its summary line in $work/<target>.summary; returns 0, 1 (a finding) or
+# 130 (stopped by a signal before its budget was spent).
+fuzz_target() {
+  local t="$1" status=0
   corpus="$build/fuzz/corpus/$t"
   artifacts="$build/fuzz/artifacts/$t"
   mkdir -p "$corpus" "$artifacts"
@@ -128,14 +129,39 @@ for t in $targets; do
   elif [ "$rc" = 72 ]; then
     # 72 is libFuzzer's exit status when a signal (SIGINT, SIGTERM) stops it: a run cut short, not a finding. The
     # figures below are those of the executions done; the exit status says the budget was not spent.
-    [ "$status" = 1 ] || status=130
+    status=130
     echo "   interrupted: $t stopped before its budget was spent"
   fi
   line="$(printf '%-22s %10s execs %7s exec/s %6s s  cov %6s  corpus %5s  findings %s' "$t" "${execs:-?}" \
            "${speed:-?}" "$(($(date +%s) - t_start))" "${cov:-?}" "$(ls "$corpus" | wc -l)" "$found")"
-  summary+=("$line")
   echo "   $line"
+  echo "$line" >"$work/$t.summary"
+  return "$status"
+}
+
+status=0
+summary=()
+# Targets run side by side, as many as the cores hold beside their --processes each: the fuzzing per target is the
+# same, the wall time shorter. Each target's report is printed whole when it ends.
+parallel=$((jobs / procs)); [ "$parallel" -ge 1 ] || parallel=1
+running=()
+finish_oldest() {
+  local t="${running[0]}" rc=0
+  wait "${pids_of[$t]}" || rc=$?
+  cat "$work/$t.out"
+  summary+=("$(cat "$work/$t.summary" 2>/dev/null || echo "$t: no summary (see $work/$t.out)")")
+  if [ "$rc" = 1 ] || { [ "$rc" != 0 ] && [ "$rc" != 130 ]; }; then status=1
+  elif [ "$rc" = 130 ] && [ "$status" = 0 ]; then status=130; fi
+  running=("${running[@]:1}")
+}
+declare -A pids_of
+for t in $targets; do
+  [ "${#running[@]}" -lt "$parallel" ] || finish_oldest
+  fuzz_target "$t" >"$work/$t.out" 2>&1 &
+  pids_of[$t]=$!
+  running+=("$t")
 done
+while [ "${#running[@]}" -gt 0 ]; do finish_oldest; done
 budget="${seconds} s"; [ -z "$runs" ] || budget="$runs runs"
 echo "== fuzz summary ($budget per target; logs in $work)"
 printf '%s\n' "${summary[@]}"
