@@ -4,7 +4,7 @@
 # The sanitizer pass of scripts/test.sh:
 #  1. builds the whole project a second time with Debian's clang and -DENVKIT_SANITIZE=ON (AddressSanitizer +
 #     UndefinedBehaviorSanitizer, -fno-sanitize-recover=undefined) into ${ENVKIT_ASAN_BUILD_DIR:-build-asan}
-#     (benchmarks off), and runs the default test suite there (ctest -LE long, less three numeric sweeps: below) with every sanitizer report fatal;
+#     (benchmarks off), and runs the default test suite there (ctest -LE long, less four numeric sweeps: below) with every sanitizer report fatal;
 #  2. builds the libFuzzer targets (tests/fuzz, -DENVKIT_FUZZ=ON) into ${ENVKIT_FUZZ_BUILD_DIR:-build-fuzz} and runs
 #     each for ${ENVKIT_FUZZ_SECONDS:-12} s (scripts/fuzz.sh); the crash regression corpora are replayed by CTest.
 # ENVKIT_SKIP_FUZZ=1 (or --no-fuzz) skips step 2. Exit status: non-zero on any failure or sanitizer report.
@@ -50,11 +50,13 @@ exclude=(-LE long)
 # than the one writing); whether it was the sanitizer pass's cause too is not known, so the test stays a report here.
 # Its report comes last so that the end of the log says why, should it fail.
 report_only='^InterruptedWrite\.SignalsAtRandomMomentsLeaveMultiFileOutputsAllOrNothing$'
-# Three numeric sweeps run in the plain pass only: they repeat, over many map pairs or 10^6 samples per material,
-# code that smaller tests of the same files run here (Resample.AreaConservesSmoothMapPowerAcrossAllPairs,
-# Resample.ScatterKeepsAConstantMapConstant, ProductSeed.RenderAgreesWithProductMis), and under the sanitizers they
-# took 140 s of CI's time.
+# Four numeric sweeps run in the plain pass only: they repeat, over many map pairs, 10^6 samples per material or
+# 1024 spp per strategy, code that smaller tests of the same files run here (Resample.AreaConservesSmoothMapPowerAcrossAllPairs,
+# Resample.ScatterKeepsAConstantMapConstant, ProductSeed.RenderAgreesWithProductMis,
+# Indirect.EveryStrategyStaysFiniteAndTileIndependentAtDepthThree: every strategy's depth-3 loop), and under the
+# sanitizers they took about 250 s of test time.
 sweeps='^Resample\.RoundTripsStayWithinStatedBounds$|^Resample\.ShrinkingScatterMatchesExactTexelAverages$|^ProductSeed\.SamplesFollowThePdfForEveryMaterial$'
+sweeps+='|^Indirect\.EveryStrategyConvergesToTheCavitysAnalyticValueAtDepthThree$'
 (cd "$build" && ctest --output-on-failure -j "$jobs" --timeout 1800 "${exclude[@]}" -E "$report_only|$sweeps") ||
   { "$root/scripts/ctest-failures.sh" "$build"; exit 8; }
 tested=$(date +%s)
