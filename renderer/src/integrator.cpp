@@ -408,6 +408,12 @@ Integrator::BsdfDraw Integrator::bsdf_draw(const Sampler& sampler, std::uint32_t
           sampler.point_1d(dimension + 1, std::uint32_t(k), std::uint32_t(n))};
 }
 
+Integrator::Continuation* Integrator::continued_by(Continuation* next, int bsdf_samples) {
+  if (!next || bsdf_samples != 1) return nullptr;
+  next->drawn = true;
+  return next;
+}
+
 bool Integrator::escapes(const Ray& ray, const BsdfSample& sample, Continuation* next) const {
   if (!next) return !scene_.occluded(ray);
   next->weight = sample.f_cos / sample.pdf;
@@ -459,8 +465,7 @@ Vec3 Integrator::delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const 
 Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
   const int N = counts(x.material).bsdf;
   const std::uint32_t dimension = sampler.reserve(2);
-  if (next && N == 1) next->drawn = true;
-  Continuation* const continuation = N == 1 ? next : nullptr;
+  Continuation* const continuation = continued_by(next, N);
   Vec3 sum(0, 0, 0);
   for (int i = 0; i < N; ++i) sum += bsdf_term(x, bsdf_draw(sampler, dimension, i, N), nullptr, continuation).value;
   return sum / double(N);
@@ -502,9 +507,7 @@ Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightC
     }
   }
   const std::uint32_t dimension = sampler.reserve(2);
-  // One BSDF sample: it is the path's continuation too (the file comment).
-  if (next && N == 1) next->drawn = true;
-  Continuation* const continuation = N == 1 ? next : nullptr;
+  Continuation* const continuation = continued_by(next, N);
   for (int i = 0; i < N; ++i) {
     const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N), &light, continuation);
     if (!(b.pdf > 0.0) || is_black(b.value)) continue;
@@ -564,8 +567,7 @@ Vec3 Integrator::direct_point_mis(const ShadingPoint& x, Sampler& sampler, const
     sum += l.value * (mis_weight(M * l.pdf, N * x.material.pdf(x.wo, l.wi_local)) / (M * l.pdf));
   }
   const std::uint32_t dimension = sampler.reserve(2);
-  if (next && N == 1) next->drawn = true;
-  Continuation* const continuation = N == 1 ? next : nullptr;
+  Continuation* const continuation = continued_by(next, N);
   for (int i = 0; i < N; ++i) {
     const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N), nullptr, continuation);
     if (!(b.pdf > 0.0) || is_black(b.value)) continue;
@@ -609,10 +611,8 @@ Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng
 
 Vec3 Integrator::shade(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
   // Pure delta materials: one BSDF sample, weight 1, in every strategy (and the continuation when one is wanted).
-  if (x.material.is_pure_delta()) {
-    if (next) next->drawn = true;
-    return bsdf_term(x, bsdf_draw(sampler, sampler.reserve(2), 0, 1), nullptr, next).value;
-  }
+  if (x.material.is_pure_delta())
+    return bsdf_term(x, bsdf_draw(sampler, sampler.reserve(2), 0, 1), nullptr, continued_by(next, 1)).value;
   return (this->*direct_)(x, sampler, next);
 }
 

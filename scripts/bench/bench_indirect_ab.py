@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Interleaved A/B of envrender builds (or options) at --max-depth D, on the scenes a bench_indirect run wrote.
 
-For each round, HDRI and variant (the order reversed every other round), one render at --spp with seed 500 + round,
+For each round, HDRI and variant (the order reversed every other round), one render at --spp with seed --seed + round,
 timed by envkit:seconds and compared per region with the run's unbiased envrender reference (relMSE, as
 bench_indirect). Per variant and HDRI it reports the median time, the median of the per-round time ratios to the
 first variant, and the relMSE ratio to the first variant's as the geometric mean over the regions, both from the
@@ -40,6 +40,7 @@ def main():
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--rounds", type=int, default=16)
     ap.add_argument("--depth", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=500, help="the first round's seed")
     ap.add_argument("--json", default=None, help="write every round's figures here")
     ap.add_argument("variants", nargs="+", help="name=binary[:options]; ratios are over the first")
     args = ap.parse_args()
@@ -57,8 +58,8 @@ def main():
             for name, binary, extra in variants if r % 2 == 0 else variants[::-1]:
                 out = os.path.join(tmp, f"{h}_{len(data[h][name]) % 2}.exr")
                 subprocess.run([binary, "--scene", os.path.join(args.bench, h, "scene.json"), "--spp", str(args.spp),
-                                "--seed", str(500 + r), "--bake", "--max-depth", str(args.depth), "--regularize", "0",
-                                "--threads", "2", "-q", "-f", "-o", out] + extra, check=True)
+                                "--seed", str(args.seed + r), "--bake", "--max-depth", str(args.depth),
+                                "--regularize", "0", "--threads", "2", "-q", "-f", "-o", out] + extra, check=True)
                 img = read_exr(out)
                 data[h][name].append((float(exr_attr(out, "envkit:seconds")),
                                       {reg: rel_mse(img, ref, mask == i) for i, reg in enumerate(regions)}))

@@ -450,6 +450,9 @@ class Integrator {
   /// `next`: trace the sample as the path's continuation (its first hit, not a shadow ray) and record it there.
   BsdfTerm bsdf_term(const ShadingPoint& x, BsdfDraw draw, const LightTechniques* light = nullptr,
                      Continuation* next = nullptr) const;
+  /// The continuation an estimator drawing `bsdf_samples` BSDF samples traces: `next`, marked drawn, when it draws
+  /// exactly one (it is then the path's next direction), else none (the path draws its own).
+  static Continuation* continued_by(Continuation* next, int bsdf_samples);
   /// Whether a BSDF sample's ray reaches the environment: a shadow ray, or with `next` the path's continuation,
   /// whose first hit is recorded there.
   bool escapes(const Ray& ray, const BsdfSample& sample, Continuation* next) const;
