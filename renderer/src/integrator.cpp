@@ -408,7 +408,24 @@ Integrator::BsdfDraw Integrator::bsdf_draw(const Sampler& sampler, std::uint32_t
           sampler.point_1d(dimension + 1, std::uint32_t(k), std::uint32_t(n))};
 }
 
-Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw, const LightTechniques* light) const {
+Integrator::Continuation* Integrator::continued_by(Continuation* next, int bsdf_samples) {
+  if (!next || bsdf_samples != 1) return nullptr;
+  next->drawn = true;
+  return next;
+}
+
+bool Integrator::escapes(const Ray& ray, const BsdfSample& sample, Continuation* next) const {
+  if (!next) return !scene_.occluded(ray);
+  next->weight = sample.f_cos / sample.pdf;
+  next->pdf = sample.pdf;
+  next->is_delta = sample.is_delta;
+  next->ray = ray;
+  next->hit = scene_.intersect(ray, next->next);
+  return !next->hit;
+}
+
+Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw, const LightTechniques* light,
+                                           Continuation* next) const {
   BsdfTerm t;
   BsdfSample bs;
   if (!x.material.sample(x.wo, draw.u, draw.u_lobe, bs) || !(bs.pdf > 0.0) || is_black(bs.f_cos)) return t;
@@ -416,9 +433,9 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw,
   if ((t.wi_world ^ x.ng) <= 0.0) return t;  // the shading normal let it through the geometric surface
   t.pdf = bs.pdf;
   t.is_delta = bs.is_delta;
-  // Looked up before the shadow ray, read after it: the texel arrives from memory while the ray is traced.
+  // Looked up before the ray, read after it: the texel arrives from memory while the ray is traced.
   const LightSample l = light ? light_.lookup(light->parts[0].table, t.wi_world) : light_.lookup(t.wi_world);
-  if (scene_.occluded(Ray{x.origin, t.wi_world})) return t;
+  if (!escapes(Ray{x.origin, t.wi_world}, bs, next)) return t;
   t.value = mul(bs.f_cos, light_.radiance(l)) / bs.pdf;
   // The parts' supports are disjoint (the sun's texels, the rest): at most one density is not 0.
   if (light)
@@ -445,15 +462,16 @@ Vec3 Integrator::delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const 
   return b.is_delta ? b.value : Vec3(0, 0, 0);
 }
 
-Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler) const {
+Vec3 Integrator::direct_bsdf(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
   const int N = counts(x.material).bsdf;
   const std::uint32_t dimension = sampler.reserve(2);
+  Continuation* const continuation = continued_by(next, N);
   Vec3 sum(0, 0, 0);
-  for (int i = 0; i < N; ++i) sum += bsdf_term(x, bsdf_draw(sampler, dimension, i, N)).value;
+  for (int i = 0; i < N; ++i) sum += bsdf_term(x, bsdf_draw(sampler, dimension, i, N), nullptr, continuation).value;
   return sum / double(N);
 }
 
-Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
+Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler, Continuation*) const {
   const LightTechniques light = techniques(x, counts(x.material).light, choice_for(x.material));
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
@@ -467,11 +485,12 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler) const {
   return sum + delta_lobe_term(x, sampler);  // light samples cannot reach a delta lobe
 }
 
-Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler) const {
-  return direct_mis_with(x, sampler, choice_for(x.material));
+Vec3 Integrator::direct_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
+  return direct_mis_with(x, sampler, choice_for(x.material), next);
 }
 
-Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice) const {
+Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice,
+                                 Continuation* next) const {
   const SampleCounts n = counts(x.material);
   const int N = n.bsdf;
   const LightTechniques light = techniques(x, n.light, choice);
@@ -488,8 +507,9 @@ Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightC
     }
   }
   const std::uint32_t dimension = sampler.reserve(2);
+  Continuation* const continuation = continued_by(next, N);
   for (int i = 0; i < N; ++i) {
-    const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N), &light);
+    const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N), &light, continuation);
     if (!(b.pdf > 0.0) || is_black(b.value)) continue;
     if (b.is_delta) {
       sum += b.value / double(N);
@@ -536,7 +556,7 @@ Vec3 Integrator::direct_point(const ShadingPoint& x, Sampler& sampler, const Poi
 }
 
 template <class Point>
-Vec3 Integrator::direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p) const {
+Vec3 Integrator::direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p, Continuation* next) const {
   const SampleCounts n = counts(x.material);
   const int N = n.bsdf, M = n.light;
   Vec3 sum(0, 0, 0);
@@ -547,8 +567,9 @@ Vec3 Integrator::direct_point_mis(const ShadingPoint& x, Sampler& sampler, const
     sum += l.value * (mis_weight(M * l.pdf, N * x.material.pdf(x.wo, l.wi_local)) / (M * l.pdf));
   }
   const std::uint32_t dimension = sampler.reserve(2);
+  Continuation* const continuation = continued_by(next, N);
   for (int i = 0; i < N; ++i) {
-    const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N));
+    const BsdfTerm b = bsdf_term(x, bsdf_draw(sampler, dimension, i, N), nullptr, continuation);
     if (!(b.pdf > 0.0) || is_black(b.value)) continue;
     if (b.is_delta) {
       sum += b.value / double(N);
@@ -559,36 +580,65 @@ Vec3 Integrator::direct_point_mis(const ShadingPoint& x, Sampler& sampler, const
   return sum;
 }
 
-Vec3 Integrator::direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const {
+Vec3 Integrator::direct_product_wavelet(const ShadingPoint& x, Sampler& sampler, Continuation*) const {
   return direct_point(x, sampler, wavelet_point(x));
 }
 
-Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const {
-  return direct_point_mis(x, sampler, wavelet_point(x));
+Vec3 Integrator::direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
+  return direct_point_mis(x, sampler, wavelet_point(x), next);
 }
 
-Vec3 Integrator::direct_product_steerable(const ShadingPoint& x, Sampler& sampler) const {
+Vec3 Integrator::direct_product_steerable(const ShadingPoint& x, Sampler& sampler, Continuation*) const {
   return direct_point(x, sampler, steerable_->at(table_normal(x), table_wo(x), x.material));
 }
 
-Vec3 Integrator::direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler) const {
-  return direct_point_mis(x, sampler, steerable_->at(table_normal(x), table_wo(x), x.material));
+Vec3 Integrator::direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
+  return direct_point_mis(x, sampler, steerable_->at(table_normal(x), table_wo(x), x.material), next);
 }
 
-Vec3 Integrator::direct_product_sh(const ShadingPoint& x, Sampler& sampler) const {
+Vec3 Integrator::direct_product_sh(const ShadingPoint& x, Sampler& sampler, Continuation*) const {
   return direct_point(x, sampler, sh_->at(table_normal(x), table_wo(x), x.material));
 }
 
-Vec3 Integrator::direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler) const {
-  return direct_point_mis(x, sampler, sh_->at(table_normal(x), table_wo(x), x.material));
+Vec3 Integrator::direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
+  return direct_point_mis(x, sampler, sh_->at(table_normal(x), table_wo(x), x.material), next);
 }
 
 Vec3 Integrator::direct(const Vec3& position, const Frame& frame, const Vec3& ng, const Vec3& wo,
                         const Material& material, Sampler& sampler) const {
-  const ShadingPoint x{Scene::offset_origin(position, ng), frame, ng, wo, material};
-  // Pure delta materials: one BSDF sample, weight 1, in every strategy.
-  if (material.is_pure_delta()) return bsdf_term(x, bsdf_draw(sampler, sampler.reserve(2), 0, 1)).value;
-  return (this->*direct_)(x, sampler);
+  return shade(ShadingPoint{Scene::offset_origin(position, ng), frame, ng, wo, material}, sampler, nullptr);
+}
+
+Vec3 Integrator::shade(const ShadingPoint& x, Sampler& sampler, Continuation* next) const {
+  // Pure delta materials: one BSDF sample, weight 1, in every strategy (and the continuation when one is wanted).
+  if (x.material.is_pure_delta())
+    return bsdf_term(x, bsdf_draw(sampler, sampler.reserve(2), 0, 1), nullptr, continued_by(next, 1)).value;
+  return (this->*direct_)(x, sampler, next);
+}
+
+bool Integrator::survives(const Vec3& weight, double pdf, bool is_delta, int depth, Sampler& sampler, Vec3& throughput,
+                          double& min_pdf) const {
+  throughput = mul(throughput, weight);
+  if (is_black(throughput) || !finite(throughput)) return false;
+  if (!is_delta) min_pdf = std::min(min_pdf, pdf);
+  if (depth >= kRouletteStartVertex) {
+    const double survival =
+        roulette_survival(std::max({throughput.x, throughput.y, throughput.z}), depth, options_.max_depth);
+    if (sampler.next_1d() >= survival) return false;
+    throughput = throughput / survival;
+  }
+  return true;
+}
+
+bool Integrator::continue_apart(const ShadingPoint& x, Sampler& sampler, int depth, Vec3& throughput, double& min_pdf,
+                                Ray& ray, Hit& hit) const {
+  BsdfSample bs;
+  if (!x.material.sample(x.wo, sampler.next_2d(), sampler.next_1d(), bs) || !(bs.pdf > 0.0)) return false;
+  const Vec3 wi_world = x.frame.to_world(bs.wi);
+  if ((wi_world ^ x.ng) <= 0.0) return false;
+  if (!survives(bs.f_cos / bs.pdf, bs.pdf, bs.is_delta, depth, sampler, throughput, min_pdf)) return false;
+  ray = Ray{x.origin, wi_world};
+  return scene_.intersect(ray, hit);
 }
 
 Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
@@ -602,30 +652,21 @@ Vec3 Integrator::radiance(const Ray& primary, Sampler& sampler) const {
     double min_pdf = std::numeric_limits<double>::infinity();
     for (int depth = 0; depth < options_.max_depth; ++depth) {
       const SurfaceView view = surface_view(hit.geometric_normal, hit.shading_normal, -ray.direction);
-      const Vec3 &ng = view.ng, &wo = view.wo;
-      const Frame& frame = view.frame;
-      if (!(wo.z > 0.0)) break;
+      if (!(view.wo.z > 0.0)) break;
       const Material& material = regularized(hit.material, regularization_floor(options_.regularization, min_pdf));
-      result += mul(throughput, direct(hit.position, frame, ng, wo, material, sampler));
-      if (depth + 1 >= options_.max_depth) break;
-      // Continuation (indirect light): counts only when it hits a surface.
-      BsdfSample bs;
-      if (!material.sample(wo, sampler.next_2d(), sampler.next_1d(), bs) || !(bs.pdf > 0.0)) break;
-      const Vec3 wi_world = frame.to_world(bs.wi);
-      if ((wi_world ^ ng) <= 0.0) break;
-      throughput = mul(throughput, bs.f_cos / bs.pdf);
-      if (is_black(throughput) || !finite(throughput)) break;
-      if (!bs.is_delta) min_pdf = std::min(min_pdf, bs.pdf);
-      if (depth >= kRouletteStartVertex) {
-        const double survival =
-            roulette_survival(std::max({throughput.x, throughput.y, throughput.z}), depth, options_.max_depth);
-        if (sampler.next_1d() >= survival) break;
-        throughput = throughput / survival;
+      const ShadingPoint x{Scene::offset_origin(hit.position, view.ng), view.frame, view.ng, view.wo, material};
+      const bool last = depth + 1 >= options_.max_depth;
+      Continuation next;
+      result += mul(throughput, shade(x, sampler, last ? nullptr : &next));
+      if (last) break;
+      if (!next.drawn) {
+        if (!continue_apart(x, sampler, depth, throughput, min_pdf, ray, hit)) break;
+        continue;
       }
-      ray = Ray{Scene::offset_origin(hit.position, ng), wi_world};
-      Hit next;
-      if (!scene_.intersect(ray, next)) break;
-      hit = next;
+      // D's BSDF sample: an escape was its BSDF term (counted above); a hit is the next vertex.
+      if (!next.hit || !survives(next.weight, next.pdf, next.is_delta, depth, sampler, throughput, min_pdf)) break;
+      ray = next.ray;
+      hit = next.next;
     }
   }
   if (!finite(result)) {

@@ -12,6 +12,8 @@
 #                                               sample counts N+M (--bsdf-samples N --light-samples M) against the
 #                                               default, 2 repeats (23 min); time them apart with
 #                                               bench_indirect_timing.py (the bench's own times are too noisy)
+#   bench_indirect_ab.py --bench <out> old=<build>/bin/envrender new=build/bin/envrender
+#                                               two builds (or options) interleaved on a run's scenes and references
 #
 # Output (default out/bench_indirect/): every EXR, results.json, results.md (tables), bias_noise.png.
 set -euo pipefail

@@ -1,9 +1,12 @@
-// Indirect light in envrender's integrator: Russian roulette and path regularization (integrator.h).
+// Indirect light in envrender's integrator: the path loop, Russian roulette and path regularization (integrator.h).
 // - an open spherical cavity under a constant environment converges to its analytic value at every depth, and with
-//   every strategy at depth 3;
+//   every strategy at depth 3; an open plane reflects the sky exactly once at every depth (an escaping continuation
+//   that is also D's BSDF sample is counted once);
+// - depth 1 is direct() at the camera hit, number for number, with every strategy; strategies without a BSDF
+//   sample draw the continuation apart, number for number the plain loop; where D's BSDF sample is the
+//   continuation, the image mean is the plain loop's;
 // - every strategy stays finite under a 1e6 sun and independent of tiles, threads and crop at depth 3;
-// - Russian roulette keeps the mean of the same loop without it, and max_depth 2 (no roulette) with regularization 0
-//   is bit-identical to that loop;
+// - Russian roulette keeps the mean of the plain loop without it;
 // - regularization > 0 cuts the variance of caustic paths (diffuse wall -> near-specular floor -> sun) and stays
 //   finite under a 1e6 sun;
 // - pixels do not depend on the crop, the tile size or the thread count at depth 3;
@@ -31,8 +34,9 @@ namespace {
 
 Vec3 mul(const Vec3& a, const Vec3& b) { return Vec3(a.x * b.x, a.y * b.y, a.z * b.z); }
 
-/// The integrator's path loop without Russian roulette and without regularization, written with its public parts
-/// (direct(), the scene and the materials), drawing the sampler's numbers in the same order.
+/// The path loop without Russian roulette and without regularization, written with the integrator's public parts
+/// (direct(), the scene and the materials): every vertex's D by direct() and a continuation drawn apart from the
+/// next dimensions of the sampler (what the integrator does for strategies without a BSDF sample).
 Vec3 radiance_without_roulette(const Integrator& integrator, const Scene& scene, const Ray& primary, Sampler& sampler,
                                const Vec3& background) {
   Vec3 result(0, 0, 0), throughput(1, 1, 1);
@@ -137,7 +141,84 @@ std::string wall_json() {
               "triangles": [[0, 1, 2], [0, 2, 3]]}]})";
 }
 
+/// A diffuse plane of albedo rho seen from above under a constant environment L, filling the view: it sees the
+/// upper hemisphere and nothing else, so every pixel is rho L at every depth (a continuation always escapes).
+std::string plane_json(double albedo) {
+  return R"({"camera": {"position": [0, 1, 0], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40,
+             "resolution": [8, 8]},
+  "environment": {"probe": "constant", "radiance": 1, "size": [32, 16]},
+  "materials": {"white": {"type": "diffuse", "albedo": )" +
+         std::to_string(albedo) + R"(}},
+  "shapes": [{"type": "triangles", "material": "white",
+              "vertices": [[-50, 0, -50], [50, 0, -50], [50, 0, 50], [-50, 0, 50]],
+              "triangles": [[0, 2, 1], [0, 3, 2]]}]})";
+}
+
+/// The wall over a perfect mirror floor: the mirror (pure delta) takes one BSDF sample at every vertex, which is
+/// its continuation.
+std::string mirror_wall_json() {
+  std::string json = wall_json();
+  const std::string floor = R"({"type": "conductor", "eta": 0, "k": 1, "roughness": 0.02})";
+  json.replace(json.find(floor), floor.size(), R"({"type": "mirror", "reflectance": [0.9, 0.9, 0.9]})");
+  return json;
+}
+
 LoadedScene load(const std::string& json, const std::string& name) { return load_scene_text(json, name, {}); }
+
+/// The image means of the integrator and of the plain loop (radiance_without_roulette()) over spp samples of every
+/// pixel, each with its own seed (independent estimates), and the variances of those means.
+struct TwoMeans {
+  double mean[2] = {0, 0};
+  double var_of_mean[2] = {0, 0};
+  double sigma() const { return std::sqrt(var_of_mean[0] + var_of_mean[1]); }
+};
+
+TwoMeans integrator_and_plain_loop(const Integrator& integrator, const LoadedScene& scene, std::uint32_t spp) {
+  double sum[2] = {0, 0}, sum2[2] = {0, 0};
+  std::size_t n = 0;
+  for (int py = 0; py < scene.camera.height(); ++py)
+    for (int px = 0; px < scene.camera.width(); ++px)
+      for (std::uint32_t i = 0; i < spp; ++i, ++n)
+        for (int which = 0; which < 2; ++which) {
+          Sampler sampler(std::uint32_t(7 + which), px, py);
+          sampler.start_sample(i);
+          const Vec2 jitter = sampler.next_2d();
+          const Ray ray = scene.camera.generate(px + jitter.x, py + jitter.y);
+          const double v = which == 0 ? integrator.radiance(ray, sampler).y
+                                      : radiance_without_roulette(integrator, *scene.scene, ray, sampler,
+                                                                  scene.light->radiance(ray.direction))
+                                            .y;
+          sum[which] += v;
+          sum2[which] += v * v;
+        }
+  TwoMeans m;
+  for (int k = 0; k < 2; ++k) {
+    m.mean[k] = sum[k] / double(n);
+    m.var_of_mean[k] = (sum2[k] / double(n) - m.mean[k] * m.mean[k]) / double(n - 1);
+  }
+  return m;
+}
+
+/// Asserts that the integrator's radiance is the plain loop's, number for number, over a few samples of every pixel.
+void expect_plain_loop_bit_for_bit(const Integrator& integrator, const LoadedScene& scene) {
+  int compared = 0;
+  for (int py = 0; py < scene.camera.height(); ++py)
+    for (int px = 0; px < scene.camera.width(); ++px)
+      for (std::uint32_t i = 0; i < 4; ++i) {
+        Sampler a(3, px, py), b(3, px, py);
+        a.start_sample(i);
+        b.start_sample(i);
+        const Vec2 ja = a.next_2d(), jb = b.next_2d();
+        const Ray ray = scene.camera.generate(px + ja.x, py + ja.y);
+        const Vec3 got = integrator.radiance(ray, a);
+        const Vec3 want =
+            radiance_without_roulette(integrator, *scene.scene, scene.camera.generate(px + jb.x, py + jb.y), b,
+                                      scene.light->radiance(ray.direction));
+        ASSERT_EQ(got, want) << px << "," << py << " sample " << i;
+        ++compared;
+      }
+  EXPECT_GT(compared, 0);
+}
 
 double image_mean(const Film& film, double* variance_of_mean = nullptr) {
   double sum = 0.0, var = 0.0;
@@ -236,58 +317,74 @@ TEST(Indirect, RouletteKeepsTheMeanOfTheLoopWithoutIt) {
     IntegratorOptions options;
     options.max_depth = depth;
     const Integrator integrator(*scene.scene, *scene.light, options);
-    // Both estimators over the same pixels with independent samples (different seeds); compare the image means.
-    double sum[2] = {0, 0}, sum2[2] = {0, 0};
-    std::size_t n = 0;
-    for (int py = 0; py < scene.camera.height(); ++py)
-      for (int px = 0; px < scene.camera.width(); ++px)
-        for (std::uint32_t i = 0; i < spp; ++i, ++n)
-          for (int which = 0; which < 2; ++which) {
-            Sampler sampler(std::uint32_t(7 + which), px, py);
-            sampler.start_sample(i);
-            const Vec2 jitter = sampler.next_2d();
-            const Ray ray = scene.camera.generate(px + jitter.x, py + jitter.y);
-            const double v = which == 0 ? integrator.radiance(ray, sampler).y
-                                        : radiance_without_roulette(integrator, *scene.scene, ray, sampler,
-                                                                    scene.light->radiance(ray.direction))
-                                              .y;
-            sum[which] += v;
-            sum2[which] += v * v;
-          }
-    double mean[2], var_of_mean[2];
-    for (int k = 0; k < 2; ++k) {
-      mean[k] = sum[k] / double(n);
-      var_of_mean[k] = (sum2[k] / double(n) - mean[k] * mean[k]) / double(n - 1);
-    }
-    EXPECT_NEAR(mean[0], mean[1], 4.0 * std::sqrt(var_of_mean[0] + var_of_mean[1]));
-    EXPECT_GT(mean[0], 0.0);
+    const TwoMeans m = integrator_and_plain_loop(integrator, scene, spp);
+    EXPECT_NEAR(m.mean[0], m.mean[1], 4.0 * m.sigma());
+    EXPECT_GT(m.mean[0], 0.0);
   }
 }
 
-TEST(Indirect, RegularizationZeroWithoutRouletteIsBitIdenticalToThePlainLoop) {
-  // max_depth 2 never plays roulette: with regularization 0 the integrator is the plain loop, number for number.
+TEST(Indirect, DepthOneIsDirectLightAtTheCameraHitNumberForNumber) {
+  // No continuation at depth 1: every strategy shades the camera hit exactly as direct() does.
   const LoadedScene scene = load(caustic_json(1e5), "caustic.json");
-  IntegratorOptions options;
-  options.max_depth = 2;
-  options.regularization = 0.0;
-  const Integrator integrator(*scene.scene, *scene.light, options);
-  int compared = 0;
-  for (int py = 0; py < scene.camera.height(); ++py)
-    for (int px = 0; px < scene.camera.width(); ++px)
-      for (std::uint32_t i = 0; i < 4; ++i) {
-        Sampler a(3, px, py), b(3, px, py);
-        a.start_sample(i);
-        b.start_sample(i);
-        const Vec2 ja = a.next_2d(), jb = b.next_2d();
-        const Ray ray = scene.camera.generate(px + ja.x, py + ja.y);
-        const Vec3 got = integrator.radiance(ray, a);
-        const Vec3 want =
-            radiance_without_roulette(integrator, *scene.scene, scene.camera.generate(px + jb.x, py + jb.y), b,
-                                      scene.light->radiance(ray.direction));
-        ASSERT_EQ(got, want) << px << "," << py << " sample " << i;
-        ++compared;
-      }
-  EXPECT_GT(compared, 0);
+  for (Strategy strategy : kStrategies) {
+    SCOPED_TRACE(strategy_name(strategy));
+    IntegratorOptions options;
+    options.strategy = strategy;
+    expect_plain_loop_bit_for_bit(Integrator(*scene.scene, *scene.light, options, &scene.camera), scene);
+  }
+}
+
+TEST(Indirect, StrategiesWithoutABsdfSampleDrawTheContinuationApartNumberForNumber) {
+  // max_depth 2 never plays roulette: with regularization 0 and no BSDF sample in D's estimator, the integrator is
+  // the plain loop, number for number.
+  const LoadedScene scene = load(caustic_json(1e5), "caustic.json");
+  for (Strategy strategy : {Strategy::Light, Strategy::Product, Strategy::ProductSh}) {
+    SCOPED_TRACE(strategy_name(strategy));
+    IntegratorOptions options;
+    options.strategy = strategy;
+    options.max_depth = 2;
+    options.regularization = 0.0;
+    expect_plain_loop_bit_for_bit(Integrator(*scene.scene, *scene.light, options), scene);
+  }
+}
+
+TEST(Indirect, TheBsdfSampleThatContinuesThePathKeepsTheMeanOfTheLoopThatDrawsItApart) {
+  // D's one BSDF sample is the continuation (mis family, bsdf, a pure mirror): its escape is D's BSDF term, its hit
+  // the next vertex. Counting the escape twice, or dropping a hit's light, moves the mean off the plain loop's.
+  // Depth 2 (no roulette); the sun's caustic through a glossy sphere and a wall seen in a mirror floor.
+  const LoadedScene caustic = load(caustic_json(200.0), "caustic.json");
+  const LoadedScene mirror = load(mirror_wall_json(), "mirror.json");
+  for (const LoadedScene* scene : {&caustic, &mirror})
+    for (Strategy strategy : {Strategy::Auto, Strategy::Mis, Strategy::Bsdf, Strategy::ProductShMis}) {
+      SCOPED_TRACE(std::string(strategy_name(strategy)) + (scene == &mirror ? " mirror" : " caustic"));
+      IntegratorOptions options;
+      options.strategy = strategy;
+      options.max_depth = 2;
+      const Integrator integrator(*scene->scene, *scene->light, options, &scene->camera);
+      const TwoMeans m = integrator_and_plain_loop(integrator, *scene, 64);
+      EXPECT_NEAR(m.mean[0], m.mean[1], 4.0 * m.sigma());
+      EXPECT_GT(m.mean[0], 0.0);
+    }
+}
+
+TEST(Indirect, AnOpenPlaneReflectsTheSkyOnceAtEveryDepth) {
+  // Every continuation escapes: the sky must be counted once, by D, whichever sample found it.
+  const double rho = 0.6;
+  const LoadedScene scene = load(plane_json(rho), "plane.json");
+  for (Strategy strategy : kStrategies)
+    for (int depth : {1, 2, 3}) {
+      SCOPED_TRACE(std::string(strategy_name(strategy)) + " depth " + std::to_string(depth));
+      IntegratorOptions options;
+      options.strategy = strategy;
+      options.max_depth = depth;
+      const Integrator integrator(*scene.scene, *scene.light, options, &scene.camera);
+      RenderOptions ro;
+      ro.spp = 64;
+      double var = 0.0;
+      const double mean = image_mean(render_image(scene.camera, integrator, ro), &var);
+      EXPECT_NEAR(mean, rho, 4.0 * std::sqrt(var) + 1e-3 * rho);
+      EXPECT_EQ(integrator.nonfinite_count(), 0u);
+    }
 }
 
 TEST(Indirect, RegularizationCutsTheVarianceOfCausticPaths) {

@@ -6,22 +6,32 @@
 ///   L(x, wo) = D(x, wo) + I(x, wo),
 /// D = integral of f cos L_env V over directions that ESCAPE the scene (direct environment light, estimated by
 /// the chosen strategy) and I = integral over directions that HIT a surface (estimated, when --max-depth > 1,
-/// by one extra BSDF-sampled continuation ray that only counts when it hits a surface; an escaping
-/// continuation contributes 0 because D already holds that light). Camera rays that escape see the environment.
+/// by one BSDF-sampled continuation ray that only counts when it hits a surface; an escaping continuation
+/// contributes nothing to I because D holds that light). Camera rays that escape see the environment.
 /// --max-depth 1 (the default) is direct illumination only.
 /// Every vertex of a path, the camera hit included, estimates D by the chosen strategy with the same sample counts
-/// (sample_counts()) and draws its continuation apart. When paths are followed (max_depth > 1) the counts the
-/// options leave unset are one BSDF and two light samples (and the sun's) for every material: much of a pixel's
-/// noise is then the indirect part's, which one continuation per vertex estimates, so the counts by lobe that direct
-/// light alone takes spend more time than they remove noise (docs/RENDERER-INDIRECT.md). Direct light alone
-/// (max_depth 1) keeps the counts by lobe.
+/// (sample_counts()). The continuation is D's own BSDF sample where the strategy's estimator of D draws exactly one
+/// (bsdf, the mis family, the product-*-mis strategies and pure delta materials, N = 1; pbrt-v4's and Cycles' path
+/// tracers): that ray is traced to its first hit instead of as a shadow ray; if it escapes it is D's BSDF term
+/// (with its MIS weight) and the path ends, if it hits a surface the BSDF term is 0 (occluded) and the hit is the
+/// next vertex, the throughput multiplied by the same f cos / pdf. Each integral is still estimated once: D by
+/// the escaping part of the sample, I by the hitting part. One ray per vertex instead of a shadow ray and a
+/// continuation. Strategies without a BSDF sample (light, product, the product-* strategies without mis) or with
+/// N != 1 draw the continuation apart, from the next dimensions of the sampler. The last vertex of a path
+/// (and every vertex at max_depth 1) draws no continuation and is shaded exactly as direct() shades it.
+/// When paths are followed (max_depth > 1) the counts the options leave unset are one BSDF and two light samples
+/// (and the sun's) for every material and vertex: much of a pixel's noise is then the indirect part's, which one
+/// continuation per vertex estimates, so the counts by lobe that direct light alone takes spend more time than they
+/// remove noise, and one light sample after the camera hit saves less time than it adds noise
+/// (docs/RENDERER-INDIRECT.md). Direct light alone (max_depth 1) keeps the counts by lobe.
 ///
-/// Russian roulette. The continuation ray leaving vertex d (d = 0: the camera ray's hit) is traced for certain when
+/// Russian roulette. The continuation leaving vertex d (d = 0: the camera ray's hit) is followed for certain when
 /// d < kRouletteStartVertex; from there on it survives with probability q = roulette_survival() of the max RGB
 /// component of the path's throughput including this bounce's f cos / pdf, and its throughput is divided by q
-/// (unbiased: E[1{u < q} / q] = 1). Its random number is the next 1D dimension of the pixel's sampler, drawn
-/// whenever the rule applies (d >= kRouletteStartVertex), so pixels stay independent of tiles, threads and crop.
-/// max_depth 2 never plays it.
+/// (unbiased: E[1{u < q} / q] = 1). A continuation drawn apart is decided before it is traced; one that is D's
+/// BSDF sample is traced anyway (D needs to know whether it escapes) and decided once it hits. Its random number is
+/// the next 1D dimension of the pixel's sampler, drawn whenever the rule applies, so pixels stay independent of
+/// tiles, threads and crop. max_depth 2 never plays it.
 ///
 /// Regularization (options.regularization = v, 0 = off and unbiased): Cycles' Filter Glossy rule. The path keeps
 /// min_pdf, the smallest solid-angle pdf of its non-delta continuation samples so far (infinite at the camera hit).
@@ -385,6 +395,18 @@ class Integrator {
     Vec3 wo;  ///< local frame
     const Material& material;
   };
+  /// Where a vertex's estimator of D draws the path's next direction (the file comment): its one BSDF sample, traced
+  /// to its first hit. Left with drawn false by estimators that cannot (no BSDF sample, N != 1): the path then
+  /// draws its continuation apart.
+  struct Continuation {
+    bool drawn = false;    ///< the estimator's BSDF sample was traced as the continuation
+    bool hit = false;      ///< it hit a surface, `next` (else it escaped, or no direction was drawn)
+    Vec3 weight{0, 0, 0};  ///< f cos / pdf of the sample
+    double pdf = 0.0;      ///< its solid-angle pdf (regularization's min_pdf); meaningless when is_delta
+    bool is_delta = false;
+    Ray ray;  ///< the traced ray
+    Hit next;
+  };
   /// One BSDF sample: value = f cos L V / pdf; pdf 0 when no direction was drawn. light_density: where the
   /// direction escapes, sum over the light techniques of samples x density (what MIS weighs the BSDF against).
   struct BsdfTerm {
@@ -416,13 +438,34 @@ class Integrator {
     Vec2 u;
     double u_lobe = 0.0;
   };
-  using DirectFn = Vec3 (Integrator::*)(const ShadingPoint&, Sampler&) const;
+  /// An estimator of D. `next`: the path wants a continuation from this vertex (nullptr: none, as direct()); the
+  /// estimator traces its BSDF sample as that continuation when it draws exactly one, and leaves next->drawn false
+  /// otherwise.
+  using DirectFn = Vec3 (Integrator::*)(const ShadingPoint&, Sampler&, Continuation* next) const;
   /// StrategyDistribution's techniques at a shading point (strategy_draw.cpp).
   DrawMix draw_mix(const ShadingPoint& x) const;
 
   double mis_weight(double a, double b) const;
   /// `light`: also find those techniques' density at the direction (MIS), the first in the radiance's texel search.
-  BsdfTerm bsdf_term(const ShadingPoint& x, BsdfDraw draw, const LightTechniques* light = nullptr) const;
+  /// `next`: trace the sample as the path's continuation (its first hit, not a shadow ray) and record it there.
+  BsdfTerm bsdf_term(const ShadingPoint& x, BsdfDraw draw, const LightTechniques* light = nullptr,
+                     Continuation* next = nullptr) const;
+  /// The continuation an estimator drawing `bsdf_samples` BSDF samples traces: `next`, marked drawn, when it draws
+  /// exactly one (it is then the path's next direction), else none (the path draws its own).
+  static Continuation* continued_by(Continuation* next, int bsdf_samples);
+  /// Whether a BSDF sample's ray reaches the environment: a shadow ray, or with `next` the path's continuation,
+  /// whose first hit is recorded there.
+  bool escapes(const Ray& ray, const BsdfSample& sample, Continuation* next) const;
+  /// D at a path's vertex; with `next`, by the strategy's estimator drawing the continuation where it can.
+  Vec3 shade(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  /// The continuation drawn apart from D's estimator (the next sampler dimensions, a BSDF sample of the material,
+  /// roulette before the ray is traced); false when the path ends.
+  bool continue_apart(const ShadingPoint& x, Sampler& sampler, int depth, Vec3& throughput, double& min_pdf, Ray& ray,
+                      Hit& hit) const;
+  /// Folds a continuation's f cos / pdf into the path's throughput and plays roulette at vertex `depth`; false when
+  /// the path ends (black or non-finite throughput, or roulette).
+  bool survives(const Vec3& weight, double pdf, bool is_delta, int depth, Sampler& sampler, Vec3& throughput,
+                double& min_pdf) const;
   /// Draw k of the n BSDF samples of a shading point from the two dimension pairs reserved at `dimension`: the n
   /// draws of every sample of a pixel are one stratified sequence (Sampler::point_2d), as are the light draws.
   static BsdfDraw bsdf_draw(const Sampler& sampler, std::uint32_t dimension, int k, int n);
@@ -457,17 +500,18 @@ class Integrator {
   /// samples cannot reach it; 0 for materials without one (no sample drawn).
   Vec3 delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const;
 
-  // One estimator of D per strategy (see the file comment), chosen once by the constructor.
-  Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_light(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler) const;  ///< mis, mis-compensated, product-mis, auto
-  Vec3 direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice) const;
-  Vec3 direct_product_wavelet(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_product_steerable(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_product_sh(const ShadingPoint& x, Sampler& sampler) const;
-  Vec3 direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler) const;
+  // One estimator of D per strategy (see the file comment), chosen once by the constructor (DirectFn).
+  Vec3 direct_bsdf(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  Vec3 direct_light(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  /// mis, mis-compensated, product-mis, auto
+  Vec3 direct_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  Vec3 direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightChoice choice, Continuation* next = nullptr) const;
+  Vec3 direct_product_wavelet(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  Vec3 direct_product_wavelet_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  Vec3 direct_product_steerable(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  Vec3 direct_product_steerable_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  Vec3 direct_product_sh(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
+  Vec3 direct_product_sh_mis(const ShadingPoint& x, Sampler& sampler, Continuation* next) const;
   /// The shading point's wavelet product (product_wavelet.h).
   ProductWavelet::Point wavelet_point(const ShadingPoint& x) const;
   /// Normal and wo of a shading point in the tables' frame, what the product samplers take.
@@ -482,7 +526,7 @@ class Integrator {
   template <class Point>
   Vec3 direct_point(const ShadingPoint& x, Sampler& sampler, const Point& p) const;
   template <class Point>
-  Vec3 direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p) const;
+  Vec3 direct_point_mis(const ShadingPoint& x, Sampler& sampler, const Point& p, Continuation* next) const;
 
   const Scene& scene_;
   const EnvironmentLight& light_;
