@@ -66,6 +66,7 @@ struct Args {
   bool force = false;
   bool quiet = false;
   bool progress = false;
+  bool pixel_seconds = false;
 };
 
 envkit::render::Crop parse_crop(const std::string& text) {
@@ -189,6 +190,7 @@ int run(const Args& a) {
   ro.spp = a.spp;
   ro.time_seconds = a.time;
   ro.seed = a.seed;
+  ro.pixel_seconds = a.pixel_seconds;
   if (!a.crop.empty()) ro.crop = parse_crop(a.crop);
   const std::size_t work = std::size_t(scene.camera.width()) * scene.camera.height() * std::size_t(std::max(a.spp, 1));
   tools::ProgressBar bar("rendering",
@@ -301,6 +303,9 @@ int main(int argc, char** argv) {
   app.add_flag("-f,--force", a.force, "allow the output (or its PNG preview) to replace an input file");
   app.add_flag("--bake", a.bake, "bake missing or stale sampling tables in memory instead of failing");
   envkit::tools::add_threads_option(app, a.threads);
+  app.add_flag("--pixel-seconds", a.pixel_seconds,
+               "add a channel `seconds` to the EXR's aov part: the CPU time spent on each pixel's samples (what a "
+               "region of the image cost; it differs from run to run)");
   app.add_flag("--progress", a.progress, "always show the progress bar");
   app.add_flag("-q,--quiet", a.quiet, "print errors only");
   return envkit::tools::run_cli(app, argc, argv, [&] { return run(a); });

@@ -67,22 +67,24 @@ Image Film::mean_image() const {
 
 void Film::write_exr(const std::string& path, const std::map<std::string, std::string>& metadata) const {
   const int w = width(), h = height();
-  static const char* names[7] = {"R", "G", "B", "variance.R", "variance.G", "variance.B", "samples"};
-  std::vector<float> data(std::size_t(w) * h * 7);
+  static const char* names[8] = {"R", "G", "B", "variance.R", "variance.G", "variance.B", "samples", "seconds"};
+  const int channels = timed() ? 8 : 7;
+  std::vector<float> data(std::size_t(w) * h * std::size_t(channels));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      float* p = &data[(std::size_t(y) * w + x) * 7];
+      float* p = &data[(std::size_t(y) * w + x) * std::size_t(channels)];
       const Vec3 m = mean(x, y), v = variance(x, y);
       for (int c = 0; c < 3; ++c) {
         p[c] = float(std::clamp(finite_or_zero(m[c]), -3.4e38, 3.4e38));
         p[3 + c] = float(std::clamp(finite_or_zero(v[c]), 0.0, 3.4e38));
       }
       p[6] = float(count(x, y));
+      if (timed()) p[7] = float(seconds(x, y));
     }
   AtomicOutput out(path);
   try {
     // Two parts: "beauty" (R, G, B: what every EXR reader, envdiff and envinfo included, reads as subimage 0)
-    // and "aov" (variance.R/G/B, samples).
+    // and "aov" (variance.R/G/B, samples, and seconds when timed).
     const Imath::Box2i display(Imath::V2i(0, 0), Imath::V2i(full_width_ - 1, full_height_ - 1));
     const Imath::Box2i window(Imath::V2i(crop_.x0, crop_.y0), Imath::V2i(crop_.x1 - 1, crop_.y1 - 1));
     std::vector<Imf::Header> headers(2, Imf::Header(display, window));
@@ -92,19 +94,19 @@ void Film::write_exr(const std::string& path, const std::map<std::string, std::s
       header.setName(part_names[part]);
       header.setType(Imf::SCANLINEIMAGE);
       header.compression() = Imf::ZIP_COMPRESSION;
-      for (int c = part == 0 ? 0 : 3; c < (part == 0 ? 3 : 7); ++c)
+      for (int c = part == 0 ? 0 : 3; c < (part == 0 ? 3 : channels); ++c)
         header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
       header.insert("chromaticities", Imf::ChromaticitiesAttribute(Imf::Chromaticities()));
       for (const auto& [key, value] : metadata) header.insert(key, Imf::StringAttribute(value));
     }
-    const std::size_t xs = 7 * sizeof(float), ys = xs * std::size_t(w);
+    const std::size_t xs = std::size_t(channels) * sizeof(float), ys = xs * std::size_t(w);
     // OpenEXR addresses pixels by absolute (data window) coordinates: shift the base pointer.
     char* base = reinterpret_cast<char*>(data.data()) - std::ptrdiff_t(crop_.x0) * std::ptrdiff_t(xs) -
                  std::ptrdiff_t(crop_.y0) * std::ptrdiff_t(ys);
     Imf::MultiPartOutputFile file(out.temp_path().c_str(), headers.data(), 2);
     for (int part = 0; part < 2; ++part) {
       Imf::FrameBuffer frame;
-      for (int c = part == 0 ? 0 : 3; c < (part == 0 ? 3 : 7); ++c)
+      for (int c = part == 0 ? 0 : 3; c < (part == 0 ? 3 : channels); ++c)
         frame.insert(names[c], Imf::Slice(Imf::FLOAT, base + std::size_t(c) * sizeof(float), xs, ys));
       Imf::OutputPart output(file, part);
       output.setFrameBuffer(frame);

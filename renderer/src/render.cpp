@@ -2,6 +2,7 @@
 #include <pmmintrin.h>
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
+#include <time.h>
 #include <xmmintrin.h>
 
 #include <atomic>
@@ -26,10 +27,19 @@ class DenormalGuard {
   unsigned saved_;
 };
 
+/// The calling thread's CPU time in seconds: a pixel's cost without the time the thread spent preempted (on a shared
+/// machine a wall clock would charge a whole time slice to whichever pixel was running).
+double thread_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
 void render_pass(const Camera& camera, const Integrator& integrator, Film& film, std::uint32_t seed,
                  std::uint32_t first_index, int count, int tile, const std::function<void()>& tile_done) {
   const Crop& crop = film.crop();
   const int tiles_x = (crop.width() + tile - 1) / tile, tiles_y = (crop.height() + tile - 1) / tile;
+  const bool timed = film.timed();
   tbb::parallel_for(tbb::blocked_range2d<int>(0, tiles_y, 0, tiles_x), [&](const tbb::blocked_range2d<int>& r) {
     DenormalGuard guard;
     for (int ty = r.rows().begin(); ty < r.rows().end(); ++ty)
@@ -39,6 +49,7 @@ void render_pass(const Camera& camera, const Integrator& integrator, Film& film,
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
             const int px = crop.x0 + x, py = crop.y0 + y;
+            const double start = timed ? thread_seconds() : 0.0;
             Sampler sampler(seed, px, py);
             for (int i = 0; i < count; ++i) {
               sampler.start_sample(first_index + std::uint32_t(i));
@@ -46,6 +57,7 @@ void render_pass(const Camera& camera, const Integrator& integrator, Film& film,
               const Ray ray = camera.generate(px + jitter.x, py + jitter.y);
               film.add(x, y, integrator.radiance(ray, sampler));
             }
+            if (timed) film.add_seconds(x, y, thread_seconds() - start);
           }
         if (tile_done) tile_done();
       }
@@ -59,6 +71,7 @@ Film render_image(const Camera& camera, const Integrator& integrator, const Rend
   Crop crop = options.crop;
   if (crop.x0 == 0 && crop.y0 == 0 && crop.x1 == 0 && crop.y1 == 0) crop = Crop{0, 0, camera.width(), camera.height()};
   Film film(camera.width(), camera.height(), crop);
+  if (options.pixel_seconds) film.set_timed();
   const int tile = std::max(1, options.tile_size);
   const std::size_t tiles =
       std::size_t((crop.width() + tile - 1) / tile) * std::size_t((crop.height() + tile - 1) / tile);

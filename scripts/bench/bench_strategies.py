@@ -5,9 +5,12 @@ Each configuration (envrender options) renders the scene at --spp for --seeds se
 a converged reference of the same scene (`--strategy mis` at --ref-spp, written once per lighting and kept in
 --out), per region (each sphere, mesh, the ground): relMSE minus the reference's own variance of the mean (its AOV;
 region_error).
-Efficiency = 1 / (relMSE x envrender's render seconds of the whole image); the table gives each configuration's
-efficiency over the first configuration's (mean relMSE over the seeds, median seconds), and in brackets the ratio of
-relMSE at equal spp (no timing noise). Seeds are interleaved: every configuration once per seed. This is how the strategy and
+Efficiency = 1 / (relMSE x seconds), over the first configuration's (mean relMSE over the seeds, median seconds),
+with two measures of seconds. Per region (the target's): the sum over the region's pixels of the time envrender spent
+on each pixel's samples (`--pixel-seconds`, the rendering thread's CPU time around them), i.e. what the region cost whatever the other
+regions' materials cost. Whole image: envrender's render seconds, the same for every region (a material that draws
+from costlier tables slows every region's figure down). A cell reads "per-region / whole-image (relMSE ratio at
+equal spp, no timing noise)"; renders without the seconds channel (--reuse of older ones) show "-" per region. Seeds are interleaved: every configuration once per seed. This is how the strategy and
 sample-count defaults were chosen (BENCHMARKS.md, "envrender: strategies and sample counts"); bench_cycles.sh
 compares the default with Cycles.
 
@@ -179,7 +182,8 @@ def main():
                 out = os.path.join(a.out, "%s_%s_%d.exr" % (hdri, re.sub("[^A-Za-z0-9+.-]+", "_", name), seed))
                 if not (a.reuse and os.path.exists(out)):
                     r = subprocess.run([a.envrender, "--scene", scene, "--spp", str(a.spp), "--seed", str(seed),
-                                        "--bake", "-f", "-o", out, "--threads", a.threads] + shlex.split(options),
+                                        "--bake", "-f", "-o", out, "--threads", a.threads, "--pixel-seconds"] +
+                                       shlex.split(options),
                                        check=True, capture_output=True, text=True)
                     with open(out + ".log", "w") as f:
                         f.write(r.stderr)
@@ -189,12 +193,17 @@ def main():
                             choices[hdri] = note.split("(pilot): ", 1)[1].split(" (built in")[0]
                 I = read_exr(out)
                 runs[name].append((float(exr_attr(out, "envkit:seconds")),
-                                   [region_error(I, R, RV, masks == i) for i in range(len(regions))]))
+                                   [region_error(I, R, RV, masks == i) for i in range(len(regions))],
+                                   region_seconds(out, masks, len(regions))))
         for name, _ in configs:
             eff, rel = ratios(runs[name], runs[configs[0][0]], len(regions))
-            line = "| %s | %s | %.3f | %s | %.2f |" % (hdri, name, statistics.median(r[0] for r in runs[name]),
-                                                       " | ".join("%.2f (%.2f)" % er for er in zip(eff, rel)),
-                                                       statistics.geometric_mean(eff))
+            local = ratios(runs[name], runs[configs[0][0]], len(regions), per_region=True)[0]
+            line = "| %s | %s | %.3f | %s | %s |" % (
+                hdri, name, statistics.median(r[0] for r in runs[name]),
+                " | ".join(("%.2f" % lo if lo == lo else "-") + " / %.2f (%.2f)" % er
+                           for lo, er in zip(local, zip(eff, rel))),
+                ("%.2f" % statistics.geometric_mean(local) if all(lo == lo for lo in local) else "-") +
+                " / %.2f" % statistics.geometric_mean(eff))
             lines.append(line)
             print(line, flush=True)
     summary = [summarize(results, name, configs[0][0], regions, spec.get("glossy", [])) for name, _ in configs[1:]]
@@ -204,8 +213,8 @@ def main():
                    "load": [load_start, loadavg()]}, f, indent=1)
     with open(os.path.join(a.out, "results.md"), "w") as f:
         f.write("envrender, scene `%s`, %s, %d spp, %d seeds (mean relMSE, median seconds), references `--strategy mis` at %d spp; "
-                "efficiency over `%s` with each render's whole-image seconds (in brackets: relMSE ratio at equal "
-                "spp); %s threads; load average %s at start, %s at end%s\n\n" % (
+                "efficiency over `%s`, per cell: with each region's own seconds (the sum of its pixels' times) / "
+                "with each render's whole-image seconds (in brackets: relMSE ratio at equal spp); %s threads; load average %s at start, %s at end%s\n\n" % (
                     a.scene, a.size, a.spp, a.seeds, a.ref_spp, configs[0][0], a.threads, load_start, loadavg(),
                     " (of this re-analysis, --reuse: not of the renders)" if a.reuse else ""))
         f.write("\n".join(lines) + "\n\n" + "\n".join("- " + s for s in summary) + "\n")
@@ -222,41 +231,82 @@ def region_error(img, ref, ref_variance, mask):
     return max(rel_mse(img, ref, mask) - own, 0.1 * own)
 
 
-def ratios(runs, base, count):
+def region_seconds(path, masks, count):
+    """Per region, the sum of the render's per-pixel seconds (envrender --pixel-seconds) over its pixels; NaN when
+    the render has no seconds channel (oiiotool reads a missing channel as zeros; a timed pixel is never 0)."""
+    T = read_exr(path, "seconds", 1)[..., 0]
+    if not (T > 0).any():
+        return [float("nan")] * count
+    return [float(T[masks == i].sum()) for i in range(count)]
+
+
+def ratios(runs, base, count, per_region=False):
     """Per region: efficiency over the baseline, 1 / (relMSE x seconds) with the mean relMSE over the seeds and the
-    median seconds, and the relMSE ratio at equal spp (baseline over this). The mean, not the median: relMSE is an
-    expectation, and a region's error over seeds is heavy-tailed (a sun's rare hits), more so for some techniques than
-    others, so medians would favour the technique of the heavier tail."""
+    median seconds (the whole image's, or with per_region the region's own: region_seconds), and the relMSE ratio at
+    equal spp (baseline over this). The mean, not the median: relMSE is an expectation, and a region's error over
+    seeds is heavy-tailed (a sun's rare hits), more so for some techniques than others, so medians would favour the
+    technique of the heavier tail."""
     eff, rel = [], []
     t, t0 = statistics.median(r[0] for r in runs), statistics.median(r[0] for r in base)
     for i in range(count):
         m, m0 = statistics.fmean(r[1][i] for r in runs), statistics.fmean(r[1][i] for r in base)
+        if per_region:
+            t, t0 = (statistics.median(r[2][i] if len(r) > 2 else float("nan") for r in rs) for rs in (runs, base))
         rel.append(m0 / m)
         eff.append(m0 * t0 / (m * t))
     return eff, rel
 
 
+def interval(runs, base, i, draws=2000):
+    """The 95% bootstrap interval of region i's per-region efficiency ratio (ratios(per_region=True)): seeds drawn
+    with replacement, the same seeds for both configurations. A region's relMSE over seeds is heavy-tailed (a sun's
+    rare hits), so a ratio from a few seeds can be far from its expectation: the interval says whether a cell below
+    0.95x is resolved."""
+    rng = np.random.default_rng(20261206)
+    n = min(len(runs), len(base))
+    out = []
+    for _ in range(draws):
+        k = rng.integers(0, n, n)
+        m, m0 = (statistics.fmean(rs[j][1][i] for j in k) for rs in (runs, base))
+        t, t0 = (statistics.median(rs[j][2][i] for j in k) for rs in (runs, base))
+        out.append(m0 * t0 / (m * t))
+    return tuple(np.percentile(out, [2.5, 97.5]))
+
+
 def summarize(results, name, base, regions, glossy):
     """One line on `name` over `base` across every lighting: the lowest region, those below 0.95x, the geometric
-    means; first with each lighting's own whole-image seconds, then with the seconds ratio pooled over the lightings
-    (the median of the per-lighting ratios: the systematic cost of the configuration without each lighting's timing
-    noise, over the relMSE ratio at equal spp)."""
+    means (with each region's own seconds, the 95% bootstrap interval over the seeds of each region below 0.95x, and
+    how many of them lie wholly below); first with each region's own seconds (the target's measure), then with each lighting's own whole-image
+    seconds, then with the whole-image seconds ratio pooled over the lightings (the median of the per-lighting
+    ratios: the systematic cost of the configuration without each lighting's timing noise, over the relMSE ratio at
+    equal spp)."""
     times = {h: statistics.median(r[0] for r in runs[name]) / statistics.median(r[0] for r in runs[base])
              for h, runs in results.items()}
     pooled = statistics.median(times.values())
     text = []
     for label, cells in (
+            ("each region's own seconds", [(h, regions[i], e) for h, runs in results.items() for i, e in
+                                           enumerate(ratios(runs[name], runs[base], len(regions), True)[0])]),
             ("whole-image seconds", [(h, regions[i], e) for h, runs in results.items()
                                      for i, e in enumerate(ratios(runs[name], runs[base], len(regions))[0])]),
             ("seconds ratio pooled over lightings (%.3f)" % pooled,
              [(h, regions[i], r / pooled) for h, runs in results.items()
               for i, r in enumerate(ratios(runs[name], runs[base], len(regions))[1])])):
+        if any(c[2] != c[2] for c in cells):
+            text.append("with %s: not measured (renders without a seconds channel)" % label)
+            continue
         worst = min(cells, key=lambda c: c[2])
         gl = [c[2] for c in cells if c[1] in glossy]
         below = [c for c in cells if c[2] < 0.95]
-        text.append("with %s: lowest %.2fx (%s, %s); %d of %d regions below 0.95x%s; geometric mean %.2fx over every "
-                    "region%s" % (label, worst[2], worst[0], worst[1], len(below), len(cells),
-                                  " (" + ", ".join("%s %s %.2f" % c for c in below) + ")" if below else "",
+        listed = ["%s %s %.2f" % c for c in below]
+        resolved = ""
+        if label.startswith("each region"):
+            ci = [interval(results[h][name], results[h][base], regions.index(r)) for h, r, _ in below]
+            listed = ["%s [%.2f-%.2f]" % (t, lo, hi) for t, (lo, hi) in zip(listed, ci)]
+            resolved = ", %d of them with the whole 95%% interval below 0.95x" % sum(hi < 0.95 for _, hi in ci)
+        text.append("with %s: lowest %.2fx (%s, %s); %d of %d regions below 0.95x%s%s; geometric mean %.2fx over "
+                    "every region%s" % (label, worst[2], worst[0], worst[1], len(below), len(cells),
+                                        " (" + ", ".join(listed) + ")" if below else "", resolved,
                                   statistics.geometric_mean([c[2] for c in cells]),
                                   ", %.2fx over the glossy ones (%s)" % (statistics.geometric_mean(gl), ", ".join(
                                       glossy)) if gl else ""))

@@ -111,6 +111,7 @@ TEST_F(RenderCli, RendersASmallSceneWithEveryOutput) {
     EXPECT_NE(exr.header(0).channels().findChannel(channel), nullptr) << channel;
   for (const char* channel : {"variance.R", "variance.G", "variance.B", "samples"})
     EXPECT_NE(exr.header(1).channels().findChannel(channel), nullptr) << channel;
+  EXPECT_EQ(exr.header(1).channels().findChannel("seconds"), nullptr);  // only with --pixel-seconds
   const Imath::Box2i window = exr.header(1).dataWindow();
   const int w = window.max.x - window.min.x + 1, h = window.max.y - window.min.y + 1;
   ASSERT_EQ(w, 16);
@@ -130,6 +131,38 @@ TEST_F(RenderCli, RendersASmallSceneWithEveryOutput) {
   }
   for (int y = 0; y < 8; ++y)
     for (int x = 0; x < 16; ++x) EXPECT_TRUE(std::isfinite(beauty.at(x, y, 1)) && beauty.at(x, y, 1) > 0.0f);
+}
+
+// --pixel-seconds adds the time of each pixel's samples to the aov part: positive and finite, adding up to no more
+// than the render's seconds times its two threads; the beauty part is the same bits as without it.
+TEST_F(RenderCli, PixelSecondsAddATimeChannel) {
+  const auto file = write("ok.json", scene());
+  const fs::path plain = dir_ / "plain.exr", timed = dir_ / "timed.exr";
+  ASSERT_EQ(envrender({"--scene", file.string(), "-o", plain.string(), "--spp", "8", "-q"}).code, 0);
+  const auto r = envrender({"--scene", file.string(), "-o", timed.string(), "--spp", "8", "-q", "--pixel-seconds"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Image a = read_image(plain.string()), b = read_image(timed.string());
+  ASSERT_EQ(a.pixels.size(), b.pixels.size());
+  for (std::size_t i = 0; i < a.pixels.size(); ++i) EXPECT_EQ(a.pixels[i], b.pixels[i]) << i;
+  Imf::MultiPartInputFile exr(timed.string().c_str());
+  ASSERT_NE(exr.header(1).channels().findChannel("seconds"), nullptr);
+  const Imath::Box2i window = exr.header(1).dataWindow();
+  const int w = window.max.x - window.min.x + 1, h = window.max.y - window.min.y + 1;
+  std::vector<float> seconds(std::size_t(w * h));
+  Imf::FrameBuffer frame;
+  frame.insert("seconds",
+               Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(seconds.data()), sizeof(float), sizeof(float) * w));
+  Imf::InputPart aov(exr, 1);
+  aov.setFrameBuffer(frame);
+  aov.readPixels(window.min.y, window.max.y);
+  double sum = 0.0;
+  for (float s : seconds) {
+    EXPECT_TRUE(std::isfinite(s) && s > 0.0f) << s;
+    sum += s;
+  }
+  const auto* attr = exr.header(1).findTypedAttribute<Imf::StringAttribute>("envkit:seconds");
+  ASSERT_NE(attr, nullptr);
+  EXPECT_LE(sum, 2.0 * std::stod(attr->value()) + 1e-3);
 }
 
 TEST_F(RenderCli, CropWritesTheWindowOnly) {

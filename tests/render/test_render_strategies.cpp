@@ -10,6 +10,7 @@
 #include <envkit/tables/env_tables.h>
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <time.h>
 
 #include <cmath>
 #include <cstdio>
@@ -50,6 +51,12 @@ LoadedScene default_scene_replacing(const std::string& probe_json, const std::st
   options.width = width;
   options.height = height;
   return load_scene_text(text, name, options);
+}
+
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
 struct Named {
@@ -205,4 +212,42 @@ TEST(RenderStrategies, TimeBudgetRendersWholePasses) {
   EXPECT_GE(stats.seconds, 0.2);
   for (int y = 0; y < film.height(); ++y)
     for (int x = 0; x < film.width(); ++x) EXPECT_EQ(film.count(x, y), std::uint64_t(stats.spp));
+}
+
+// RenderOptions::pixel_seconds times each pixel's samples and changes none of them: the sums are the same bits,
+// every pixel's time is positive and finite, and on one thread (the caller's) the pixels' times add up to most of
+// the CPU time the render took on it, and never more than that or its wall time.
+TEST(RenderStrategies, PixelSecondsTimeEveryPixelAndChangeNoValue) {
+  const LoadedScene scene = default_scene_with(R"("probe": "default", "size": [64, 32])", 24, 12);
+  IntegratorOptions options;
+  options.strategy = Strategy::Auto;
+  const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const Integrator integrator(*scene.scene, *scene.light, options, &scene.camera);
+  RenderOptions ro;
+  ro.spp = 16;
+  ro.seed = 5;
+  const Film plain = render_image(scene.camera, integrator, ro);
+  EXPECT_FALSE(plain.timed());
+  ro.pixel_seconds = true;
+  RenderStats stats;
+  const double cpu_start = thread_cpu_seconds();
+  const Film timed = render_image(scene.camera, integrator, ro, &stats);
+  const double cpu = thread_cpu_seconds() - cpu_start;
+  ASSERT_TRUE(timed.timed());
+  double sum = 0.0;
+  for (int y = 0; y < timed.height(); ++y)
+    for (int x = 0; x < timed.width(); ++x) {
+      const Film::Pixel &a = plain.pixel(x, y), &b = timed.pixel(x, y);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(a.sum[c], b.sum[c]) << x << "," << y;
+        EXPECT_EQ(a.sum_sq[c], b.sum_sq[c]) << x << "," << y;
+      }
+      EXPECT_EQ(a.count, b.count);
+      const double s = timed.seconds(x, y);
+      EXPECT_TRUE(std::isfinite(s) && s > 0.0) << x << "," << y << ": " << s;
+      sum += s;
+    }
+  EXPECT_LE(sum, stats.seconds);
+  EXPECT_LE(sum, cpu);
+  EXPECT_GE(sum, 0.5 * cpu);
 }

@@ -1,7 +1,8 @@
 #pragma once
 /// @file film.h
 /// Per-pixel accumulation of radiance samples (double), and the outputs: the mean (linear Rec.709 radiance),
-/// the variance OF THE MEAN per channel (sample variance / n, unbiased, 0 when n < 2) and the sample count.
+/// the variance OF THE MEAN per channel (sample variance / n, unbiased, 0 when n < 2) and the sample count; and,
+/// when the render measured it (RenderOptions::pixel_seconds), the seconds spent on each pixel's samples.
 #include <envkit/core/image.h>
 #include <envkit/core/vec.h>
 
@@ -57,11 +58,19 @@ class Film {
   int full_height() const { return full_height_; }
   std::uint64_t total_samples() const;
 
+  /// Seconds spent on pixels' samples, kept only when timed() (the film was made to hold them): a region's cost is
+  /// the sum over its pixels. Not thread-safe for the same pixel, like add().
+  bool timed() const { return !seconds_.empty(); }
+  void set_timed() { seconds_.assign(pixels_.size(), 0.0); }
+  void add_seconds(int x, int y, double s) { seconds_[std::size_t(y) * crop_.width() + x] += s; }
+  double seconds(int x, int y) const { return timed() ? seconds_[std::size_t(y) * crop_.width() + x] : 0.0; }
+
   /// Mean as an RGB image (working space).
   Image mean_image() const;
   /// Writes a two-part EXR (float): part 0 "beauty" with R, G, B (the mean; what single-part readers such as
   /// envinfo/envdiff see), part 1 "aov" with variance.R, variance.G, variance.B (variance of the mean) and
-  /// samples. With a crop, the data window is the crop inside the full display window. Atomic (temp + rename).
+  /// samples, and seconds (per pixel, timed() films only: the channel's values differ from run to run). With a
+  /// crop, the data window is the crop inside the full display window. Atomic (temp + rename).
   void write_exr(const std::string& path, const std::map<std::string, std::string>& metadata = {}) const;
   /// Writes a display-referred preview (.png) through the OCIO display transform (color.h encode_for_display).
   void write_preview(const std::string& path, const std::string& view = "ACES 1.0 - SDR Video") const;
@@ -70,6 +79,7 @@ class Film {
   int full_width_ = 0, full_height_ = 0;
   Crop crop_;
   std::vector<Pixel> pixels_;
+  std::vector<double> seconds_;  // per pixel when timed(), else empty
 };
 
 }  // namespace envkit::render

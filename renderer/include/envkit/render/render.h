@@ -20,6 +20,9 @@ struct RenderOptions {
   std::uint32_t seed = 0;
   Crop crop{};  ///< empty (all zero) = the whole image
   int tile_size = 16;
+  /// Time each pixel's samples (the rendering thread's CPU time around them, summed over the passes) into the film's
+  /// seconds (Film::timed): what a region of the image cost. The samples and their values are the same either way.
+  bool pixel_seconds = false;
   /// Called with the fraction done (from any thread, serialised).
   std::function<void(double)> progress;
 };
