@@ -291,10 +291,9 @@ class Reference:
     """A high-spp render: image and the per-pixel variance of its mean (from the EXR's variance AOV), so that the
     reference's own noise can be removed from measured errors: E[(I-R)^2] = Var I + Var R + bias^2."""
 
-    def __init__(self, ctx, scene, spp, options, name, extra=()):
+    def __init__(self, ctx, scene, spp, options, name, extra=(), seed=1000003):
         self.path = ctx.path(name + ".exr")
-        r = ctx.render(self.path, scene, ["--spp", spp, "--seed", 1000003] + list(options) + list(extra)
-                       + ["--bake"])
+        r = ctx.render(self.path, scene, ["--spp", spp, "--seed", seed] + list(options) + list(extra) + ["--bake"])
         if "failed" in r:
             raise ToolFailed(r["failed"])
         self.image = r["image"]

@@ -13,7 +13,7 @@ from report.common import DEFAULT_STRATEGY, commit, g, geomean
 out_dir, mode, seconds, failed = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4].split()
 base = os.path.basename(out_dir.rstrip("/"))
 report_path = os.path.join(os.path.dirname(out_dir.rstrip("/")), "REPORT.md")
-SECTIONS = ["conversion", "tables", "strategies", "stratification", "precision", "extremes", "prefilter"]
+SECTIONS = ["conversion", "tables", "strategies", "stratification", "precision", "extremes", "prefilter", "indirect"]
 
 
 def load(name):
@@ -288,6 +288,33 @@ if pf and pf.get("acc"):
     else:
         rec.append(f"**Prefiltering.** No accuracy measured keeps every level within {100 * target:g}% of the "
                    f"brute-force sum (best {100 * min(worst_by_acc.values()):.2f}%): use the smallest.")
+
+# ---------------------------------------------------------------- 8. indirect light
+ind = S["indirect"]
+if ind and ind.get("results"):
+    res = ind["results"]
+    values = [f"{v:g}" for v in ind["values"] if f"{v:g}" != "0"]
+    eff = ind["geomean_efficiency"]
+    headline.append(f"Indirect light (depth {ind['depth']}, {ind['spp']} spp, {', '.join(res)}): efficiency of "
+                    "`--regularize` over the unbiased setting, against the unbiased reference (geometric mean over "
+                    "the lightings): " + ", ".join(f"{v} {g(eff.get(v))}" for v in values) + "; bias / noise per "
+                    "lighting: " + "; ".join(f"{p} " + ", ".join(f"{v}: {g(rows[v]['bias'])} / {g(rows[v]['noise'])}"
+                                                              for v in values if v in rows) for p, rows in res.items())
+                    + ".")
+    # A biased value is recommended only where it wins on every lighting and its bias stays below its noise there:
+    # what the report cannot tell from noise is not a reason to give up an unbiased image.
+    safe = [v for v in values if all(v in rows and rows[v]["efficiency"] and rows[v]["efficiency"] > 1.0
+                                     and rows[v]["bias"] < rows[v]["noise"] for rows in res.values())]
+    if safe:
+        best = max(safe, key=lambda v: eff.get(v) or 0.0)
+        rec.append(f"**Indirect light.** `--regularize {best}` for previews and noisy sunny scenes at "
+                   f"{ind['spp']} spp: {g(eff[best])}x the unbiased efficiency here, its bias below its noise on every "
+                   "lighting measured. It blurs caustics seen through a diffuse or rough bounce "
+                   "(docs/RENDERER-INDIRECT.md); final frames that need them exact keep the default 0.")
+    else:
+        rec.append("**Indirect light.** Keep the default `--regularize 0` (unbiased): no value measured wins on every "
+                   "lighting with its bias below its noise.")
+
 
 # ---------------------------------------------------------------- write
 def measured():

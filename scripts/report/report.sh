@@ -13,6 +13,8 @@
 #   6 extremes       sun dynamic range 1e2..1e9 per strategy: relMSE and max pixel error
 #   7 prefilter      GGX chains 8^2..256^2 per accuracy against the brute-force sum (build/bin/prefilter_accuracy),
 #                    envprefilter wall time per size against the read floor
+#   8 indirect       --max-depth 3 per --regularize value: noise at equal spp, bias against the unbiased reference,
+#                    total error and efficiency over the unbiased setting
 # then report.py assembles docs/REPORT.md with recommendations computed from the numbers.
 #
 #   --quick     small sizes, few spp, 1 repeat, every section (a few minutes on 2 cores)
@@ -33,7 +35,7 @@ BUILD="$ROOT/build-report"
 OUT=""
 DO_BUILD=1
 REPEATS=""
-SECTIONS="conversion,tables,strategies,stratification,precision,extremes,prefilter"
+SECTIONS="conversion,tables,strategies,stratification,precision,extremes,prefilter,indirect"
 KEEP=0
 PYTHON="${PYTHON:-/usr/bin/python3}"   # Debian's python3 (python3-numpy, python3-matplotlib)
 
