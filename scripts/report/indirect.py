@@ -84,7 +84,8 @@ if results:
 text = [f"## 8. Indirect light: regularization's bias against its noise\n",
         f"Scene: scripts/report/scenes/default.json (glossy conductors and plastics of GGX alpha 0.01-0.5 and a "
         f"diffuse sphere on a diffuse ground) at {RES[0]}x{RES[1]}, `--max-depth {DEPTH}` (two bounces), lit by "
-        f"{', '.join(images) or '(no probe)'} ({SKY} images, baked in memory). For each `--regularize` value: "
+        f"{', '.join(images) or '(no probe)'} (the built-in probe rasterized at {SKY}, blender's HDRIs as they are; "
+        f"tables baked in memory). For each `--regularize` value: "
         f"**noise** = relMSE of a {SPP}-spp render against that value's own converged image ({CONVERGED_SPP} spp); "
         f"**bias** = relMSE of that converged image against the unbiased reference (`--regularize 0`, {REF_SPP} "
         f"spp), both images' own noise (their variance AOVs) taken off: 0 when the run cannot tell it from noise; "
