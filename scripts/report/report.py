@@ -297,10 +297,8 @@ if ind and ind.get("results"):
     eff = ind["geomean_efficiency"]
     headline.append(f"Indirect light (depth {ind['depth']}, {ind['spp']} spp, {', '.join(res)}): efficiency of "
                     "`--regularize` over the unbiased setting, against the unbiased reference (geometric mean over "
-                    "the lightings): " + ", ".join(f"{v} {g(eff.get(v))}" for v in values) + "; bias / noise per "
-                    "lighting: " + "; ".join(f"{p} " + ", ".join(f"{v}: {g(rows[v]['bias'])} / {g(rows[v]['noise'])}"
-                                                              for v in values if v in rows) for p, rows in res.items())
-                    + ".")
+                    "the lightings): " + ", ".join(f"{v} {g(eff.get(v))}" for v in values) + " (bias and noise per "
+                    "lighting: section 8).")
     # A biased value is recommended only where it wins on every lighting and its bias stays below its noise there:
     # what the report cannot tell from noise is not a reason to give up an unbiased image.
     safe = [v for v in values if all(v in rows and rows[v]["efficiency"] and rows[v]["efficiency"] > 1.0
