@@ -433,9 +433,13 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw,
   if ((t.wi_world ^ x.ng) <= 0.0) return t;  // the shading normal let it through the geometric surface
   t.pdf = bs.pdf;
   t.is_delta = bs.is_delta;
-  // Looked up before the ray, read after it: the texel arrives from memory while the ray is traced.
-  const LightSample l = light ? light_.lookup(light->parts[0].table, t.wi_world) : light_.lookup(t.wi_world);
+  const auto look_up = [&] { return light ? light_.lookup(light->parts[0].table, t.wi_world) : light_.lookup(t.wi_world); };
+  // A shadow ray looks its texel up before it is traced and reads it after: the texel arrives from memory while the
+  // ray is traced. A continuation often hits a surface, and then needs no texel: it looks up only if it escapes.
+  LightSample l;
+  if (!next) l = look_up();
   if (!escapes(Ray{x.origin, t.wi_world}, bs, next)) return t;
+  if (next) l = look_up();
   t.value = mul(bs.f_cos, light_.radiance(l)) / bs.pdf;
   // The parts' supports are disjoint (the sun's texels, the rest): at most one density is not 0.
   if (light)

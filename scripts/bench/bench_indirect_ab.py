@@ -45,10 +45,13 @@ def main():
     ap.add_argument("variants", nargs="+", help="name=binary[:options]; ratios are over the first")
     args = ap.parse_args()
     variants = [parse_variant(v) for v in args.variants]
-    size = tuple(json.load(open(os.path.join(args.bench, "results.json")))["size"])
+    run = json.load(open(os.path.join(args.bench, "results.json")))
+    size = tuple(run["size"])
     tmp = os.path.join(args.bench, "ab")
     os.makedirs(tmp, exist_ok=True)
-    spec = write_meshes(SCENES["spheres"], tmp)
+    # The scene the run rendered: the one of SCENES whose regions it reports (spheres or mesh).
+    scene = next(s for s in SCENES.values() if write_meshes(s, tmp)["regions"] == run["regions"])
+    spec = write_meshes(scene, tmp)
     regions, mask = spec["regions"], region_masks(spec, size)
     hdris = args.hdris.split(",")
     data = {h: {v[0]: [] for v in variants} for h in hdris}
