@@ -433,7 +433,9 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw,
   if ((t.wi_world ^ x.ng) <= 0.0) return t;  // the shading normal let it through the geometric surface
   t.pdf = bs.pdf;
   t.is_delta = bs.is_delta;
-  const auto look_up = [&] { return light ? light_.lookup(light->parts[0].table, t.wi_world) : light_.lookup(t.wi_world); };
+  const auto look_up = [&] {
+    return light ? light_.lookup(light->parts[0].table, t.wi_world) : light_.lookup(t.wi_world);
+  };
   // A shadow ray looks its texel up before it is traced and reads it after: the texel arrives from memory while the
   // ray is traced. A continuation often hits a surface, and then needs no texel: it looks up only if it escapes.
   LightSample l;
