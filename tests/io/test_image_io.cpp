@@ -583,7 +583,8 @@ TEST_F(ImageIoTest, OnePassCountsMatchValueByValueCounts) {
     EXPECT_EQ(report.neginf_count, b.neginf);
     EXPECT_EQ(report.replaced_count, b.nan + b.posinf + b.neginf);
     EXPECT_EQ(report.negative_count, b.negative - b.neginf) << "-Inf is replaced by 0";
-    EXPECT_EQ(report.negative_count, brute_counts(std::span<const float>(img.pixels.data(), img.pixels.size())).negative);
+    EXPECT_EQ(report.negative_count,
+              brute_counts(std::span<const float>(img.pixels.data(), img.pixels.size())).negative);
   }
 
   // A colour conversion changes the values: the negatives are those of the converted pixels.
@@ -591,7 +592,8 @@ TEST_F(ImageIoTest, OnePassCountsMatchValueByValueCounts) {
   wide.colorspace = "ACEScg";
   img = envkit::read_image(path("finite.exr"), wide, &report);
   EXPECT_TRUE(report.converted);
-  const std::size_t converted_negative = brute_counts(std::span<const float>(img.pixels.data(), img.pixels.size())).negative;
+  const std::size_t converted_negative =
+      brute_counts(std::span<const float>(img.pixels.data(), img.pixels.size())).negative;
   EXPECT_NE(converted_negative, f.negative);
   EXPECT_EQ(report.negative_count, converted_negative);
 
@@ -604,8 +606,8 @@ TEST_F(ImageIoTest, OnePassCountsMatchValueByValueCounts) {
   EXPECT_EQ(report.negative_count, f.negative);
 
   // count_nonfinite on spans of every length around a block's end.
-  for (const std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(4095), std::size_t(4096), std::size_t(4097),
-                              speckled.size()}) {
+  for (const std::size_t n :
+       {std::size_t(0), std::size_t(1), std::size_t(4095), std::size_t(4096), std::size_t(4097), speckled.size()}) {
     const std::vector<float> part(speckled.begin(), speckled.begin() + std::ptrdiff_t(n));
     const BruteCounts p = brute_counts(part);
     const envkit::NonFiniteCounts got = envkit::count_nonfinite(part);
