@@ -26,6 +26,7 @@
 #include <fstream>
 #include <limits>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -514,6 +515,106 @@ TEST_F(NonFiniteTest, ClampPolicyUsesTheChannelMaximumForPositiveInfinity) {
   }
   EXPECT_EQ(envkit::parse_nonfinite_policy("clamp"), NonFinitePolicy::Clamp);
   EXPECT_THROW(envkit::parse_nonfinite_policy("fix"), Error);
+}
+
+// The read counts the file's NaN, +Inf, -Inf and negative values in one pass, and counts the negatives again only
+// when a later step changed the values. Checked against counts taken value by value, on images large enough for many
+// blocks and parallel ranges, with the special values scattered at random and -0 (not negative) among them.
+struct BruteCounts {
+  std::size_t nan = 0, posinf = 0, neginf = 0, negative = 0;
+};
+
+BruteCounts brute_counts(std::span<const float> v) {
+  BruteCounts c;
+  for (const float x : v) {
+    if (std::isnan(x))
+      ++c.nan;
+    else if (x == std::numeric_limits<float>::infinity())
+      ++c.posinf;
+    else if (x == -std::numeric_limits<float>::infinity())
+      ++c.neginf;
+    if (x < 0.0f) ++c.negative;  // -Inf included, NaN and -0 not
+  }
+  return c;
+}
+
+std::vector<float> speckled_values(std::size_t n, unsigned seed, bool nonfinite) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> value(-0.5f, 8.0f);
+  std::uniform_int_distribution<int> kind(0, 999);
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> v(n);
+  for (float& x : v) {
+    const int k = kind(rng);
+    x = value(rng);
+    if (k < 3) x = -0.0f;
+    if (nonfinite && k >= 3 && k < 5) x = std::numeric_limits<float>::quiet_NaN();
+    if (nonfinite && k >= 5 && k < 7) x = inf;
+    if (nonfinite && k >= 7 && k < 8) x = -inf;
+  }
+  return v;
+}
+
+TEST_F(ImageIoTest, OnePassCountsMatchValueByValueCounts) {
+  const int w = 301, h = 217;  // 195,951 values: many 4096-value blocks and several parallel ranges, odd ends
+  // Finite values, no conversion: the negatives come from the one pass.
+  const std::vector<float> finite = speckled_values(std::size_t(w) * h * 3, 5, false);
+  write_with_oiio(path("finite.exr"), w, h, {"R", "G", "B"}, finite);
+  ReadReport report;
+  Image img = envkit::read_image(path("finite.exr"), {}, &report);
+  const BruteCounts f = brute_counts(finite);
+  ASSERT_GT(f.negative, 1000u);
+  EXPECT_EQ(report.nonfinite_count(), 0u);
+  EXPECT_EQ(report.negative_count, f.negative);
+  EXPECT_EQ(brute_counts(std::span<const float>(img.pixels.data(), img.pixels.size())).negative, f.negative);
+
+  // NaN and Inf replaced by each policy: the file's counts, then the negatives of the pixels returned.
+  const std::vector<float> speckled = speckled_values(std::size_t(w) * h * 3, 6, true);
+  write_with_oiio(path("speckled.exr"), w, h, {"R", "G", "B"}, speckled);
+  const BruteCounts b = brute_counts(speckled);
+  ASSERT_GT(b.nan, 100u);
+  ASSERT_GT(b.neginf, 100u);
+  for (const NonFinitePolicy policy : {NonFinitePolicy::Zero, NonFinitePolicy::Clamp}) {
+    ReadOptions opt;
+    opt.nonfinite = policy;
+    img = envkit::read_image(path("speckled.exr"), opt, &report);
+    EXPECT_EQ(report.nan_count, b.nan);
+    EXPECT_EQ(report.posinf_count, b.posinf);
+    EXPECT_EQ(report.neginf_count, b.neginf);
+    EXPECT_EQ(report.replaced_count, b.nan + b.posinf + b.neginf);
+    EXPECT_EQ(report.negative_count, b.negative - b.neginf) << "-Inf is replaced by 0";
+    EXPECT_EQ(report.negative_count,
+              brute_counts(std::span<const float>(img.pixels.data(), img.pixels.size())).negative);
+  }
+
+  // A colour conversion changes the values: the negatives are those of the converted pixels.
+  ReadOptions wide;
+  wide.colorspace = "ACEScg";
+  img = envkit::read_image(path("finite.exr"), wide, &report);
+  EXPECT_TRUE(report.converted);
+  const std::size_t converted_negative =
+      brute_counts(std::span<const float>(img.pixels.data(), img.pixels.size())).negative;
+  EXPECT_NE(converted_negative, f.negative);
+  EXPECT_EQ(report.negative_count, converted_negative);
+
+  // envkit's own codecs (PFM here, bottom row first) take the same path.
+  std::string pfm = "PF\n" + std::to_string(w) + " " + std::to_string(h) + "\n-1.0\n";
+  pfm.append(reinterpret_cast<const char*>(finite.data()), finite.size() * sizeof(float));
+  write_bytes(path("finite.pfm"), pfm);
+  envkit::read_image(path("finite.pfm"), {}, &report);
+  EXPECT_EQ(report.format, "pfm");
+  EXPECT_EQ(report.negative_count, f.negative);
+
+  // count_nonfinite on spans of every length around a block's end.
+  for (const std::size_t n :
+       {std::size_t(0), std::size_t(1), std::size_t(4095), std::size_t(4096), std::size_t(4097), speckled.size()}) {
+    const std::vector<float> part(speckled.begin(), speckled.begin() + std::ptrdiff_t(n));
+    const BruteCounts p = brute_counts(part);
+    const envkit::NonFiniteCounts got = envkit::count_nonfinite(part);
+    EXPECT_EQ(got.nan, p.nan) << n;
+    EXPECT_EQ(got.posinf, p.posinf) << n;
+    EXPECT_EQ(got.neginf, p.neginf) << n;
+  }
 }
 
 TEST_F(ImageIoTest, WritingNonFiniteValuesIsRefused) {

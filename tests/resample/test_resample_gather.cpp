@@ -164,3 +164,51 @@ TEST(ResampleGatherKernels, DifferenceMeasureSeesAChange) {
   got.pixels[got.pixels.size() / 2] *= 1.00001f;
   EXPECT_GT(max_relative_difference(got, want), 1e-6);
 }
+
+// TexelSource::interior_bilinear_taps, which the gather takes for every magnified texel, tells whether a position's
+// 2 x 2 texels lie on one chart by a multiply instead of divisions: the same answers and taps as the divisions give,
+// at every texel and next to every edge of cube faces of several sizes (1 and powers of two included), strips
+// horizontal and vertical, and a lat-long (one chart).
+TEST(InteriorBilinearTaps, AgreeWithTheDivisions) {
+  const std::vector<Named> maps = {{"cube 1", std::make_shared<CubeMap>(1)},
+                                   {"cube 2", std::make_shared<CubeMap>(2)},
+                                   {"cube 3", std::make_shared<CubeMap>(3)},
+                                   {"cube 7 hstrip", std::make_shared<CubeMap>(7, CubeLayout::HorizontalStrip)},
+                                   {"cube 64", std::make_shared<CubeMap>(64)},
+                                   {"cube 67", std::make_shared<CubeMap>(67)},
+                                   {"cube 1024", std::make_shared<CubeMap>(1024)},
+                                   {"latlong 37x19", std::make_shared<LatLongMap>(37, 19)}};
+  for (const Named& m : maps) {
+    const Parameterization& p = *m.p;
+    const Image img(p.width(), p.height(), 1);
+    const TexelSource source(img, p);
+    const int cell = p.tap_cell(), W = p.width(), H = p.height();
+    ASSERT_GE(cell, 0) << m.name;
+    int inside = 0, outside = 0;
+    // Every texel of the small maps; of cube 1024 the rows and columns next to face edges and some others.
+    const auto wanted = [&](int k, int n) { return n <= 512 || k % 1024 <= 1 || k % 1024 >= 1022 || k % 97 == 0; };
+    for (int j = 0; j < H; ++j) {
+      if (!wanted(j, H)) continue;
+      for (int i = 0; i < W; ++i) {
+        if (!wanted(i, W)) continue;
+        for (const double d : {0.0, 0.25, 0.999}) {
+          const Vec2 q(i + 0.5 + d, j + 0.5 + d);
+          const int i0 = i, j0 = j;  // the texels q's taps start from
+          const bool expected =
+              i0 + 1 < W && j0 + 1 < H && (cell == 0 || (i0 / cell == (i0 + 1) / cell && j0 / cell == (j0 + 1) / cell));
+          Tap taps[4];
+          const bool got = source.interior_bilinear_taps(q, taps);
+          ASSERT_EQ(got, expected) << m.name << " at " << q.x << ", " << q.y;
+          if (got) {
+            ASSERT_EQ(taps[0].index, std::size_t(j0) * W + i0) << m.name;
+            ++inside;
+          } else {
+            ++outside;
+          }
+        }
+      }
+    }
+    if (W > 2 && H > 2) EXPECT_GT(inside, 0) << m.name;
+    EXPECT_GT(outside, 0) << m.name;
+  }
+}

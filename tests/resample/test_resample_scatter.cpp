@@ -1,6 +1,7 @@
 // The area scatter's batched kernel against its per-texel reference kernel: the same outputs (within 1e-6 relative,
 // the kernels being built to give the same contributions in the same order) on several map kinds and sizes, odd and
-// tiny ones included, a 1e9 sun, an alpha channel and a rotation.
+// tiny ones included, a 1e9 sun, an alpha channel and a rotation; and the batched kernel with its shares on vector
+// lanes against the same kernel without them, byte for byte.
 #include <envkit/maps/cubemap.h>
 #include <envkit/maps/latlong.h>
 #include <envkit/maps/mirrorball.h>
@@ -12,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -61,12 +63,34 @@ const std::vector<Named>& outputs() {
   return maps;
 }
 
+// Whether the batched kernel gives the same runs (output texel, double sums) with and without the lanes.
+bool same_runs(const Image& src, const Parameterization& sp, const Mat3& to_world, const Parameterization& dst) {
+  const detail::AreaTables tables(sp, dst);
+  const MapRef ref{src, sp, to_world};
+  const auto lanes = detail::scatter_runs(ref, dst, transposed(to_world), {}, tables, ScatterKernel::Batched);
+  const auto portable =
+      detail::scatter_runs(ref, dst, transposed(to_world), {}, tables, ScatterKernel::BatchedPortable);
+  if (lanes.size() != portable.size() || lanes.empty()) return false;
+  for (std::size_t r = 0; r < lanes.size(); ++r)
+    if (lanes[r].cell != portable[r].cell || lanes[r].sums.size() != portable[r].sums.size() ||
+        std::memcmp(lanes[r].sums.data(), portable[r].sums.data(), lanes[r].sums.size() * sizeof(double)) != 0)
+      return false;
+  return true;
+}
+
 void expect_kernels_agree(const Image& src, const Parameterization& sp, const Mat3& to_world, const std::string& what) {
   for (const Named& b : outputs()) {
     const Image want = scatter(src, sp, to_world, *b.p, ScatterKernel::PerTexel);
     const Image got = scatter(src, sp, to_world, *b.p, ScatterKernel::Batched);
     ASSERT_EQ(got.pixels.size(), want.pixels.size());
     EXPECT_LE(max_relative_difference(got, want), 1e-6) << what << " -> " << b.name;
+    // The shares computed on vector lanes (where the CPU has them) are the portable code's doubles: the same runs,
+    // bit for bit, and so the same output bytes.
+    const Image portable = scatter(src, sp, to_world, *b.p, ScatterKernel::BatchedPortable);
+    ASSERT_EQ(portable.pixels.size(), got.pixels.size());
+    EXPECT_EQ(std::memcmp(portable.pixels.data(), got.pixels.data(), got.pixels.size() * sizeof(float)), 0)
+        << what << " -> " << b.name << ": lanes against portable";
+    EXPECT_TRUE(same_runs(src, sp, to_world, *b.p)) << what << " -> " << b.name << ": lanes against portable";
   }
 }
 

@@ -28,6 +28,7 @@
 #include <cctype>
 #include <cfloat>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -91,33 +92,53 @@ constexpr std::size_t kHalfBlockBytes = std::size_t(16) << 20;
 
 }  // namespace
 
-NonFiniteCounts count_nonfinite(std::span<const float> values) {
+namespace {
+
+/// NaN, +/-Inf and values below zero among `values`. The common case, a block without a non-finite value, takes one
+/// loop without branches (the compiler vectorises it); a block that holds one is classified value by value.
+struct ValueCounts {
+  NonFiniteCounts nonfinite;
+  std::size_t negative = 0;
+  ValueCounts operator+(const ValueCounts& o) const { return {nonfinite + o.nonfinite, negative + o.negative}; }
+};
+
+ValueCounts count_block(const float* v, std::size_t n) {
+  ValueCounts counts;
+  constexpr std::size_t kBlock = 4096;  // 32-bit counters per block: lanes the vector loop can use
+  for (std::size_t start = 0; start < n; start += kBlock) {
+    const std::size_t m = std::min(kBlock, n - start);
+    const float* b = v + start;
+    std::uint32_t negative = 0, nonfinite = 0;
+    for (std::size_t i = 0; i < m; ++i) {
+      negative += b[i] < 0.0f ? 1u : 0u;
+      nonfinite += std::abs(b[i]) <= FLT_MAX ? 0u : 1u;  // false for NaN and +/-Inf
+    }
+    counts.negative += negative;
+    if (nonfinite == 0) continue;
+    for (std::size_t i = 0; i < m; ++i) {
+      if (std::isnan(b[i]))
+        ++counts.nonfinite.nan;
+      else if (std::isinf(b[i]))
+        ++(b[i] > 0 ? counts.nonfinite.posinf : counts.nonfinite.neginf);
+    }
+  }
+  return counts;
+}
+
+ValueCounts count_values(std::span<const float> values) {
   return tbb::parallel_reduce(
-      Range(0, values.size(), kGrain), NonFiniteCounts{},
-      [&](const Range& r, NonFiniteCounts acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const float v = values[i];
-          if (std::isnan(v))
-            ++acc.nan;
-          else if (std::isinf(v))
-            ++(v > 0 ? acc.posinf : acc.neginf);
-        }
-        return acc;
-      },
+      Range(0, values.size(), kGrain), ValueCounts{},
+      [&](const Range& r, ValueCounts acc) { return acc + count_block(values.data() + r.begin(), r.size()); },
       std::plus<>());
 }
+
+}  // namespace
+
+NonFiniteCounts count_nonfinite(std::span<const float> values) { return count_values(values).nonfinite; }
 
 namespace {
 
-std::size_t count_negative(std::span<const float> values) {
-  return tbb::parallel_reduce(
-      Range(0, values.size(), kGrain), std::size_t{0},
-      [&](const Range& r, std::size_t acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) acc += values[i] < 0.0f ? 1 : 0;
-        return acc;
-      },
-      std::plus<>());
-}
+std::size_t count_negative(std::span<const float> values) { return count_values(values).negative; }
 
 /// Largest finite value of each channel (0 for a channel without finite values).
 std::vector<float> channel_max_finite(const Image& image) {
@@ -703,22 +724,27 @@ Image read_pixels(const std::string& path, detail::BackendInput* in, const detai
 }
 
 /// Counts NaN/Inf in the file's values and applies the policy. Done before colour conversion, which
-/// would spread a non-finite value to the other channels of its texel.
-void handle_nonfinite(const std::string& path, Image& image, NonFinitePolicy policy, ReadReport& report) {
-  const NonFiniteCounts bad = count_nonfinite(image.pixels);
+/// would spread a non-finite value to the other channels of its texel. Returns the file's values below zero, counted
+/// in the same pass: the returned pixels' count too as long as no later step changes them.
+std::size_t handle_nonfinite(const std::string& path, Image& image, NonFinitePolicy policy, ReadReport& report) {
+  const ValueCounts counts = count_values(image.pixels);
+  const NonFiniteCounts& bad = counts.nonfinite;
   report.nan_count = bad.nan;
   report.posinf_count = bad.posinf;
   report.neginf_count = bad.neginf;
   const std::size_t n = report.nonfinite_count();
-  if (n == 0) return;
+  if (n == 0) return counts.negative;
   if (policy == NonFinitePolicy::Error)
     fail(path, std::to_string(n) + " non-finite values (" + std::to_string(bad.nan) + " NaN, " +
                    std::to_string(bad.posinf + bad.neginf) + " Inf); pass --fix-nonfinite zero|clamp");
   apply_nonfinite_policy(image, policy);
   report.replaced_count = n;
+  return counts.negative;
 }
 
-void decode_to_working_space(Image& image, const Decoding& decoding, ReadReport& report) {
+/// Decodes the pixels to the working space. Returns whether their values may have changed (a gamma curve, even of
+/// 1, or a colour conversion): the values below zero counted before it no longer hold then.
+bool decode_to_working_space(Image& image, const Decoding& decoding, ReadReport& report) {
   report.colorspace_reason = decoding.reason;
   report.working_space = working_space();
   if (decoding.gamma > 0.0) {
@@ -727,13 +753,14 @@ void decode_to_working_space(Image& image, const Decoding& decoding, ReadReport&
     report.file_colorspace = std::string("gamma ") + gamma;
     decode_gamma(image, decoding.gamma);
     report.converted = decoding.gamma != 1.0;
-    return;
+    return true;
   }
   report.file_colorspace = decoding.colorspace;
   if (decoding.colorspace != report.working_space && !is_data_colorspace(decoding.colorspace)) {
     convert_colorspace(image, decoding.colorspace, report.working_space);
     report.converted = true;
   }
+  return report.converted;
 }
 
 }  // namespace
@@ -786,7 +813,8 @@ Image read_native_image(const std::string& path, detail::NativeFormat format, co
   report.format = r.format;
   report.pixel_type = r.pixel_type;
   report.notes = r.notes;
-  handle_nonfinite(path, image, options.nonfinite, report);
+  const std::size_t file_negative = handle_nonfinite(path, image, options.nonfinite, report);
+  bool changed = report.replaced_count > 0;
   try {
     if (r.xyze) {
       const std::array<double, 9> m = radiance_xyz_to_rec709();
@@ -805,15 +833,16 @@ Image read_native_image(const std::string& path, detail::NativeFormat format, co
       if (!options.colorspace.empty()) report.notes.push_back("XYZE data: the colour-space option is ignored");
       decode_to_working_space(image, {canonical_colorspace("lin_rec709"), 0.0, "Radiance XYZE -> Rec.709"}, report);
       report.file_colorspace = "radiance xyz";
+      changed = true;  // the matrix above
     } else if (!options.colorspace.empty()) {
-      decode_to_working_space(image, {canonical_colorspace(options.colorspace), 0.0, "option"}, report);
+      changed |= decode_to_working_space(image, {canonical_colorspace(options.colorspace), 0.0, "option"}, report);
     } else {
-      decode_to_working_space(image, {working_space(), 0.0, "default for float data"}, report);
+      changed |= decode_to_working_space(image, {working_space(), 0.0, "default for float data"}, report);
     }
   } catch (const Error& e) {
     fail(path, e.what());
   }
-  report.negative_count = count_negative(image.pixels);
+  report.negative_count = changed ? count_negative(image.pixels) : file_negative;
   return std::move(image);
 }
 
@@ -847,14 +876,19 @@ Image read_image(const std::string& path, const ReadOptions& options, ReadReport
       spec.height != spec.full_height)
     report.notes.push_back("data window differs from the display window: the data window was read");
 
-  handle_nonfinite(path, image, options.nonfinite, report);
+  const std::size_t file_negative = handle_nonfinite(path, image, options.nonfinite, report);
+  bool changed = report.replaced_count > 0;
   try {
-    decode_to_working_space(image, decide_decoding(spec, report.format, options, report), report);
+    changed |= decode_to_working_space(image, decide_decoding(spec, report.format, options, report), report);
   } catch (const Error& e) {
     fail(path, e.what());
   }
-  if (spec.unassociated_alpha) multiply_alpha(image, false);
-  report.negative_count = count_negative(image.pixels);
+  if (spec.unassociated_alpha) {
+    multiply_alpha(image, false);
+    changed = true;
+  }
+  // One pass counted the file's non-finite values and its negatives: counted again only if a step changed values.
+  report.negative_count = changed ? count_negative(image.pixels) : file_negative;
   if (report_out) *report_out = std::move(report);
   return image;
 }

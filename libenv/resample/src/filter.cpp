@@ -36,6 +36,7 @@ TexelSource::TexelSource(const Image& image, const Parameterization& param) : im
   if (image.width != param.width() || image.height != param.height())
     throw Error("image size " + std::to_string(image.width) + "x" + std::to_string(image.height) +
                 " does not match the parameterization (" + param.describe() + ")");
+  if (param.tap_cell() > 0) cell_multiple_ = ~std::uint64_t(0) / static_cast<std::uint64_t>(param.tap_cell()) + 1;
   // Only maps with blank regions (crosses, balls, paraboloids) need a coverage mask.
   if (param.has_blank_texels()) {
     covered_.assign(image.texel_count(), 0);

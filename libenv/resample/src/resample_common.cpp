@@ -91,6 +91,35 @@ Image copy_same_grid(const Image& src, const Parameterization& param, const Outp
   return out;
 }
 
+namespace {
+
+/// Row j's power per channel (sum of omega x value over finite values, in column order), its largest value per
+/// channel (+inf included, NaN never) and its largest solid angle. The sums live in locals, not in the tables they
+/// end up in (which the compiler must assume the solid angle's store can overwrite): the same additions in the same
+/// order, without a round trip through memory for each. kC: the channel count (1 to 4).
+template <int kC>
+void scan_row(const Image& img, const SolidAngleTable& omega, int j, double* row_power, double* row_peak,
+              double& row_omega) {
+  constexpr int C = kC;
+  double power[kC] = {}, peak[kC] = {};
+  double largest = 0.0;
+  const float* px = img.at(0, j);
+  for (int i = 0; i < img.width; ++i, px += C) {
+    const double w = omega(i, j);
+    if (w <= 0.0) continue;
+    largest = std::max(largest, w);
+    for (int c = 0; c < C; ++c) {
+      if (std::isfinite(px[c])) power[c] += w * px[c];
+      if (px[c] > peak[c]) peak[c] = px[c];
+    }
+  }
+  std::copy_n(power, C, row_power);
+  std::copy_n(peak, C, row_peak);
+  row_omega = largest;
+}
+
+}  // namespace
+
 std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable& omega, double fraction,
                                          double contrast) {
   const int C = img.channels;
@@ -101,6 +130,18 @@ std::vector<std::size_t> find_hot_texels(const Image& img, const SolidAngleTable
   tbb::parallel_for(0, img.height, [&](int j) {
     double* power = row_power.data() + std::size_t(j) * C;
     double* peak = row_peak.data() + std::size_t(j) * C;
+    switch (C) {
+      case 1:
+        return scan_row<1>(img, omega, j, power, peak, row_omega[j]);
+      case 2:
+        return scan_row<2>(img, omega, j, power, peak, row_omega[j]);
+      case 3:
+        return scan_row<3>(img, omega, j, power, peak, row_omega[j]);
+      case 4:
+        return scan_row<4>(img, omega, j, power, peak, row_omega[j]);
+      default:
+        break;
+    }
     for (int i = 0; i < img.width; ++i) {
       const double w = omega(i, j);
       if (w <= 0.0) continue;

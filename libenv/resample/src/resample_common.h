@@ -92,9 +92,21 @@ Image resample_area_gather(const MapRef& src, const TexelSource& source, const P
                            const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
                            GatherKernel kernel = GatherKernel::Batched);
 
-/// The area scatter's kernels: both give the same contributions in the same order (so the same output). PerTexel
-/// branches on where each texel's square lies; Batched lists a batch of texels' contributions, then adds them.
-enum class ScatterKernel { Batched, PerTexel };
+/// The area scatter's kernels: all give the same contributions in the same order (so the same output). PerTexel
+/// branches on where each texel's square lies; Batched lists a batch of texels' contributions, then adds them, their
+/// shares computed on AVX2 lanes where the CPU has them (and ENVKIT_SIMD allows) to the same doubles; BatchedPortable
+/// is Batched without the lanes (the tests hold Batched to it bit for bit).
+enum class ScatterKernel { Batched, PerTexel, BatchedPortable };
+
+/// One run a scatter kernel hands on: an output texel and, in double, its C flux-weighted channel sums then the weight.
+struct ScatterRun {
+  std::size_t cell;
+  std::vector<double> sums;
+};
+/// Every run `kernel` gives for the whole source, chunk after chunk of 8 rows, serially: what the tests compare when
+/// they hold two kernels to the same doubles (the output, rounded to float, hides differences of an ulp).
+std::vector<ScatterRun> scatter_runs(const MapRef& src, const Parameterization& dst, const Mat3& dst_to_src,
+                                     const ResampleOptions& opt, const AreaTables& omega, ScatterKernel kernel);
 
 /// The `area` filter's scatter (resample.h): each source texel's flux spread over the output texels that a square of
 /// its solid angle, centred on its projection, overlaps. Needs a source with data in every texel.

@@ -1,6 +1,7 @@
 // The `area` filter's scatter (see resample.h): for shrinking, each source texel is read once and its flux is
 // spread over the output texels that a square of its solid angle, centred on its projection, overlaps.
 #include <envkit/core/huge_page_allocator.h>
+#include <envkit/core/simd/simd_level.h>
 #include <envkit/maps/latlong.h>
 #include <envkit/maps/texel_directions.h>
 #include <tbb/blocked_range.h>
@@ -16,6 +17,9 @@
 
 #include "cube_projection.h"
 #include "resample_common.h"
+
+// Last: its target attribute applies to the functions that use it.
+#include <envkit/core/simd/avx2_target.h>
 
 namespace envkit::detail {
 
@@ -89,19 +93,31 @@ struct Contribution {
   const float* pixel;
 };
 
-/// A source texel projected: its centre's output position, solid angle, output texel, channels.
-struct Landed {
-  Vec2 p;
-  double omega_s;
-  int ti, tj;
-  const float* pixel;
-};
-
 /// Contributions listed before they are added: a batch of source texels at a time, so that listing them (projection
 /// and overlap fractions, without branches on where a square lies) and adding them (slot look-ups) each run as one
 /// tight loop. Sized for one batch: up to four shares per texel, or a whole capped square for the rare large one.
 constexpr int kBatchTexels = 512;
 constexpr int kContributionCapacity = 4 * kBatchTexels + kMaxSplatCellsPerAxis * kMaxSplatCellsPerAxis;
+
+/// The batched kernel's texels of a batch, projected (by columns, for the vector lanes): each centre's output
+/// position, solid angle, output texel and channels.
+constexpr int kBatchLanes = 4;  // the shares' vector width (AVX2 doubles); batches are padded to a multiple of it
+struct Landed {
+  alignas(32) double x[kBatchTexels + kBatchLanes], y[kBatchTexels + kBatchLanes], omega[kBatchTexels + kBatchLanes];
+  alignas(32) int ti[kBatchTexels + kBatchLanes], tj[kBatchTexels + kBatchLanes];
+  const float* pixel[kBatchTexels + kBatchLanes];
+};
+
+/// What the lanes compute of each landed texel whose square is at most one output texel on a side (flag `big`
+/// clear): the cell holding the square's corner and the four shares (omega fx fy) of the 2 x 2 cells from it, with
+/// the flags that say which of the last three are listed (fx fy > 0). Bit k % 4 of word k / 4 is texel k's.
+struct Shares {
+  alignas(32) double w00[kBatchTexels + kBatchLanes], w10[kBatchTexels + kBatchLanes], w01[kBatchTexels + kBatchLanes],
+      w11[kBatchTexels + kBatchLanes];
+  alignas(16) int ci[kBatchTexels + kBatchLanes], cj[kBatchTexels + kBatchLanes];
+  unsigned char big[kBatchTexels / kBatchLanes + 1], f10[kBatchTexels / kBatchLanes + 1],
+      f01[kBatchTexels / kBatchLanes + 1], f11[kBatchTexels / kBatchLanes + 1];
+};
 
 /// Slots of a chunk's accumulator (a power of two). A source row revisits the output texels the row above it
 /// reached, some thousands of them across four cube faces at 8k -> 1024: the slots hold about two rows' worth, so
@@ -120,7 +136,8 @@ struct Chunk {
   std::vector<double> slot_sums;       // per slot: as sums
   std::vector<Contribution> list;      // the batched kernel's contributions of a batch of texels
   std::vector<float> hot_pixels;       // the batched kernel's copies of hot texels, colour zeroed
-  std::vector<Landed> landed;          // the batched kernel's texels of a batch, projected
+  std::unique_ptr<Landed> landed;      // the batched kernel's texels of a batch, projected
+  std::unique_ptr<Shares> shares;      // the batched kernel's shares of a batch, from the lanes
   std::vector<double> row_x, row_y;    // the batched kernel's output positions of a batch (ScatterGeometry::rows)
   static constexpr std::size_t kEmpty = std::size_t(-1);
 
@@ -302,12 +319,64 @@ void add_contributions(const Parameterization& dst, const Contribution* list, in
   }
 }
 
+#if defined(ENVKIT_AVX2)
+/// The shares of landed texels [0, m) (m a multiple of the lane count) into an output whose texels are close to
+/// square (no row scales), on four lanes: the scalar code's operations in its order, each exact in IEEE double (sqrt,
+/// division, floor, min and products; the attribute enables AVX2 alone, so nothing is fused into an FMA), so the same
+/// doubles bit for bit.
+ENVKIT_AVX2 void shares_avx2(const Landed& l, int m, const float* inverse_side, int DW, Shares& s) {
+  const __m256d zero = _mm256_setzero_pd(), half = _mm256_set1_pd(0.5), one = _mm256_set1_pd(1.0);
+  const __m256d cap = _mm256_set1_pd(kMaxSideInTexels);
+  const __m128i width = _mm_set1_epi32(DW);
+  for (int k = 0; k < m; k += kBatchLanes) {
+    const __m128i ti = _mm_load_si128(reinterpret_cast<const __m128i*>(l.ti + k));
+    const __m128i tj = _mm_load_si128(reinterpret_cast<const __m128i*>(l.tj + k));
+    // ScatterGeometry::square: inverse > 0 ? std::min(sqrt(omega) * inverse, cap) : 1, with std::min(a, cap) being
+    // cap < a ? cap : a.
+    const __m256d inverse =
+        _mm256_cvtps_pd(_mm_i32gather_ps(inverse_side, _mm_add_epi32(_mm_mullo_epi32(tj, width), ti), 4));
+    const __m256d omega = _mm256_load_pd(l.omega + k);
+    const __m256d product = _mm256_mul_pd(_mm256_sqrt_pd(omega), inverse);
+    const __m256d capped = _mm256_blendv_pd(product, cap, _mm256_cmp_pd(cap, product, _CMP_LT_OQ));
+    const __m256d side = _mm256_blendv_pd(one, capped, _mm256_cmp_pd(inverse, zero, _CMP_GT_OQ));
+    const __m256d x0 = _mm256_sub_pd(_mm256_load_pd(l.x + k), _mm256_mul_pd(half, side));
+    const __m256d y0 = _mm256_sub_pd(_mm256_load_pd(l.y + k), _mm256_mul_pd(half, side));
+    const __m256d cx = _mm256_floor_pd(x0), cy = _mm256_floor_pd(y0);
+    const __m256d x1 = _mm256_add_pd(x0, side), y1 = _mm256_add_pd(y0, side);
+    const __m256d cx1 = _mm256_add_pd(cx, one), cy1 = _mm256_add_pd(cy, one);
+    const __m256d fx0 =
+        _mm256_blendv_pd(_mm256_mul_pd(_mm256_sub_pd(cx1, x0), _mm256_div_pd(one, _mm256_sub_pd(x1, x0))), one,
+                         _mm256_cmp_pd(x1, cx1, _CMP_LE_OQ));
+    const __m256d fy0 =
+        _mm256_blendv_pd(_mm256_mul_pd(_mm256_sub_pd(cy1, y0), _mm256_div_pd(one, _mm256_sub_pd(y1, y0))), one,
+                         _mm256_cmp_pd(y1, cy1, _CMP_LE_OQ));
+    const __m256d fx1 = _mm256_sub_pd(one, fx0), fy1 = _mm256_sub_pd(one, fy0);
+    _mm256_store_pd(s.w00 + k, _mm256_mul_pd(_mm256_mul_pd(omega, fx0), fy0));
+    _mm256_store_pd(s.w10 + k, _mm256_mul_pd(_mm256_mul_pd(omega, fx1), fy0));
+    _mm256_store_pd(s.w01 + k, _mm256_mul_pd(_mm256_mul_pd(omega, fx0), fy1));
+    _mm256_store_pd(s.w11 + k, _mm256_mul_pd(_mm256_mul_pd(omega, fx1), fy1));
+    _mm_store_si128(reinterpret_cast<__m128i*>(s.ci + k), _mm256_cvttpd_epi32(cx));
+    _mm_store_si128(reinterpret_cast<__m128i*>(s.cj + k), _mm256_cvttpd_epi32(cy));
+    const int word = k / kBatchLanes;
+    s.big[word] = static_cast<unsigned char>(_mm256_movemask_pd(_mm256_cmp_pd(side, one, _CMP_GT_OQ)));
+    s.f10[word] =
+        static_cast<unsigned char>(_mm256_movemask_pd(_mm256_cmp_pd(_mm256_mul_pd(fx1, fy0), zero, _CMP_GT_OQ)));
+    s.f01[word] =
+        static_cast<unsigned char>(_mm256_movemask_pd(_mm256_cmp_pd(_mm256_mul_pd(fx0, fy1), zero, _CMP_GT_OQ)));
+    s.f11[word] =
+        static_cast<unsigned char>(_mm256_movemask_pd(_mm256_cmp_pd(_mm256_mul_pd(fx1, fy1), zero, _CMP_GT_OQ)));
+  }
+}
+#endif
+
 /// The batched kernel: the same contributions as project_chunk_per_texel, in the same order, listed a batch of
 /// texels at a time and then added. A square at most one output texel on a side overlaps the 2 x 2 cells from the
 /// one holding its corner; their fractions are computed alike for every such square and the shares that are zero
 /// dropped from the list by its count, not by branches. Larger squares (rare: near the poles of a lat-long output)
-/// take the per-axis overlap loop. Hot texels point at a copy of their channels with zero colour.
-void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std::vector<std::size_t>& hot,
+/// take the per-axis overlap loop. Hot texels point at a copy of their channels with zero colour. With `lanes` (and
+/// an output whose texels are close to square), the shares of a batch are computed on vector lanes first, to the
+/// same doubles.
+void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std::vector<std::size_t>& hot, bool lanes,
                            Chunk& chunk) {
   const int C = img.channels, W = g.W, stride = C + 1;
   const auto add = [&](const Contribution* list, int n) {
@@ -326,12 +395,51 @@ void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std
     if (img.alpha_channel >= 0)
       chunk.hot_pixels[std::size_t(h - hot_begin) * C + img.alpha_channel] = img.pixels[*h * C + img.alpha_channel];
   chunk.list.resize(kContributionCapacity);
-  chunk.landed.resize(kBatchTexels);
+  if (!chunk.landed) chunk.landed = std::make_unique<Landed>();
+#if defined(ENVKIT_AVX2)
+  lanes = lanes && g.row_scales.x.empty();
+  if (lanes && !chunk.shares) chunk.shares = std::make_unique<Shares>();
+#else
+  lanes = false;
+#endif
   chunk.row_x.resize(g.rows ? kBatchTexels : 0);
   chunk.row_y.resize(chunk.row_x.size());
   Contribution* list = chunk.list.data();
+  Landed& l = *chunk.landed;
   auto next_hot = hot_begin;
   double fx[kMaxSplatCellsPerAxis], fy[kMaxSplatCellsPerAxis];
+  // The per-axis overlap loop of a square wider than one output texel (or any square, without the lanes).
+  const auto overlap_shares = [&](int k, int& n) {
+    const double px = l.x[k], py = l.y[k], omega_s = l.omega[k];
+    const int ti = l.ti[k], tj = l.tj[k];
+    double width, height;
+    g.square(std::sqrt(omega_s), ti, tj, width, height);
+    const double x0 = px - 0.5 * width, y0 = py - 0.5 * height;
+    if (width > 1.0 || height > 1.0) [[unlikely]] {
+      int nx, ny;
+      const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
+      for (int b = 0; b < ny; ++b)
+        for (int a = 0; a < nx; ++a)
+          if (fx[a] * fy[b] > 0.0) list[n++] = {cx + a, cy + b, ti, tj, omega_s * fx[a] * fy[b], l.pixel[k]};
+      return;
+    }
+    // As overlaps(): the fraction of [x0, x0 + width) in the cell holding x0, the rest in the next cell.
+    const double cx = std::floor(x0), cy = std::floor(y0);
+    const double x1 = x0 + width, y1 = y0 + height;
+    const double fx0 = x1 <= cx + 1.0 ? 1.0 : (cx + 1.0 - x0) * (1.0 / (x1 - x0));
+    const double fy0 = y1 <= cy + 1.0 ? 1.0 : (cy + 1.0 - y0) * (1.0 / (y1 - y0));
+    const double fx1 = 1.0 - fx0, fy1 = 1.0 - fy0;
+    const int ci = static_cast<int>(cx), cj = static_cast<int>(cy);
+    const float* px_ = l.pixel[k];
+    list[n] = {ci, cj, ti, tj, omega_s * fx0 * fy0, px_};
+    n += 1;
+    list[n] = {ci + 1, cj, ti, tj, omega_s * fx1 * fy0, px_};
+    n += fx1 * fy0 > 0.0;
+    list[n] = {ci, cj + 1, ti, tj, omega_s * fx0 * fy1, px_};
+    n += fx0 * fy1 > 0.0;
+    list[n] = {ci + 1, cj + 1, ti, tj, omega_s * fx1 * fy1, px_};
+    n += fx1 * fy1 > 0.0;
+  };
   for (int j = chunk.first_row; j < chunk.end_row; ++j) {
     const double row_omega = g.omega_per_row ? g.src_omega(1, j) : 0.0;
     for (int i0 = 0; i0 < W; i0 += kBatchTexels) {
@@ -355,42 +463,57 @@ void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std
         const int ti = std::clamp(static_cast<int>(p.x), 0, g.DW - 1);
         const int tj = std::clamp(static_cast<int>(p.y), 0, g.DH - 1);
         g.prefetch_square(ti, tj);
-        chunk.landed[m++] = {p, omega_s, ti, tj, px};
+        l.x[m] = p.x;
+        l.y[m] = p.y;
+        l.omega[m] = omega_s;
+        l.ti[m] = ti;
+        l.tj[m] = tj;
+        l.pixel[m] = px;
+        ++m;
       }
       // Pass 2: each landed texel's shares.
       int n = 0;
+#if defined(ENVKIT_AVX2)
+      if (lanes) {
+        // Lanes past m hold a harmless texel (output texel 0, solid angle 1): their shares are never listed.
+        for (int k = m; k < (m + kBatchLanes - 1) / kBatchLanes * kBatchLanes; ++k) {
+          l.x[k] = l.y[k] = 0.5;
+          l.omega[k] = 1.0;
+          l.ti[k] = l.tj[k] = 0;
+        }
+        Shares& s = *chunk.shares;
+        shares_avx2(l, (m + kBatchLanes - 1) / kBatchLanes * kBatchLanes, g.inverse_side.data(), g.DW, s);
+        for (int k = 0; k < m; ++k) {
+          if (n > kContributionCapacity - kMaxSplatCellsPerAxis * kMaxSplatCellsPerAxis) [[unlikely]] {
+            add(list, n);  // room for one more texel's shares, however large its square
+            n = 0;
+          }
+          const int word = k / kBatchLanes, bit = k % kBatchLanes;
+          if ((s.big[word] >> bit) & 1) [[unlikely]] {
+            overlap_shares(k, n);
+            continue;
+          }
+          const int ci = s.ci[k], cj = s.cj[k], ti = l.ti[k], tj = l.tj[k];
+          const float* px = l.pixel[k];
+          list[n] = {ci, cj, ti, tj, s.w00[k], px};
+          n += 1;
+          list[n] = {ci + 1, cj, ti, tj, s.w10[k], px};
+          n += (s.f10[word] >> bit) & 1;
+          list[n] = {ci, cj + 1, ti, tj, s.w01[k], px};
+          n += (s.f01[word] >> bit) & 1;
+          list[n] = {ci + 1, cj + 1, ti, tj, s.w11[k], px};
+          n += (s.f11[word] >> bit) & 1;
+        }
+        add(list, n);
+        continue;
+      }
+#endif
       for (int k = 0; k < m; ++k) {
         if (n > kContributionCapacity - kMaxSplatCellsPerAxis * kMaxSplatCellsPerAxis) [[unlikely]] {
           add(list, n);  // room for one more texel's shares, however large its square
           n = 0;
         }
-        const auto [p, omega_s, ti, tj, px] = chunk.landed[k];
-        double width, height;
-        g.square(std::sqrt(omega_s), ti, tj, width, height);
-        const double x0 = p.x - 0.5 * width, y0 = p.y - 0.5 * height;
-        if (width > 1.0 || height > 1.0) [[unlikely]] {
-          int nx, ny;
-          const int cx = overlaps(x0, x0 + width, fx, nx), cy = overlaps(y0, y0 + height, fy, ny);
-          for (int b = 0; b < ny; ++b)
-            for (int a = 0; a < nx; ++a)
-              if (fx[a] * fy[b] > 0.0) list[n++] = {cx + a, cy + b, ti, tj, omega_s * fx[a] * fy[b], px};
-          continue;
-        }
-        // As overlaps(): the fraction of [x0, x0 + width) in the cell holding x0, the rest in the next cell.
-        const double cx = std::floor(x0), cy = std::floor(y0);
-        const double x1 = x0 + width, y1 = y0 + height;
-        const double fx0 = x1 <= cx + 1.0 ? 1.0 : (cx + 1.0 - x0) * (1.0 / (x1 - x0));
-        const double fy0 = y1 <= cy + 1.0 ? 1.0 : (cy + 1.0 - y0) * (1.0 / (y1 - y0));
-        const double fx1 = 1.0 - fx0, fy1 = 1.0 - fy0;
-        const int ci = static_cast<int>(cx), cj = static_cast<int>(cy);
-        list[n] = {ci, cj, ti, tj, omega_s * fx0 * fy0, px};
-        n += 1;
-        list[n] = {ci + 1, cj, ti, tj, omega_s * fx1 * fy0, px};
-        n += fx1 * fy0 > 0.0;
-        list[n] = {ci, cj + 1, ti, tj, omega_s * fx0 * fy1, px};
-        n += fx0 * fy1 > 0.0;
-        list[n] = {ci + 1, cj + 1, ti, tj, omega_s * fx1 * fy1, px};
-        n += fx1 * fy1 > 0.0;
+        overlap_shares(k, n);
       }
       add(list, n);
     }
@@ -415,7 +538,7 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
     if (kernel == ScatterKernel::PerTexel)
       project_chunk_per_texel(geometry, img, hot, chunk);
     else
-      project_chunk_batched(geometry, img, hot, chunk);
+      project_chunk_batched(geometry, img, hot, kernel == ScatterKernel::Batched && use_avx2(), chunk);
   };
 
   // Per output texel: the flux-weighted sum of each channel, and the weight (the solid angle received). Float sums
@@ -501,6 +624,27 @@ void scatter_and_normalise(const MapRef& s, const Parameterization& dst, const S
 }
 
 }  // namespace
+
+std::vector<ScatterRun> scatter_runs(const MapRef& s, const Parameterization& dst, const Mat3& dst_to_src,
+                                     const ResampleOptions& opt, const AreaTables& omega, ScatterKernel kernel) {
+  const Image& img = s.image;
+  const std::vector<std::size_t> hot = find_hot_texels(img, omega.src, opt.hot_fraction, opt.hot_contrast);
+  const ScatterGeometry geometry(s.param, dst, omega.src, omega.dst, dst_to_src);
+  const int stride = img.channels + 1;
+  std::vector<ScatterRun> runs;
+  Chunk chunk;
+  for (int first = 0; first < img.height; first += kMaxRowsPerChunk) {
+    chunk.start(first, std::min(img.height, first + kMaxRowsPerChunk), stride);
+    if (kernel == ScatterKernel::PerTexel)
+      project_chunk_per_texel(geometry, img, hot, chunk);
+    else
+      project_chunk_batched(geometry, img, hot, kernel == ScatterKernel::Batched && use_avx2(), chunk);
+    for (std::size_t r = 0; r < chunk.cells.size(); ++r)
+      runs.push_back({chunk.cells[r], std::vector<double>(chunk.sums.begin() + std::ptrdiff_t(r * stride),
+                                                          chunk.sums.begin() + std::ptrdiff_t((r + 1) * stride))});
+  }
+  return runs;
+}
 
 Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Parameterization& dst,
                             const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,

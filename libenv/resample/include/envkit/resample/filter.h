@@ -7,6 +7,7 @@
 #include <envkit/core/image.h>
 #include <envkit/maps/parameterization.h>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -53,8 +54,9 @@ class TexelSource {
     // Truncation is the floor here: both are at least 0 (and NaN fails the test).
     if (!(fx >= 0.0 && fy >= 0.0 && fx < image_.width && fy < image_.height) || !covered_.empty()) return false;
     const int i0 = static_cast<int>(fx), j0 = static_cast<int>(fy), cell = param_.tap_cell();
+    // i0 and i0 + 1 lie in one cell unless i0 + 1 is a multiple of its size (likewise j0).
     if (i0 + 1 >= image_.width || j0 + 1 >= image_.height ||
-        !(cell == 0 || (cell > 0 && i0 / cell == (i0 + 1) / cell && j0 / cell == (j0 + 1) / cell)))
+        !(cell == 0 || (cell > 0 && !multiple_of_cell(i0 + 1) && !multiple_of_cell(j0 + 1))))
       return false;
     const float tx = static_cast<float>(fx - i0), ty = static_cast<float>(fy - j0);
     const std::size_t t = static_cast<std::size_t>(j0) * image_.width + i0;
@@ -70,8 +72,12 @@ class TexelSource {
 
  private:
   bool resolve(int anchor_i, int anchor_j, int& i, int& j) const;
+  /// Whether n (0 <= n < 2^31) is a multiple of param_.tap_cell() (> 0), without a division: n * c <= c - 1 in 64-bit
+  /// arithmetic, c = ceil(2^64 / cell) (Lemire, Kaser and Kurz, "Faster remainder by direct computation", 2019).
+  bool multiple_of_cell(int n) const { return static_cast<std::uint64_t>(n) * cell_multiple_ <= cell_multiple_ - 1; }
   const Image& image_;
   const Parameterization& param_;
+  std::uint64_t cell_multiple_ = 0;     // c above, when tap_cell() > 0 (it wraps to 0 for a cell of 1: every n)
   std::vector<unsigned char> covered_;  // empty when every texel is covered
 };
 
