@@ -62,10 +62,7 @@ RefinedCellStore::RefinedCellStore(std::shared_ptr<const HierarchicalDistributio
     levels_[std::size_t(k)].offset = offset;
     levels_[std::size_t(k)].blocks_per_row = std::size_t(above_w);
     offset += 4 * std::size_t(above_w) * std::size_t(above_h);
-    // The levels above the cells' two lowest: the first lines every draw reads.
-    if (k == 2) prefetch_bytes_ = offset * sizeof(float);
   }
-  if (top <= 2) prefetch_bytes_ = offset * sizeof(float);
   stride_ = (offset + 15) / 16 * 16;
   if (tables > (std::size_t(-1) / sizeof(float) - 16) / stride_) throw Error("refined distribution: too many tables");
   nodes_.assign(tables * stride_ + 16, 0.0f);

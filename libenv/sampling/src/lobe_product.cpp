@@ -176,12 +176,10 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
       weights[c] = cell_env[c] > 0.0 ? std::max(float((w[c] + floor_per_env * cell_env[c]) * scale), FLT_MIN) : 0.0f;
     store->build(t, weights);
   });
-  store_ = store;
   // The distributions side by side (one allocation), each sharing the ownership of the vector.
   auto refined = std::make_shared<std::vector<RefinedDistribution2D>>();
   refined->reserve(count);
   for (std::size_t t = 0; t < count; ++t) refined->emplace_back(store, t);
-  refined_ = refined->data();
   tables_.reserve(count);
   for (std::size_t t = 0; t < count; ++t)
     tables_.emplace_back(env, std::shared_ptr<const Distribution2D>(refined, &(*refined)[t]));
@@ -199,10 +197,6 @@ std::size_t LobeProductTables::table_index(int lobe, const Vec3& axis) const {
 
 LobeProductTables::Table LobeProductTables::table(int lobe, const Vec3& axis) const {
   const std::size_t i = table_index(lobe, axis);
-  // What the first draw reads, fetched together now (the addresses follow from i) rather than one after another.
-  __builtin_prefetch(&tables_[i]);
-  __builtin_prefetch(refined_ + i);
-  store_->prefetch(i);
   return {tables_[i], mean_[i]};
 }
 

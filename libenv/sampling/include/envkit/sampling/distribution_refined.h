@@ -18,10 +18,8 @@
 /// Storage. The cell pyramid (a HierarchicalDistribution2D's nodes over the cell weights, the same floats) lives in a
 /// RefinedCellStore: one 64-byte aligned block for any number of distributions over the same cells (product tables:
 /// thousands of them, lobe_product.h), each a fixed stride apart, its levels top first. A draw from a cold table
-/// then reads one block whose address is known from the table's index, its top levels in its first lines (which
-/// RefinedCellStore::prefetch() fetches ahead), instead of chasing the distribution, its pyramid object and its
-/// level list to the nodes.
-#include <envkit/core/huge_page_allocator.h>
+/// then reads the distribution and one block, its top levels in its first lines, instead of chasing the
+/// distribution, its pyramid object and that pyramid's level list to the nodes.
 #include <envkit/sampling/distribution_hierarchical.h>
 
 #include <cstddef>
@@ -46,13 +44,6 @@ class RefinedCellStore {
   /// whose fine node is 0 get 0. Throws Error for a size mismatch or when no cell with light has a positive weight.
   /// Distinct tables may be built concurrently; build each once, before any distribution reads it.
   void build(std::size_t t, std::span<const float> cell_weights);
-  /// Prefetches the lines of table t that every draw from it reads (the levels above the cells): for a caller that
-  /// knows the table a moment before it draws.
-  void prefetch(std::size_t t) const {
-    const char* p = reinterpret_cast<const char*>(table(t));
-    for (std::size_t b = 0; b < prefetch_bytes_; b += 64) __builtin_prefetch(p + b);
-  }
-
   std::size_t size() const { return pdf_scale_.size(); }
   /// Bytes per table (a multiple of 64).
   std::size_t table_bytes() const { return stride_ * sizeof(float); }
@@ -72,8 +63,7 @@ class RefinedCellStore {
   int level_ = 0;
   std::vector<Level> levels_;  // index k = level k of the cell pyramid (0: the cells), below its 1 x 1 top
   std::size_t stride_ = 0;     // floats per table, a multiple of 16
-  std::size_t prefetch_bytes_ = 0;
-  std::vector<float, HugePageAllocator<float>> nodes_;  // the tables, from base_ (its first 64-byte boundary)
+  std::vector<float> nodes_;   // the tables, from base_ (its first 64-byte boundary)
   float* base_ = nullptr;
   std::vector<double> pdf_scale_;  // per table: the cell pyramid's pdf factor (HierarchicalDistribution2D::pdf_scale)
 };

@@ -35,8 +35,6 @@
 namespace envkit {
 
 class HierarchicalDistribution2D;
-class RefinedCellStore;
-class RefinedDistribution2D;
 
 /// A lobe shape (see the file comment).
 struct Lobe {
@@ -74,12 +72,10 @@ class LobeProductTables {
 
  private:
   std::vector<Lobe> lobes_;
-  std::vector<int> bins_;                           // B per lobe
-  std::vector<std::size_t> first_;                  // index of each lobe's first table
-  std::vector<SphericalDistribution> tables_;       // per lobe, B x B axis bins, row-major
-  std::shared_ptr<const RefinedCellStore> store_;   // every table's cell pyramid, one block
-  const RefinedDistribution2D* refined_ = nullptr;  // table t's distribution is refined_[t] (one array)
-  std::vector<double> mean_;                        // Table::mean_importance per table
+  std::vector<int> bins_;                      // B per lobe
+  std::vector<std::size_t> first_;             // index of each lobe's first table
+  std::vector<SphericalDistribution> tables_;  // per lobe, B x B axis bins, row-major
+  std::vector<double> mean_;                   // Table::mean_importance per table
   std::size_t table_index(int lobe, const Vec3& axis) const;
 };
 
