@@ -458,7 +458,7 @@ Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const LightS
 template <class Term>
 void Integrator::for_each_light_term(const ShadingPoint& x, const LightTechnique& t, const Sampler& sampler,
                                      std::uint32_t dimension, Term&& term) const {
-  constexpr int G = int(sampling::kSampleGroup);
+  constexpr int G = int(sampling::kDrawGroup);
   Vec2 u[G];
   LightSample ls[G];
   for (int g = 0; g < t.count; g += G) {

@@ -135,9 +135,14 @@ void RefinedDistribution2D::pick_group(const RefinedDistribution2D* const* d, co
       for (std::size_t k = 0; k < n; ++k) out[k] = d[k]->pick(u[k]);
       return;
     }
+  if (n > sampling::kDrawGroup) {
+    sampling::for_each_group(
+        n, [&](std::size_t g, std::size_t m) { pick_group(d + g, u + g, out + g, m); }, sampling::kDrawGroup);
+    return;
+  }
   // pick() of every sample, step for step: the cells' descent (one level of every sample at a time), then the fine
   // pyramid's below the chosen cells.
-  constexpr std::size_t G = sampling::kSampleGroup;
+  constexpr std::size_t G = sampling::kDrawGroup;
   double ux[G], uy[G], leaf[G];
   std::size_t i[G], j[G];
   for (std::size_t s = 0; s < n; ++s) {
@@ -163,10 +168,11 @@ void RefinedDistribution2D::pick_group(const RefinedDistribution2D* const* d, co
 }
 
 void RefinedDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
-  const RefinedDistribution2D* self[sampling::kSampleGroup];
+  const RefinedDistribution2D* self[sampling::kDrawGroup];
   std::fill(std::begin(self), std::end(self), this);
-  sampling::for_each_group(u.size(),
-                           [&](std::size_t g, std::size_t n) { pick_group(self, u.data() + g, out.data() + g, n); });
+  sampling::for_each_group(
+      u.size(), [&](std::size_t g, std::size_t n) { pick_group(self, u.data() + g, out.data() + g, n); },
+      sampling::kDrawGroup);
 }
 
 double RefinedDistribution2D::texel_pdf(int x, int y) const {

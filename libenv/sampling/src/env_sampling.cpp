@@ -380,29 +380,33 @@ void SphericalDistribution::sample_each(std::span<const SphericalDistribution* c
   if (from.size() != u.size() || u.size() != out.size())
     throw Error("spherical distribution: sample_each() of " + std::to_string(u.size()) + " u from " +
                 std::to_string(from.size()) + " distributions into " + std::to_string(out.size()) + " results");
-  const RefinedDistribution2D* refined[sampling::kSampleGroup];
-  TexelSample t[sampling::kSampleGroup];
-  sampling::for_each_group(u.size(), [&](std::size_t g, std::size_t n) {
-    bool together = n > 1;
-    for (std::size_t k = 0; k < n && together; ++k) {
-      const SphericalDistribution& d = *from[g + k];
-      together = d.grid_ == Kind::LatLong && d.builtin_ == BuiltinDistribution::Refined && d.g_ == from[g]->g_;
-      if (together) refined[k] = &static_cast<const RefinedDistribution2D&>(*d.distribution_);
-    }
-    if (!together) {
-      for (std::size_t k = 0; k < n; ++k) out[g + k] = from[g + k]->sample(u[g + k]);
-      return;
-    }
-    RefinedDistribution2D::pick_group(refined, u.data() + g, t, n);
-    // The directions as sample_latlong forms them (the same arithmetic, so the same bits).
-    const SphericalDistribution& d = *from[g];
-    for (std::size_t k = 0; k < n; ++k) {
-      const RowBand& band = d.g_->rows[std::size_t(t[k].y)];
-      const Vec3 direction = d.g_->longitude_substeps == 1 ? d.latlong_direction<true>(band, t[k].x, t[k].fx, t[k].fy)
-                                                           : d.latlong_direction<false>(band, t[k].x, t[k].fx, t[k].fy);
-      out[g + k] = DirectionSample{direction, t[k].pdf * band.pdf_factor, t[k].x, t[k].y};
-    }
-  });
+  const RefinedDistribution2D* refined[sampling::kDrawGroup];
+  TexelSample t[sampling::kDrawGroup];
+  sampling::for_each_group(
+      u.size(),
+      [&](std::size_t g, std::size_t n) {
+        bool together = n > 1;
+        for (std::size_t k = 0; k < n && together; ++k) {
+          const SphericalDistribution& d = *from[g + k];
+          together = d.grid_ == Kind::LatLong && d.builtin_ == BuiltinDistribution::Refined && d.g_ == from[g]->g_;
+          if (together) refined[k] = &static_cast<const RefinedDistribution2D&>(*d.distribution_);
+        }
+        if (!together) {
+          for (std::size_t k = 0; k < n; ++k) out[g + k] = from[g + k]->sample(u[g + k]);
+          return;
+        }
+        RefinedDistribution2D::pick_group(refined, u.data() + g, t, n);
+        // The directions as sample_latlong forms them (the same arithmetic, so the same bits).
+        const SphericalDistribution& d = *from[g];
+        for (std::size_t k = 0; k < n; ++k) {
+          const RowBand& band = d.g_->rows[std::size_t(t[k].y)];
+          const Vec3 direction = d.g_->longitude_substeps == 1
+                                     ? d.latlong_direction<true>(band, t[k].x, t[k].fx, t[k].fy)
+                                     : d.latlong_direction<false>(band, t[k].x, t[k].fx, t[k].fy);
+          out[g + k] = DirectionSample{direction, t[k].pdf * band.pdf_factor, t[k].x, t[k].y};
+        }
+      },
+      sampling::kDrawGroup);
 }
 
 double SphericalDistribution::pdf(const Vec3& direction) const {

@@ -102,7 +102,8 @@ class RefinedDistribution2D final : public Distribution2D {
     t.pdf = density(t.pdf, cell_pdf);
     return t;
   }
-  /// pick(u[s]) of d[s] into out[s] for s < n <= sampling::kSampleGroup, bit for bit: the draws of one shading point,
+  /// pick(u[s]) of d[s] into out[s] for every s < n, bit for bit, sampling::kDrawGroup at a time: the draws of one
+  /// shading point,
   /// each from its own table (a mixture's two), their descents interleaved level by level with selects instead of
   /// jumps (detail::hierarchical_step_select), so that the samples' division chains and misses overlap instead of
   /// running one after another behind mispredicted decisions. Tables of one store descend together; others draw
