@@ -69,6 +69,14 @@ EnvMap default_probe_latlong() {
   return make_envmap(probes::rasterize(*probes::make_default_probe(), grid), "default", load);
 }
 
+/// The light of `map` with its tables and their compensated twins, rotated by yaw 35 and pitch 10 degrees.
+std::unique_ptr<EnvironmentLight> rotated_light(const EnvMap& map) {
+  BakeOptions bake;
+  bake.compensated = true;
+  return std::make_unique<EnvironmentLight>(map, std::make_shared<EnvTables>(EnvTables::bake(map, bake)),
+                                            rotation_from_euler_degrees(35.0, 10.0, 0.0), 1.0);
+}
+
 }  // namespace
 
 TEST(EnvironmentLight, LookupIsRadianceAndPdfTogether) {
@@ -77,7 +85,8 @@ TEST(EnvironmentLight, LookupIsRadianceAndPdfTogether) {
   bake.compensated = true;
   expect_lookup_matches(map, bake, identity3(), "lat-long");
   expect_lookup_matches(map, bake, rotation_from_euler_degrees(70.0, 20.0, -5.0), "lat-long, rotated");
-  BakeOptions coarse = bake;
+  BakeOptions coarse;
+  coarse.compensated = true;
   coarse.importance_width = 32;
   coarse.importance_height = 16;
   expect_lookup_matches(map, coarse, identity3(), "lat-long, coarser importance");
@@ -126,10 +135,8 @@ TEST(EnvironmentLight, NativeHealpixTablesUseTheMapsTexels) {
 // tables over different grids are refused.
 TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
   const EnvMap map = default_probe_latlong();
-  BakeOptions bake;
-  bake.compensated = true;
-  const auto tables = std::make_shared<EnvTables>(EnvTables::bake(map, bake));
-  const EnvironmentLight light(map, tables, rotation_from_euler_degrees(35.0, 10.0, 0.0), 1.0);
+  const std::unique_ptr<EnvironmentLight> rotated = rotated_light(map);
+  const EnvironmentLight& light = *rotated;
   // The compensated table is 0 on every texel below the mean: the plain one covers them.
   const SphericalDistribution& plain = light.distribution(SamplingMethod::Hierarchical, false);
   const SphericalDistribution& compensated = light.distribution(SamplingMethod::Hierarchical, true);
@@ -163,7 +170,8 @@ TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
       EXPECT_LT(flux / n, 0.99 * expected_flux);
     }
   }
-  BakeOptions coarse = bake;
+  BakeOptions coarse;
+  coarse.compensated = true;
   coarse.importance_width = 32;
   coarse.importance_height = 16;
   const auto coarse_tables = std::make_shared<EnvTables>(EnvTables::bake(map, coarse));
@@ -178,10 +186,8 @@ TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
 // rotated light and groups of any size; spans of different sizes are refused.
 TEST(EnvironmentLight, SamplesDrawnTogetherAreTheSamplesDrawnOneByOne) {
   const EnvMap map = default_probe_latlong();
-  BakeOptions bake;
-  bake.compensated = true;
-  const auto tables = std::make_shared<EnvTables>(EnvTables::bake(map, bake));
-  const EnvironmentLight light(map, tables, rotation_from_euler_degrees(35.0, 10.0, 0.0), 1.0);
+  const std::unique_ptr<EnvironmentLight> rotated = rotated_light(map);
+  const EnvironmentLight& light = *rotated;
   const SphericalDistribution& plain = light.distribution(SamplingMethod::Hierarchical, false);
   const LobeProductTables product(plain, {{Lobe::Shape::Cosine, 1.0}, {Lobe::Shape::Ggx, 0.05}});
   std::mt19937_64 rng(23);
