@@ -135,6 +135,38 @@ LightSample EnvironmentLight::sample(const LightTable& table, Vec2 u) const {
   return prefetched(s, radiance_grid_ ? texel_index(ds.direction) : texel_index(ds.x, ds.y));
 }
 
+void EnvironmentLight::sample(const LightTable& table, std::span<const Vec2> u, std::span<LightSample> out) const {
+  if (u.size() != out.size())
+    throw Error("environment: " + std::to_string(u.size()) + " light samples into " + std::to_string(out.size()));
+  // sample(table, u[k]) in three passes: the mixture's choices, the draws together, then each sample's density and
+  // radiance texel as sample() forms them.
+  constexpr std::size_t G = sampling::kDrawGroup;
+  const double share = second_share(table);
+  const SphericalDistribution* from[G];
+  Vec2 v[G];
+  DirectionSample ds[G];
+  sampling::for_each_group(
+      u.size(),
+      [&](std::size_t g, std::size_t n) {
+        for (std::size_t k = 0; k < n; ++k) {
+          bool from_second = false;
+          v[k] = share > 0.0 ? split_for_second(u[g + k], share, from_second) : u[g + k];
+          from[k] = from_second ? table.second : table.first;
+        }
+        SphericalDistribution::sample_each(std::span<const SphericalDistribution* const>(from, n),
+                                           std::span<const Vec2>(v, n), std::span<DirectionSample>(ds, n));
+        for (std::size_t k = 0; k < n; ++k) {
+          LightSample s;
+          s.direction = apply(rotation_, ds[k].direction);
+          s.pdf = share > 0.0 ? (1.0 - share) * table.first->texel_pdf(ds[k].x, ds[k].y) +
+                                    share * table.second->texel_pdf(ds[k].x, ds[k].y)
+                              : ds[k].pdf;
+          out[g + k] = prefetched(s, radiance_grid_ ? texel_index(ds[k].direction) : texel_index(ds[k].x, ds[k].y));
+        }
+      },
+      G);
+}
+
 double EnvironmentLight::pdf(const LightTable& table, const Vec3& d) const {
   const Vec3 table_dir = apply(inverse_rotation_, d);
   const double share = second_share(table);

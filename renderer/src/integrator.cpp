@@ -450,9 +450,8 @@ Integrator::BsdfTerm Integrator::bsdf_term(const ShadingPoint& x, BsdfDraw draw,
   return t;
 }
 
-Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const LightTable& table, Vec2 u) const {
+Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const LightSample& ls) const {
   LightTerm t;
-  const LightSample ls = light_.sample(table, u);
   t.pdf = ls.pdf;
   if (!(ls.pdf > 0.0) || (ls.direction ^ x.ng) <= 0.0) return t;
   t.wi_local = x.frame.to_local(ls.direction);
@@ -460,6 +459,20 @@ Integrator::LightTerm Integrator::light_term(const ShadingPoint& x, const LightT
   if (is_black(f_cos) || scene_.occluded(Ray{x.origin, ls.direction})) return t;
   t.value = mul(f_cos, light_.radiance(ls));  // read after the shadow ray: sample() prefetched it
   return t;
+}
+
+template <class Term>
+void Integrator::for_each_light_term(const ShadingPoint& x, const LightTechnique& t, const Sampler& sampler,
+                                     std::uint32_t dimension, Term&& term) const {
+  constexpr int G = int(sampling::kDrawGroup);
+  Vec2 u[G];
+  LightSample ls[G];
+  for (int g = 0; g < t.count; g += G) {
+    const int n = std::min(G, t.count - g);
+    for (int j = 0; j < n; ++j) u[j] = sampler.point_2d(dimension, std::uint32_t(g + j), std::uint32_t(t.count));
+    light_.sample(t.table, std::span<const Vec2>(u, std::size_t(n)), std::span<LightSample>(ls, std::size_t(n)));
+    for (int j = 0; j < n; ++j) term(g + j, light_term(x, ls[j]));
+  }
 }
 
 Vec3 Integrator::delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const {
@@ -482,11 +495,9 @@ Vec3 Integrator::direct_light(const ShadingPoint& x, Sampler& sampler, Continuat
   Vec3 sum(0, 0, 0);
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
-    const std::uint32_t dimension = sampler.reserve(1);
-    for (int j = 0; j < t.count; ++j) {
-      const LightTerm l = light_term(x, t.table, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
+    for_each_light_term(x, t, sampler, sampler.reserve(1), [&](int, const LightTerm& l) {
       if (!is_black(l.value)) sum += l.value / (l.pdf * t.count);
-    }
+    });
   }
   return sum + delta_lobe_term(x, sampler);  // light samples cannot reach a delta lobe
 }
@@ -504,13 +515,11 @@ Vec3 Integrator::direct_mis_with(const ShadingPoint& x, Sampler& sampler, LightC
   // Each light technique against the BSDF alone: the others' densities are 0 where it draws (disjoint supports).
   for (int k = 0; k < light.count; ++k) {
     const LightTechnique& t = light.parts[std::size_t(k)];
-    const std::uint32_t dimension = sampler.reserve(1);
-    for (int j = 0; j < t.count; ++j) {
-      const LightTerm l = light_term(x, t.table, sampler.point_2d(dimension, std::uint32_t(j), std::uint32_t(t.count)));
-      if (is_black(l.value)) continue;
+    for_each_light_term(x, t, sampler, sampler.reserve(1), [&](int, const LightTerm& l) {
+      if (is_black(l.value)) return;
       const double p_b = x.material.pdf(x.wo, l.wi_local);
       sum += l.value * (mis_weight(t.count * l.pdf, N * p_b) / (t.count * l.pdf));
-    }
+    });
   }
   const std::uint32_t dimension = sampler.reserve(2);
   Continuation* const continuation = continued_by(next, N);

@@ -6,6 +6,7 @@
 #include <envkit/maps/latlong.h>
 #include <envkit/probes.h>
 #include <envkit/render/env_light.h>
+#include <envkit/sampling/lobe_product.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -68,6 +69,14 @@ EnvMap default_probe_latlong() {
   return make_envmap(probes::rasterize(*probes::make_default_probe(), grid), "default", load);
 }
 
+/// The light of `map` with its tables and their compensated twins, rotated by yaw 35 and pitch 10 degrees.
+std::unique_ptr<EnvironmentLight> rotated_light(const EnvMap& map) {
+  BakeOptions bake;
+  bake.compensated = true;
+  return std::make_unique<EnvironmentLight>(map, std::make_shared<EnvTables>(EnvTables::bake(map, bake)),
+                                            rotation_from_euler_degrees(35.0, 10.0, 0.0), 1.0);
+}
+
 }  // namespace
 
 TEST(EnvironmentLight, LookupIsRadianceAndPdfTogether) {
@@ -76,7 +85,8 @@ TEST(EnvironmentLight, LookupIsRadianceAndPdfTogether) {
   bake.compensated = true;
   expect_lookup_matches(map, bake, identity3(), "lat-long");
   expect_lookup_matches(map, bake, rotation_from_euler_degrees(70.0, 20.0, -5.0), "lat-long, rotated");
-  BakeOptions coarse = bake;
+  BakeOptions coarse;
+  coarse.compensated = true;
   coarse.importance_width = 32;
   coarse.importance_height = 16;
   expect_lookup_matches(map, coarse, identity3(), "lat-long, coarser importance");
@@ -125,10 +135,8 @@ TEST(EnvironmentLight, NativeHealpixTablesUseTheMapsTexels) {
 // tables over different grids are refused.
 TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
   const EnvMap map = default_probe_latlong();
-  BakeOptions bake;
-  bake.compensated = true;
-  const auto tables = std::make_shared<EnvTables>(EnvTables::bake(map, bake));
-  const EnvironmentLight light(map, tables, rotation_from_euler_degrees(35.0, 10.0, 0.0), 1.0);
+  const std::unique_ptr<EnvironmentLight> rotated = rotated_light(map);
+  const EnvironmentLight& light = *rotated;
   // The compensated table is 0 on every texel below the mean: the plain one covers them.
   const SphericalDistribution& plain = light.distribution(SamplingMethod::Hierarchical, false);
   const SphericalDistribution& compensated = light.distribution(SamplingMethod::Hierarchical, true);
@@ -162,7 +170,8 @@ TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
       EXPECT_LT(flux / n, 0.99 * expected_flux);
     }
   }
-  BakeOptions coarse = bake;
+  BakeOptions coarse;
+  coarse.compensated = true;
   coarse.importance_width = 32;
   coarse.importance_height = 16;
   const auto coarse_tables = std::make_shared<EnvTables>(EnvTables::bake(map, coarse));
@@ -170,4 +179,46 @@ TEST(EnvironmentLight, AMixtureDrawsFromBothTablesWithTheMixturesDensity) {
   const LightTable mixed_grids(plain, coarse_light.distribution(SamplingMethod::Hierarchical, false), 0.5);
   EXPECT_THROW(light.sample(mixed_grids, Vec2(0.5, 0.5)), Error);
   EXPECT_THROW(light.lookup(mixed_grids, Vec3(0, 1, 0)), Error);
+}
+
+// A shading point's light samples drawn together are the samples drawn one by one, bit for bit (direction, density,
+// radiance texel): for product tables' mixtures (their descents interleaved), a single table, the baked tables, a
+// rotated light and groups of any size; spans of different sizes are refused.
+TEST(EnvironmentLight, SamplesDrawnTogetherAreTheSamplesDrawnOneByOne) {
+  const EnvMap map = default_probe_latlong();
+  const std::unique_ptr<EnvironmentLight> rotated = rotated_light(map);
+  const EnvironmentLight& light = *rotated;
+  const SphericalDistribution& plain = light.distribution(SamplingMethod::Hierarchical, false);
+  const LobeProductTables product(plain, {{Lobe::Shape::Cosine, 1.0}, {Lobe::Shape::Ggx, 0.05}});
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  for (int point = 0; point < 40; ++point) {
+    const Vec3 axis = random_direction(rng);
+    const SphericalDistribution& wide = product.table(0, axis).distribution;
+    const SphericalDistribution& narrow = product.table(1, axis).distribution;
+    const LightTable cases[] = {LightTable(wide, narrow, U(rng)),
+                                LightTable(narrow),
+                                LightTable(wide, narrow, 1.0),
+                                LightTable(plain),
+                                LightTable(light.distribution(SamplingMethod::Cdf, false)),
+                                LightTable(plain, light.distribution(SamplingMethod::Hierarchical, true), 0.4)};
+    for (const LightTable& table : cases) {
+      const std::size_t n = std::size_t(1 + point % 9) * (point == 39 ? 20 : 1);
+      std::vector<Vec2> u(n);
+      for (Vec2& v : u) v = Vec2(U(rng), U(rng));
+      std::vector<LightSample> together(n);
+      light.sample(table, u, together);
+      for (std::size_t k = 0; k < n; ++k) {
+        const LightSample one = light.sample(table, u[k]);
+        ASSERT_EQ(together[k].direction.x, one.direction.x) << point << " " << k;
+        ASSERT_EQ(together[k].direction.y, one.direction.y) << point << " " << k;
+        ASSERT_EQ(together[k].direction.z, one.direction.z) << point << " " << k;
+        ASSERT_EQ(together[k].pdf, one.pdf) << point << " " << k;
+        ASSERT_EQ(together[k].texel, one.texel) << point << " " << k;
+      }
+    }
+  }
+  std::vector<Vec2> u(3, Vec2(0.5, 0.5));
+  std::vector<LightSample> out(2);
+  EXPECT_THROW(light.sample(LightTable(plain), u, out), Error);
 }

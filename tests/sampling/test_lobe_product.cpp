@@ -335,3 +335,97 @@ TEST(SphericalDistribution, SharedGridSamplesAsItsOwn) {
   const TestMap small = testmaps::find_map("Constant8x4");
   EXPECT_THROW(SphericalDistribution(own, pyramid_of(small)), Error);  // another size
 }
+
+namespace {
+
+bool same_sample(const DirectionSample& a, const DirectionSample& b) {
+  return a.direction.x == b.direction.x && a.direction.y == b.direction.y && a.direction.z == b.direction.z &&
+         a.pdf == b.pdf && a.x == b.x && a.y == b.y;
+}
+
+}  // namespace
+
+// A refined draw is the hierarchical pick over its cell weights, then the fine pyramid's pick_below from the chosen
+// cell, bit for bit (offsets and density), and its texel density is the composed density: the cells' storage in a
+// RefinedCellStore (several tables side by side, levels top first) changes no value.
+TEST_P(RefinedMaps, AStoresTablesDrawAsTheCellPyramidAndThePyramidBelowIt) {
+  const TestMap& m = GetParam();
+  const auto fine = pyramid_of(m);
+  const int level = middle_level(*fine);
+  const int cw = fine->level_width(level), ch = fine->level_height(level);
+  std::vector<std::vector<float>> weights = {uneven_cells(cw, ch), node_cells(*fine, level), uneven_cells(cw, ch)};
+  for (std::size_t c = 0; c < weights[2].size(); ++c) weights[2][c] = weights[2][c] * float(1 + c % 3) + 0.5f;
+  auto store = std::make_shared<RefinedCellStore>(fine, level, weights.size());
+  for (std::size_t t = weights.size(); t-- > 0;) store->build(t, weights[t]);  // any order
+  EXPECT_EQ(store->table_bytes() % 64, 0u);
+  std::mt19937_64 rng(seed_of(m.name) + 21);
+  for (std::size_t t = 0; t < weights.size(); ++t) {
+    const RefinedDistribution2D d(store, t);
+    // The cell pyramid as HierarchicalDistribution2D builds it, with the cells that cannot be drawn set to 0.
+    std::vector<float> supported(weights[t]);
+    for (int j = 0; j < ch; ++j)
+      for (int i = 0; i < cw; ++i)
+        if (!(fine->node(level, i, j) > 0.0)) supported[std::size_t(j) * cw + i] = 0.0f;
+    const HierarchicalDistribution2D cells(supported.data(), cw, ch);
+    for (int s = 0; s < 3000; ++s) {
+      const Vec2 u(uniform53(rng), uniform53(rng));
+      const TexelSample cell = cells.pick(u);
+      const TexelSample below = fine->pick_below(level, cell.x, cell.y, Vec2(cell.fx, cell.fy));
+      const TexelSample got = d.pick(u);
+      ASSERT_EQ(got.x, below.x);
+      ASSERT_EQ(got.y, below.y);
+      ASSERT_EQ(got.fx, below.fx);
+      ASSERT_EQ(got.fy, below.fy);
+      const double cell_probability = cell.pdf * (1.0 / (double(cw) * double(ch)));  // the cell's density x its area
+      ASSERT_EQ(got.pdf, below.pdf * cell_probability);
+      ASSERT_EQ(d.texel_pdf(got.x, got.y), got.pdf);
+    }
+    // The standalone constructor builds the same table.
+    const RefinedDistribution2D alone(fine, level, weights[t]);
+    for (int s = 0; s < 200; ++s) {
+      const Vec2 u(uniform53(rng), uniform53(rng));
+      const TexelSample a = alone.pick(u), b = d.pick(u);
+      ASSERT_TRUE(a.x == b.x && a.y == b.y && a.fx == b.fx && a.fy == b.fy && a.pdf == b.pdf);
+    }
+    EXPECT_EQ(testmaps::check_normalised(d), "");
+  }
+  EXPECT_THROW(store->build(weights.size(), weights[0]), Error);  // no such table
+  EXPECT_THROW(RefinedDistribution2D(store, weights.size()), Error);
+}
+
+// The draws of a shading point taken together (the descents of a group interleaved, each sample from its own
+// table of a mixture) are the draws taken one by one, bit for bit, on every grid, in groups of any size; and a
+// draw's pdf is texel_pdf() of its texel.
+TEST(LobeProductTables, DrawsTakenTogetherAreTheDrawsTakenOneByOne) {
+  const probes::SunProbe probe(Vec3(0.4, 0.5, -0.77).normalized(), 2.0 * kPi / 180.0, Vec3(4e3), Vec3(0.3, 0.4, 0.6));
+  for (const GridCase& g : grids()) {
+    SCOPED_TRACE(g.name);
+    const EnvTables tables = bake(probe, g.param(), g.grid);
+    const LobeProductTables product(*tables.distribution(SamplingMethod::Hierarchical), kLobes);
+    std::mt19937_64 rng(17);
+    for (const Vec3& axis : test_axes())
+      for (std::size_t n : {std::size_t(1), std::size_t(2), std::size_t(4), std::size_t(7), std::size_t(130)}) {
+        std::vector<const SphericalDistribution*> from(n);
+        std::vector<Vec2> u(n);
+        for (std::size_t k = 0; k < n; ++k) {
+          from[k] = &product.table(int(rng() % kLobes.size()), axis).distribution;
+          u[k] = Vec2(uniform53(rng), uniform53(rng));
+        }
+        std::vector<DirectionSample> together(n);
+        SphericalDistribution::sample_each(from, u, together);
+        for (std::size_t k = 0; k < n; ++k) {
+          const DirectionSample one = from[k]->sample(u[k]);
+          ASSERT_TRUE(same_sample(together[k], one)) << n << " " << k;
+          ASSERT_EQ(from[k]->texel_pdf(one.x, one.y), one.pdf);
+        }
+        // One table's batch (its sample_texels) likewise.
+        std::vector<DirectionSample> batch(n);
+        from[0]->sample(u, batch);
+        for (std::size_t k = 0; k < n; ++k) ASSERT_TRUE(same_sample(batch[k], from[0]->sample(u[k]))) << n << " " << k;
+      }
+    const SphericalDistribution* one[1] = {&product.table(0, Vec3(0, 1, 0)).distribution};
+    DirectionSample out[2];
+    const Vec2 u[2] = {Vec2(0.5, 0.5), Vec2(0.5, 0.5)};
+    EXPECT_THROW(SphericalDistribution::sample_each(one, u, out), Error);  // sizes differ
+  }
+}

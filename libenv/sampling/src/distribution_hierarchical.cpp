@@ -211,43 +211,6 @@ DistributionSample HierarchicalDistribution2D::sample(Vec2 u) const {
 
 TexelSample HierarchicalDistribution2D::sample_texel(Vec2 u) const { return pick(u); }
 
-namespace {
-
-#if defined(__SSE2__)
-/// m ? a : b for a mask m of all ones or all zeros (low lanes).
-__m128d mask_select(__m128d m, __m128d a, __m128d b) { return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b)); }
-#endif
-
-/// detail::hierarchical_step() with selects instead of conditional jumps, bit for bit the same operations on the same
-/// values: a group descent (pick_group) has prefetched the blocks, and what is left of a step's cost is mostly its
-/// two decisions, each taken at random, which the CPU cannot predict. The divisions are those of the chosen sides only
-/// (numerator and denominator are selected first), and std::min(kOneMinusEpsilon, q) is minsd(q, kOneMinusEpsilon).
-[[gnu::always_inline]] inline double hierarchical_step_select(const float* c, double& ux, double& uy, std::size_t& i,
-                                                              std::size_t& j) {
-#if defined(__SSE2__)
-  const __m128d a = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c))));      // c0, c1
-  const __m128d b = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c + 2))));  // c2, c3
-  const __m128d left = _mm_add_pd(a, b), right = _mm_unpackhi_pd(left, left);  // column sums in the low lanes
-  const __m128d one_minus = _mm_set_sd(kOneMinusEpsilon);
-  const __m128d tx = _mm_mul_sd(_mm_set_sd(ux), _mm_add_sd(left, right));
-  const __m128d rx = _mm_cmpnlt_sd(tx, left);  // the right column: !(tx < left)
-  const __m128d qx = _mm_div_sd(mask_select(rx, _mm_sub_sd(tx, left), tx), mask_select(rx, right, left));
-  ux = _mm_cvtsd_f64(mask_select(rx, _mm_min_sd(qx, one_minus), qx));
-  const __m128d ty = _mm_mul_sd(_mm_set_sd(uy), mask_select(rx, right, left));
-  const __m128d top = mask_select(rx, _mm_unpackhi_pd(a, a), a), bottom = mask_select(rx, _mm_unpackhi_pd(b, b), b);
-  const __m128d ry = _mm_cmpnlt_sd(ty, top);  // the bottom child: !(ty < top)
-  const __m128d qy = _mm_div_sd(mask_select(ry, _mm_sub_sd(ty, top), ty), mask_select(ry, bottom, top));
-  uy = _mm_cvtsd_f64(mask_select(ry, _mm_min_sd(qy, one_minus), qy));
-  i = 2 * i + std::size_t(_mm_movemask_pd(rx) & 1);
-  j = 2 * j + std::size_t(_mm_movemask_pd(ry) & 1);
-  return _mm_cvtsd_f64(mask_select(ry, bottom, top));
-#else
-  return detail::hierarchical_step(c, ux, uy, i, j);
-#endif
-}
-
-}  // namespace
-
 void HierarchicalDistribution2D::sample_texels(std::span<const Vec2> u, std::span<TexelSample> out) const {
   sampling::for_each_group(u.size(),
                            [&](std::size_t g, std::size_t n) { pick_group(u.data() + g, out.data() + g, n); });
@@ -286,20 +249,56 @@ void HierarchicalDistribution2D::pick_group(const Vec2* u, TexelSample* out, std
   int k = top_level_ - 1;
   // Small top levels: cached, no prefetch.
   for (; k > prefetch_top_; --k)
-    for (std::size_t s = 0; s < n; ++s) hierarchical_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
+    for (std::size_t s = 0; s < n; ++s) detail::hierarchical_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
   // Large levels: after a sample's step the block it reads at the next level is known; prefetch it (one line). It
   // is read in the next pass over the group, after the other samples' steps, by when it has arrived. (pick()
   // prefetches both candidate rows before its step instead: there the step itself is all the time there is.)
   for (; k > 0; --k)
     for (std::size_t s = 0; s < n; ++s) {
-      hierarchical_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
+      detail::hierarchical_step_select(block(k, s), ux[s], uy[s], i[s], j[s]);
       __builtin_prefetch(block(k - 1, s));
     }
   for (std::size_t s = 0; s < n; ++s) {
-    const double leaf = hierarchical_step_select(block(0, s), ux[s], uy[s], i[s], j[s]);
+    const double leaf = detail::hierarchical_step_select(block(0, s), ux[s], uy[s], i[s], j[s]);
     out[s].fx = std::min(kTexelOffsetMax, ux[s]);
     out[s].fy = std::min(kTexelOffsetMax, uy[s]);
     out[s].pdf = leaf * pdf_scale_;
+    out[s].x = int(i[s]);
+    out[s].y = int(j[s]);
+  }
+}
+
+void HierarchicalDistribution2D::pick_below_group(int k, const TexelSample* node, TexelSample* out,
+                                                  std::size_t n) const {
+  constexpr std::size_t G = sampling::kSampleGroup;
+  double ux[G], uy[G], top[G];
+  std::size_t i[G], j[G];
+  for (std::size_t s = 0; s < n; ++s) {
+    ux[s] = clamp_decision(node[s].fx);
+    uy[s] = clamp_decision(node[s].fy);
+    i[s] = std::size_t(node[s].x);
+    j[s] = std::size_t(node[s].y);
+    top[s] = this->node(k, node[s].x, node[s].y);
+  }
+  double leaf[G];
+  for (std::size_t s = 0; s < n; ++s) leaf[s] = top[s];
+  const float* nodes = nodes_.data();
+  const Level* level = levels_.data();
+  const auto block = [&](int m, std::size_t s) {
+    return nodes + level[m].offset + (j[s] * level[m].blocks_per_row + i[s]) * 4;
+  };
+  // As pick_group(): after a sample's step on a large level, prefetch the block it reads next.
+  for (int m = k - 1; m >= 0; --m) {
+    const bool prefetch = m > 0 && m <= prefetch_top_;
+    for (std::size_t s = 0; s < n; ++s) {
+      leaf[s] = detail::hierarchical_step_select(block(m, s), ux[s], uy[s], i[s], j[s]);
+      if (prefetch) __builtin_prefetch(block(m - 1, s));
+    }
+  }
+  for (std::size_t s = 0; s < n; ++s) {
+    out[s].fx = std::min(kTexelOffsetMax, ux[s]);
+    out[s].fy = std::min(kTexelOffsetMax, uy[s]);
+    out[s].pdf = top[s] > 0.0 ? leaf[s] / top[s] * (double(width_) * double(height_)) : 0.0;
     out[s].x = int(i[s]);
     out[s].y = int(j[s]);
   }

@@ -172,7 +172,7 @@ std::shared_ptr<const SphericalDistribution::Geometry> SphericalDistribution::ma
 void SphericalDistribution::choose_sampler() {
   // Lat-long grids with a built-in distribution get a sampler with its texel choice (pick(): the classes are
   // final, so it is what their sample_texel() returns) and the direction inlined, without a virtual call.
-  const BuiltinDistribution builtin = distribution_->builtin();
+  const BuiltinDistribution builtin = builtin_ = distribution_->builtin();
   if (grid_ == Kind::LatLong) {
     const auto choose = [&]<bool kOneStep>() {
       switch (builtin) {
@@ -375,6 +375,40 @@ void SphericalDistribution::sample(std::span<const Vec2> u, std::span<DirectionS
   });
 }
 
+void SphericalDistribution::sample_each(std::span<const SphericalDistribution* const> from, std::span<const Vec2> u,
+                                        std::span<DirectionSample> out) {
+  if (from.size() != u.size() || u.size() != out.size())
+    throw Error("spherical distribution: sample_each() of " + std::to_string(u.size()) + " u from " +
+                std::to_string(from.size()) + " distributions into " + std::to_string(out.size()) + " results");
+  const RefinedDistribution2D* refined[sampling::kDrawGroup];
+  TexelSample t[sampling::kDrawGroup];
+  sampling::for_each_group(
+      u.size(),
+      [&](std::size_t g, std::size_t n) {
+        bool together = n > 1;
+        for (std::size_t k = 0; k < n && together; ++k) {
+          const SphericalDistribution& d = *from[g + k];
+          together = d.grid_ == Kind::LatLong && d.builtin_ == BuiltinDistribution::Refined && d.g_ == from[g]->g_;
+          if (together) refined[k] = &static_cast<const RefinedDistribution2D&>(*d.distribution_);
+        }
+        if (!together) {
+          for (std::size_t k = 0; k < n; ++k) out[g + k] = from[g + k]->sample(u[g + k]);
+          return;
+        }
+        RefinedDistribution2D::pick_group(refined, u.data() + g, t, n);
+        // The directions as sample_latlong forms them (the same arithmetic, so the same bits).
+        const SphericalDistribution& d = *from[g];
+        for (std::size_t k = 0; k < n; ++k) {
+          const RowBand& band = d.g_->rows[std::size_t(t[k].y)];
+          const Vec3 direction = d.g_->longitude_substeps == 1
+                                     ? d.latlong_direction<true>(band, t[k].x, t[k].fx, t[k].fy)
+                                     : d.latlong_direction<false>(band, t[k].x, t[k].fx, t[k].fy);
+          out[g + k] = DirectionSample{direction, t[k].pdf * band.pdf_factor, t[k].x, t[k].y};
+        }
+      },
+      sampling::kDrawGroup);
+}
+
 double SphericalDistribution::pdf(const Vec3& direction) const {
   if (!finite_nonzero(direction)) return 0.0;
   int x = 0, y = 0;
@@ -383,8 +417,14 @@ double SphericalDistribution::pdf(const Vec3& direction) const {
 }
 
 double SphericalDistribution::texel_pdf(int x, int y) const {
-  const Vec2 centre((x + 0.5) / width(), (y + 0.5) / height());
   const double factor = grid_ == Kind::LatLong ? g_->rows[std::size_t(y)].pdf_factor : g_->equal_area_pdf_factor;
+  // The pyramid tables' density of the texel itself: what pdf() of the texel's centre returns (its uv names the
+  // texel again), without the virtual call and the round trip through uv.
+  if (builtin_ == BuiltinDistribution::Refined)
+    return static_cast<const RefinedDistribution2D&>(*distribution_).texel_pdf(x, y) * factor;
+  if (builtin_ == BuiltinDistribution::Hierarchical && x >= 0 && y >= 0 && x < width() && y < height())
+    return static_cast<const HierarchicalDistribution2D&>(*distribution_).texel_pdf(x, y) * factor;
+  const Vec2 centre((x + 0.5) / width(), (y + 0.5) / height());
   return distribution_->pdf(centre) * factor;
 }
 

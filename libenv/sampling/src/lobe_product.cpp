@@ -134,7 +134,7 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
     first_.push_back(count);
     count += std::size_t(B) * std::size_t(B);
   }
-  std::vector<std::shared_ptr<const Distribution2D>> built(count);
+  const auto store = std::make_shared<RefinedCellStore>(fine, level, count);
   mean_.assign(count, 0.0);
   tbb::parallel_for(std::size_t(0), count, [&](std::size_t t) {
     const std::size_t l = std::size_t(std::upper_bound(first_.begin(), first_.end(), t) - first_.begin()) - 1;
@@ -174,10 +174,15 @@ LobeProductTables::LobeProductTables(const SphericalDistribution& env, std::vect
     // still gets pdf > 0 (a float rounding it to 0 would bias every estimator without BSDF samples).
     for (std::size_t c = 0; c < w.size(); ++c)
       weights[c] = cell_env[c] > 0.0 ? std::max(float((w[c] + floor_per_env * cell_env[c]) * scale), FLT_MIN) : 0.0f;
-    built[t] = std::make_shared<RefinedDistribution2D>(fine, level, weights);
+    store->build(t, weights);
   });
+  // The distributions side by side (one allocation), each sharing the ownership of the vector.
+  auto refined = std::make_shared<std::vector<RefinedDistribution2D>>();
+  refined->reserve(count);
+  for (std::size_t t = 0; t < count; ++t) refined->emplace_back(store, t);
   tables_.reserve(count);
-  for (auto& d : built) tables_.emplace_back(env, std::move(d));
+  for (std::size_t t = 0; t < count; ++t)
+    tables_.emplace_back(env, std::shared_ptr<const Distribution2D>(refined, &(*refined)[t]));
 }
 
 std::size_t LobeProductTables::table_index(int lobe, const Vec3& axis) const {

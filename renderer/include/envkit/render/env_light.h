@@ -20,6 +20,7 @@
 #include <envkit/tables/env_tables.h>
 
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,10 @@ class EnvironmentLight {
   /// prefetches its radiance texel. A mixture spends u.x on the choice, re-uniformised, so that stratified u stay
   /// stratified within each distribution.
   LightSample sample(const LightTable& table, Vec2 u) const;
+  /// sample(table, u[k]) into out[k] for every k, bit for bit: a shading point's light samples drawn together, so
+  /// that product tables descend for all of them at once (SphericalDistribution::sample_each). Throws Error unless
+  /// the spans have one size.
+  void sample(const LightTable& table, std::span<const Vec2> u, std::span<LightSample> out) const;
   /// Radiance of a sample's texel (RGB, intensity applied): radiance(s.direction), without the search.
   Vec3 radiance(const LightSample& s) const { return texels_[s.texel].rgb(); }
   /// Density per steradian of world direction d under `table`.

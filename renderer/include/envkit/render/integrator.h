@@ -495,7 +495,14 @@ class Integrator {
   void build_product_wavelet();
   /// Density of the sun technique at a world direction (0 without a split).
   double sun_pdf(const Vec3& wi_world) const;
-  LightTerm light_term(const ShadingPoint& x, const LightTable& table, Vec2 u) const;
+  /// The term of light sample `ls` (drawn from the point's light table) at x.
+  LightTerm light_term(const ShadingPoint& x, const LightSample& ls) const;
+  /// term(j, light_term(x, sample j)) for the t.count light samples of technique t at x in order, sample j drawn
+  /// with sampler.point_2d(dimension, j, t.count): drawn a group at a time (EnvironmentLight's batched sample(),
+  /// the same samples), so that a product table's descents for the point's samples overlap.
+  template <class Term>
+  void for_each_light_term(const ShadingPoint& x, const LightTechnique& t, const Sampler& sampler,
+                           std::uint32_t dimension, Term&& term) const;
   /// A material's delta lobe (one BSDF sample kept only when it picked that lobe), for strategies whose other
   /// samples cannot reach it; 0 for materials without one (no sample drawn).
   Vec3 delta_lobe_term(const ShadingPoint& x, Sampler& sampler) const;

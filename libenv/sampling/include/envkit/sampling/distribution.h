@@ -271,11 +271,16 @@ inline double clamp_unit(double v, double hi) {
 /// core's miss buffers several times over, few enough that a group's per-sample state stays in L1.
 inline constexpr std::size_t kSampleGroup = 64;
 
-/// Calls f(first, count) for consecutive groups of at most kSampleGroup of n items.
+/// Calls f(first, count) for consecutive groups of at most `group` (kSampleGroup) of n items.
 template <class F>
-inline void for_each_group(std::size_t n, F&& f) {
-  for (std::size_t g = 0; g < n; g += kSampleGroup) f(g, std::min(kSampleGroup, n - g));
+inline void for_each_group(std::size_t n, F&& f, std::size_t group = kSampleGroup) {
+  for (std::size_t g = 0; g < n; g += group) f(g, std::min(group, n - g));
 }
+
+/// Samples per group of the draws of one shading point taken together (a product table's few light samples,
+/// SphericalDistribution::sample_each): their descents interleaved fill the pipeline; a group's per-sample state is
+/// set up for each point, so it is kept to what a point draws.
+inline constexpr std::size_t kDrawGroup = 8;
 
 /// u clamped to [0, kOneMinusEpsilon]; NaN -> 0.
 inline double clamp_decision(double u) { return clamp_unit(u, kOneMinusEpsilon); }

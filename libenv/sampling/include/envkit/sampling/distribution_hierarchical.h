@@ -108,6 +108,41 @@ namespace detail {
   return chosen;
 }
 
+#if defined(__SSE2__)
+/// m ? a : b for a mask m of all ones or all zeros (low lanes).
+inline __m128d mask_select(__m128d m, __m128d a, __m128d b) { return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b)); }
+#endif
+
+/// hierarchical_step() with selects instead of conditional jumps, bit for bit the same operations on the same
+/// values: for group descents (several samples' steps interleaved, HierarchicalDistribution2D::pick_group, the
+/// refined tables' pick_group), where what is left of a step's cost is mostly its two decisions, each taken at
+/// random, which the CPU cannot predict, and a mispredicted jump would also discard the other samples' work in
+/// flight. The divisions are those of the chosen sides only (numerator and denominator are selected first), and
+/// std::min(kOneMinusEpsilon, q) is minsd(q, kOneMinusEpsilon).
+[[gnu::always_inline]] inline double hierarchical_step_select(const float* c, double& ux, double& uy, std::size_t& i,
+                                                              std::size_t& j) {
+#if defined(__SSE2__)
+  const __m128d a = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c))));      // c0, c1
+  const __m128d b = _mm_cvtps_pd(_mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(c + 2))));  // c2, c3
+  const __m128d left = _mm_add_pd(a, b), right = _mm_unpackhi_pd(left, left);  // column sums in the low lanes
+  const __m128d one_minus = _mm_set_sd(kOneMinusEpsilon);
+  const __m128d tx = _mm_mul_sd(_mm_set_sd(ux), _mm_add_sd(left, right));
+  const __m128d rx = _mm_cmpnlt_sd(tx, left);  // the right column: !(tx < left)
+  const __m128d qx = _mm_div_sd(mask_select(rx, _mm_sub_sd(tx, left), tx), mask_select(rx, right, left));
+  ux = _mm_cvtsd_f64(mask_select(rx, _mm_min_sd(qx, one_minus), qx));
+  const __m128d ty = _mm_mul_sd(_mm_set_sd(uy), mask_select(rx, right, left));
+  const __m128d top = mask_select(rx, _mm_unpackhi_pd(a, a), a), bottom = mask_select(rx, _mm_unpackhi_pd(b, b), b);
+  const __m128d ry = _mm_cmpnlt_sd(ty, top);  // the bottom child: !(ty < top)
+  const __m128d qy = _mm_div_sd(mask_select(ry, _mm_sub_sd(ty, top), ty), mask_select(ry, bottom, top));
+  uy = _mm_cvtsd_f64(mask_select(ry, _mm_min_sd(qy, one_minus), qy));
+  i = 2 * i + std::size_t(_mm_movemask_pd(rx) & 1);
+  j = 2 * j + std::size_t(_mm_movemask_pd(ry) & 1);
+  return _mm_cvtsd_f64(mask_select(ry, bottom, top));
+#else
+  return hierarchical_step(c, ux, uy, i, j);
+#endif
+}
+
 }  // namespace detail
 
 /// Hierarchical sample warping through a sum pyramid. ~5.33 bytes per texel (4 for the leaves + 4/3 for sums).
@@ -129,6 +164,8 @@ class HierarchicalDistribution2D final : public StoredDistribution2D {
   double pdf(Vec2 uv) const override;
   /// pdf() at texel (x, y) of the grid, which the caller has checked (0 <= x < W, 0 <= y < H).
   double texel_pdf(int x, int y) const { return leaf(x, y) * pdf_scale_; }
+  /// The factor of texel_pdf(): pdf = node(0, x, y) x pdf_scale() (W H over the sum of the stored leaves).
+  double pdf_scale() const { return pdf_scale_; }
   double texel_probability(int x, int y) const override;
   bool can_invert() const override { return true; }
   Vec2 invert(Vec2 uv) const override;
@@ -142,6 +179,10 @@ class HierarchicalDistribution2D final : public StoredDistribution2D {
   /// position inside that node (clamped like every u); the node's sum must be positive. The returned pdf is the
   /// density w.r.t. uv area GIVEN the node: leaf / node(k, i, j) x W x H.
   TexelSample pick_below(int k, int i, int j, Vec2 u) const;
+  /// pick_below() of n <= sampling::kSampleGroup samples, each from its own node: out[s] = pick_below(k,
+  /// node[s].x, node[s].y, Vec2(node[s].fx, node[s].fy)) bit for bit, the samples' descents interleaved level by
+  /// level (as pick_group) so that their latencies overlap. node[s].pdf is not read.
+  void pick_below_group(int k, const TexelSample* node, TexelSample* out, std::size_t n) const;
   /// The probability the stored tables give texel (x, y) among the texels of its node at level k (the product of
   /// the descent's choices below k, recomputed in double); texel_probability(x, y) is this for k = levels().
   double texel_probability_below(int k, int x, int y) const;

@@ -78,6 +78,12 @@ class SphericalDistribution {
   /// for groups of samples at a time so that the misses of a group overlap (the texel choice through
   /// Distribution2D::sample_texels, then the group's row bands and longitude entries, prefetched).
   void sample(std::span<const Vec2> u, std::span<DirectionSample> out) const;
+  /// from[k]->sample(u[k]) into out[k] for every k, bit for bit: the few draws of one shading point, each from its
+  /// own distribution (a mixture's). Distributions over one lat-long grid that are product tables of one set
+  /// (RefinedDistribution2D::pick_group) draw together, their descents interleaved; others one by one. Throws Error
+  /// unless the three spans have one size.
+  static void sample_each(std::span<const SphericalDistribution* const> from, std::span<const Vec2> u,
+                          std::span<DirectionSample> out);
   /// Density per steradian at direction (need not be normalised; 0 for a zero or NaN vector).
   double pdf(const Vec3& direction) const;
   bool can_invert() const { return distribution_->can_invert(); }
@@ -143,6 +149,7 @@ class SphericalDistribution {
   static DirectionSample sample_latlong(const SphericalDistribution& s, const Vec2& u);
 
   Kind grid_;
+  BuiltinDistribution builtin_ = BuiltinDistribution::Other;  // distribution_'s class, for texel_pdf()
   std::shared_ptr<const Distribution2D> distribution_;
   /// What sample() runs, chosen at construction (sample_latlong<D, ...> or sample_general): one indirect call.
   DirectionSample (*sample_)(const SphericalDistribution&, const Vec2&) = &sample_general;
