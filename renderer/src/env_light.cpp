@@ -126,7 +126,10 @@ LightSample EnvironmentLight::sample(const LightTable& table, Vec2 u) const {
   const double share = second_share(table);
   bool from_second = false;
   if (share > 0.0) u = split_for_second(u, share, from_second);
-  const DirectionSample ds = (from_second ? table.second : table.first)->sample(u);
+  return drawn(table, share, (from_second ? table.second : table.first)->sample(u));
+}
+
+LightSample EnvironmentLight::drawn(const LightTable& table, double share, const DirectionSample& ds) const {
   LightSample s;
   s.direction = apply(rotation_, ds.direction);
   s.pdf = share > 0.0 ? (1.0 - share) * table.first->texel_pdf(ds.x, ds.y) + share * table.second->texel_pdf(ds.x, ds.y)
@@ -155,14 +158,7 @@ void EnvironmentLight::sample(const LightTable& table, std::span<const Vec2> u, 
         }
         SphericalDistribution::sample_each(std::span<const SphericalDistribution* const>(from, n),
                                            std::span<const Vec2>(v, n), std::span<DirectionSample>(ds, n));
-        for (std::size_t k = 0; k < n; ++k) {
-          LightSample s;
-          s.direction = apply(rotation_, ds[k].direction);
-          s.pdf = share > 0.0 ? (1.0 - share) * table.first->texel_pdf(ds[k].x, ds[k].y) +
-                                    share * table.second->texel_pdf(ds[k].x, ds[k].y)
-                              : ds[k].pdf;
-          out[g + k] = prefetched(s, radiance_grid_ ? texel_index(ds[k].direction) : texel_index(ds[k].x, ds[k].y));
-        }
+        for (std::size_t k = 0; k < n; ++k) out[g + k] = drawn(table, share, ds[k]);
       },
       G);
 }

@@ -107,6 +107,9 @@ class EnvironmentLight {
   static double second_share(const LightTable& table);
   /// s with its texel set to `texel`, which is prefetched: what sample() and lookup() return.
   LightSample prefetched(LightSample s, std::size_t texel) const;
+  /// The light sample of a draw `ds` from `table` (of second share `share`): its world direction, the table's (the
+  /// mixture's) density, its radiance texel prefetched.
+  LightSample drawn(const LightTable& table, double share, const DirectionSample& ds) const;
 };
 
 /// Loads `tables_path` and checks it against `map` (stale or missing tables are errors naming the file, with
