@@ -33,8 +33,8 @@ Examples:
   envrender --sun-samples 0                        sample a sunny map as one table (default: the sun apart)
   envrender --strategy mis-compensated --time 10   render for 10 seconds
   envrender --crop 0,0,240,120 -o tile0.exr        one window of the image (for farms)
-  envrender --max-depth 3                          two indirect bounces
-  envrender --max-depth 3 --regularize 1           less noise from caustic paths, biased (as Cycles' Filter Glossy 1)
+  envrender --max-depth 3                          two indirect bounces (caustics after a rough bounce blurred)
+  envrender --max-depth 3 --regularize 0           the same, unbiased: exact caustics, noisier on sunny maps
   envrender --strategy product-sh-mis --sh-order 4 --sh-resolution 32   a coarser SH product (faster, noisier)
   envrender --strategy product-wavelet --wavelet-resolution 64 --wavelet-kept 256   finer cells, compressed factors
 

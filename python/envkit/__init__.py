@@ -120,7 +120,7 @@ def render(
     bake=False,
     crop=None,
     base_dir=None,
-    regularize=0.0,
+    regularize=None,
 ):
     """Renders a scene with envrender's integrator and returns the mean image (H x W x 3 float32).
 
@@ -128,7 +128,8 @@ def render(
     that format (relative paths inside it are relative to base_dir, default the current directory). The other
     arguments are envrender's options (strategy None: envrender's default; bsdf_samples and light_samples None: by
     each material's lobe, as envrender without --bsdf-samples / --light-samples); crop = (x0, y0, x1, y1);
-    regularize: envrender's --regularize (0: unbiased; > 0 trades a bias for less noise when max_depth > 1).
+    regularize: envrender's --regularize (None: envrender's default; 0: unbiased; > 0 trades a bias for
+    less noise when max_depth > 1).
     """
     if not has_renderer:
         raise Error("this envkit was built without the renderer (ENVKIT_BUILD_RENDERER=OFF)")

@@ -61,7 +61,7 @@ def default_options(**overrides):
         "light_samples": None,
         "sun_samples": 1,
         "max_depth": 1,
-        "regularize": 0.0,
+        "regularize": None,
         "width": 0,
         "height": 0,
         "bake": False,
@@ -254,7 +254,7 @@ def _metadata(frame, job, options, seconds, tiles):
         "envkit:light_samples": "by lobe" if o["light_samples"] is None else str(o["light_samples"]),
         "envkit:sun_samples": str(o["sun_samples"] if job.has_sun_split else 0),
         "envkit:max_depth": str(o["max_depth"]),
-        "envkit:regularize": "%g" % o["regularize"],
+        "envkit:regularize": "%g" % job.regularize,
         "envkit:spp": str(o["spp"]),
         "envkit:seed": str(o["seed"]),
         "envkit:seconds": "%.4g" % seconds,
@@ -513,8 +513,9 @@ environment files and the work folder at the same paths. Exit status: 0 done; 1 
     p.add_argument("--sun-samples", type=count(0, 1024), default=1, metavar="N", help="default 1")
     p.add_argument("--max-depth", type=count(1, 64), default=1, metavar="N",
                    help="scattering events per path (default 1: direct light only)")
-    p.add_argument("--regularize", type=float, default=0.0, metavar="V",
-                   help="envrender's --regularize: widen glossy lobes after rough bounces (BIASED; default 0: off)")
+    p.add_argument("--regularize", type=float, default=None, metavar="V",
+                   help="envrender's --regularize: widen glossy lobes after rough bounces (BIASED; default: "
+                        "envrender's; 0 = unbiased)")
     p.add_argument("--bake", action="store_true", help="bake missing or stale sampling tables in memory")
     add_cluster_options(p)
     p.add_argument("--render-threads", type=count(0, 4096), metavar="R",

@@ -58,7 +58,7 @@ IntegratorOptions integrator_options(const std::optional<std::string>& strategy,
   io.light_samples = optional_int_arg(light_samples, "light_samples", 0, 1024);
   io.sun_samples = int_arg(sun_samples, "sun_samples", 0, 1024);
   io.max_depth = int_arg(max_depth, "max_depth", 1, 64);
-  io.regularization = real_arg(regularize, "regularize", 0.0, 1e6);
+  if (!regularize.is_none()) io.regularization = real_arg(regularize, "regularize", 0.0, 1e6);  // else the default
   return io;
 }
 
@@ -165,6 +165,7 @@ void bind_farm(py::module_& m) {
            py::arg("max_depth"), py::arg("regularize"), py::arg("width"), py::arg("height"), py::arg("bake"))
       .def_property_readonly("width", [](const RenderJob& j) { return j.scene.camera.width(); })
       .def_property_readonly("height", [](const RenderJob& j) { return j.scene.camera.height(); })
+      .def_property_readonly("regularize", [](const RenderJob& j) { return j.options.regularization; })
       .def_property_readonly("environment", [](const RenderJob& j) { return j.scene.environment_description; })
       // The environment's image files (its faces for a '%' pattern): inputs an output must not replace.
       .def_property_readonly("environment_files",
@@ -257,6 +258,7 @@ void bind_render(py::module_& m) {
       py::arg("heuristic"), py::arg("bsdf_samples"), py::arg("light_samples"), py::arg("sun_samples"),
       py::arg("max_depth"), py::arg("seed"), py::arg("width"), py::arg("height"), py::arg("bake"), py::arg("crop"),
       py::arg("regularize"));
+  m.attr("default_regularize") = IntegratorOptions{}.regularization;
   bind_farm(m);
 }
 

@@ -59,14 +59,19 @@ def test_render_sun_samples_equal_envrender(tmp_path):
 
 @pytest.mark.skipif(not envkit.has_renderer, reason="built without the renderer")
 def test_render_regularize_equals_envrender(tmp_path):
-    # Two bounces with the glossy spheres widened after the ground's bounce: envrender's image bit for bit, another
-    # image than the unbiased one; a negative value is refused.
-    out = tmp_path / "r.exr"
-    run_tool("envrender", "-o", out, "--resolution", "24x16", "--spp", "2", "--seed", "5", "--max-depth", "3",
-             "--regularize", "1", "-q")
-    img = envkit.render(width=24, height=16, spp=2, seed=5, max_depth=3, regularize=1.0)
-    assert np.array_equal(img, exr_array(out)[..., :3])
-    assert not np.array_equal(img, envkit.render(width=24, height=16, spp=2, seed=5, max_depth=3))
+    # Two bounces, the unbiased setting and the default (glossy spheres widened after the ground's bounce): each is
+    # envrender's image bit for bit, and the two differ; a negative value is refused.
+    common = ["--resolution", "24x16", "--spp", "2", "--seed", "5", "--max-depth", "3", "-q"]
+    run_tool("envrender", "-o", tmp_path / "unbiased.exr", "--regularize", "0", *common)
+    run_tool("envrender", "-o", tmp_path / "default.exr", *common)
+    unbiased = envkit.render(width=24, height=16, spp=2, seed=5, max_depth=3, regularize=0.0)
+    default = envkit.render(width=24, height=16, spp=2, seed=5, max_depth=3)
+    assert np.array_equal(unbiased, exr_array(tmp_path / "unbiased.exr")[..., :3])
+    assert np.array_equal(default, exr_array(tmp_path / "default.exr")[..., :3])
+    assert not np.array_equal(default, unbiased)
+    explicit = envkit.render(width=24, height=16, spp=2, seed=5, max_depth=3,
+                             regularize=envkit._envkit.default_regularize)
+    assert np.array_equal(default, explicit)
     with pytest.raises(ValueError, match="regularize"):
         envkit.render(width=8, height=4, spp=1, regularize=-1)
 

@@ -41,6 +41,7 @@ def main():
     ap.add_argument("--rounds", type=int, default=16)
     ap.add_argument("--depth", type=int, default=3)
     ap.add_argument("--seed", type=int, default=500, help="the first round's seed")
+    ap.add_argument("--regularize", default="0", help="--regularize of the variants that do not set it")
     ap.add_argument("--json", default=None, help="write every round's figures here")
     ap.add_argument("variants", nargs="+", help="name=binary[:options]; ratios are over the first")
     args = ap.parse_args()
@@ -62,7 +63,8 @@ def main():
                 out = os.path.join(tmp, f"{h}_{len(data[h][name]) % 2}.exr")
                 subprocess.run([binary, "--scene", os.path.join(args.bench, h, "scene.json"), "--spp", str(args.spp),
                                 "--seed", str(args.seed + r), "--bake", "--max-depth", str(args.depth),
-                                "--regularize", "0", "--threads", "2", "-q", "-f", "-o", out] + extra, check=True)
+                                "--threads", "2", "-q", "-f", "-o", out] + extra +
+                               ([] if "--regularize" in extra else ["--regularize", args.regularize]), check=True)
                 img = read_exr(out)
                 data[h][name].append((float(exr_attr(out, "envkit:seconds")),
                                       {reg: rel_mse(img, ref, mask == i) for i, reg in enumerate(regions)}))

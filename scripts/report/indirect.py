@@ -6,6 +6,7 @@ the bias of that converged image against the unbiased reference, the total error
 describes, measured in every report run."""
 import numpy as np
 
+from bench.common import exr_attr
 from report.common import (Context, Reference, ToolFailed, commands_block, g, geomean, machine_line,
                            make_probe_images, md_table, plt, scene_with_image)
 
@@ -21,6 +22,19 @@ SKY = ctx.pick("256x128", "1024x512", "1024x512")
 machine = machine_line()
 common = ["--max-depth", DEPTH]
 
+
+
+def default_value():
+    """envrender's --regularize when the option is not given, from the metadata of a tiny render without it (the
+    recommendation names it); None when that render fails."""
+    out = ctx.path("default_value.exr")
+    r = ctx.render(out, None, ["--spp", 1, "--resolution", "8x4", "--max-depth", DEPTH, "-q"], read=False,
+                   check=False)
+    text = None if "failed" in r else exr_attr(out, "envkit:regularize")
+    return float(text) if text else None
+
+
+DEFAULT = default_value()
 images = make_probe_images(ctx, [p for p in PROBES if p != "overcast"], SKY)
 results = {}
 for probe, image in images.items():
@@ -110,7 +124,7 @@ text.append("\n" + commands_block(ctx))
 ctx.write_md("indirect.md", "\n".join(text))
 ctx.save_summary({"values": VALUES, "probes": list(results), "results": {p: {f"{v:g}": row for v, row in rows.items()}
                                                                         for p, rows in results.items()},
-                  "spp": SPP, "converged_spp": CONVERGED_SPP, "ref_spp": REF_SPP, "depth": DEPTH, "res": RES,
+                  "default": DEFAULT, "spp": SPP, "converged_spp": CONVERGED_SPP, "ref_spp": REF_SPP, "depth": DEPTH, "res": RES,
                   "geomean_efficiency": {f"{v:g}": geomean([rows[v]["efficiency"] for rows in results.values()
                                                             if v in rows and rows[v]["efficiency"]])
                                          for v in VALUES}})

@@ -256,6 +256,7 @@ TEST(Indirect, OpenSphericalCavityConvergesToItsAnalyticValueAtEveryDepth) {
     SCOPED_TRACE("max_depth " + std::to_string(depth));
     IntegratorOptions options;
     options.max_depth = depth;
+    options.regularization = 0.0;  // off: the value checked against is the unbiased one
     const Integrator integrator(*scene.scene, *scene.light, options);
     RenderOptions ro;
     ro.spp = 256;
@@ -279,6 +280,7 @@ TEST(Indirect, EveryStrategyConvergesToTheCavitysAnalyticValueAtDepthThree) {
     IntegratorOptions options;
     options.strategy = strategy;
     options.max_depth = 3;
+    options.regularization = 0.0;  // off: the value checked against is the unbiased one
     const Integrator integrator(*scene.scene, *scene.light, options, &scene.camera);
     RenderOptions ro;
     ro.spp = 1024;
@@ -316,6 +318,7 @@ TEST(Indirect, RouletteKeepsTheMeanOfTheLoopWithoutIt) {
     SCOPED_TRACE("depth " + std::to_string(depth));
     IntegratorOptions options;
     options.max_depth = depth;
+    options.regularization = 0.0;  // off: the value checked against is the unbiased one
     const Integrator integrator(*scene.scene, *scene.light, options);
     const TwoMeans m = integrator_and_plain_loop(integrator, scene, spp);
     EXPECT_NEAR(m.mean[0], m.mean[1], 4.0 * m.sigma());
@@ -360,6 +363,7 @@ TEST(Indirect, TheBsdfSampleThatContinuesThePathKeepsTheMeanOfTheLoopThatDrawsIt
       IntegratorOptions options;
       options.strategy = strategy;
       options.max_depth = 2;
+      options.regularization = 0.0;  // off: the value checked against is the unbiased one
       const Integrator integrator(*scene->scene, *scene->light, options, &scene->camera);
       const TwoMeans m = integrator_and_plain_loop(integrator, *scene, 64);
       EXPECT_NEAR(m.mean[0], m.mean[1], 4.0 * m.sigma());
@@ -377,6 +381,7 @@ TEST(Indirect, AnOpenPlaneReflectsTheSkyOnceAtEveryDepth) {
       IntegratorOptions options;
       options.strategy = strategy;
       options.max_depth = depth;
+      options.regularization = 0.0;  // off: the value checked against is the unbiased one
       const Integrator integrator(*scene.scene, *scene.light, options, &scene.camera);
       RenderOptions ro;
       ro.spp = 64;
@@ -395,6 +400,7 @@ TEST(Indirect, RegularizationCutsTheVarianceOfCausticPaths) {
   ro.spp = 256;
   IntegratorOptions unbiased, regularized;
   unbiased.max_depth = regularized.max_depth = 2;
+  unbiased.regularization = 0.0;
   regularized.regularization = 1.0;
   const Film a = render_image(scene.camera, Integrator(*scene.scene, *scene.light, unbiased), ro);
   const Film b = render_image(scene.camera, Integrator(*scene.scene, *scene.light, regularized), ro);
