@@ -309,6 +309,10 @@ std::vector<ScatterRun> scatter_runs(const MapRef& s, const Parameterization& ds
   return runs;
 }
 
+ScatterKernel scatter_kernel_for(const Parameterization& src) {
+  return src.kind() == Kind::LatLong ? ScatterKernel::OutputOrder : ScatterKernel::Batched;
+}
+
 Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Parameterization& dst,
                             const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
                             ScatterKernel kernel) {
@@ -319,7 +323,10 @@ Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Pa
   const std::vector<std::size_t> hot = find_hot_texels(img, src_omega, opt.hot_fraction, opt.hot_contrast);
   ProgressCounter progress(opt.progress, static_cast<std::size_t>(img.height) + 1);
   const double ratio = double(img.texel_count()) / std::max(1.0, double(dst.width()) * double(dst.height()));
-  if (ratio <= kFloatAccumulationMaxRatio)
+  if (kernel == ScatterKernel::Auto) kernel = scatter_kernel_for(s.param);
+  if (kernel == ScatterKernel::OutputOrder)
+    scatter_in_output_order(s, dst, src_omega, dst_omega, hot, dst_to_src, use_avx2(), progress, out);
+  else if (ratio <= kFloatAccumulationMaxRatio)
     scatter_and_normalise<float>(s, dst, src_omega, dst_omega, hot, dst_to_src, kernel, progress, out);
   else
     scatter_and_normalise<double>(s, dst, src_omega, dst_omega, hot, dst_to_src, kernel, progress, out);
