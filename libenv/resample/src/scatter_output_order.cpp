@@ -17,8 +17,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <cstdio>
-#include <cstdlib>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -102,6 +100,23 @@ struct TileBox {
 /// TileBox::code's cell of a box edge: truncation of v + 16, less 16.
 ENVKIT_AVX2 inline __m128i cell_avx2(__m256d v) {
   return _mm_sub_epi32(_mm256_cvttpd_epi32(_mm256_add_pd(v, _mm256_set1_pd(TileBox::kOffset))), _mm_set1_epi32(16));
+}
+
+/// The least and largest of y[0, n rounded down to 4), with y_low and y_high; returns how many it read.
+ENVKIT_AVX2 int y_range_avx2(const double* y, int n, double& y_low, double& y_high) {
+  __m256d low = _mm256_set1_pd(y_low), high = _mm256_set1_pd(y_high);
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const __m256d v = _mm256_loadu_pd(y + i);
+    low = _mm256_min_pd(low, v);
+    high = _mm256_max_pd(high, v);
+  }
+  alignas(32) double l[4], h[4];
+  _mm256_store_pd(l, low);
+  _mm256_store_pd(h, high);
+  y_low = std::min({l[0], l[1], l[2], l[3]});
+  y_high = std::max({h[0], h[1], h[2], h[3]});
+  return i;
 }
 
 /// TileBox::code of texels [0, n rounded down to 4) on AVX2 lanes, the same operations (so the same codes); returns
@@ -193,7 +208,11 @@ class RowReaches {
     }
     // The output rows the row's centres lie on bound its squares' scale.
     double y_low = DH, y_high = 0.0;
-    for (int k = 0; k < W; ++k) {
+    int k = 0;
+#if defined(ENVKIT_AVX2)
+    if (lanes_) k = y_range_avx2(y_.data(), W, y_low, y_high);
+#endif
+    for (; k < W; ++k) {
       y_low = std::min(y_low, y_[k]);
       y_high = std::max(y_high, y_[k]);
     }
@@ -215,8 +234,8 @@ class RowReaches {
       if (!(g_.src_omega(0, j) > 0.0)) code_[0] = kNone;
       if (!(g_.src_omega(W - 1, j) > 0.0)) code_[W - 1] = kNone;
     } else {
-      for (int k = 0; k < W; ++k)
-        if (!(g_.source_omega(k, j, row_omega) > 0.0)) code_[k] = kNone;
+      for (int c = 0; c < W; ++c)
+        if (!(g_.source_omega(c, j, row_omega) > 0.0)) code_[c] = kNone;
     }
     reach_.clear();
     Parameterization::TapBlock block;
@@ -224,7 +243,17 @@ class RowReaches {
       const int code = code_[i];
       if (code == kNone) continue;
       if (code >= 0) {
+        // A run of texels settled in one tile widens its range by the run's ends (and the columns either side of
+        // the turned columns' wrap, when the run holds it).
+        int last = i;
+        while (last + 1 < W && code_[last + 1] == code) ++last;
         mark(code, i, W, half);
+        if (i < W - half && last >= W - half) {
+          if (i < W - half - 1) mark(code, W - half - 1, W, half);
+          if (last > W - half) mark(code, W - half, W, half);
+        }
+        if (last > i) mark(code, last, W, half);
+        i = last;
         continue;
       }
       // As the shares compute them: the texel's square, its corner and far side, each cell resolved.
@@ -292,22 +321,67 @@ struct TileSums {
   bool holds(int i, int j) const { return i >= x0 && i < x0 + w && j >= y0 && j < y0 + h; }
 };
 
-/// Adds the listed contributions whose resolved cell lies in the tile. kC: the channel count, or 0 for any.
+/// Adds shares to a tile's sums: those whose resolved cell lies in the tile. kC: the channel count, or 0 for any.
 template <int kC>
-void add_in_tile(const Parameterization& dst, const Contribution* list, int n, int channels, TileSums& tile) {
-  const int C = kC > 0 ? kC : channels, stride = C + 1;
-  Parameterization::TapBlock block;
-  for (int k = 0; k < n; ++k) {
-    const Contribution& e = list[k];
-    if (!block.holds(e.anchor_i, e.anchor_j)) block = dst.tap_block(e.anchor_i, e.anchor_j);
-    int ci = e.cell_i, cj = e.cell_j;
-    if (!block.holds(ci, cj) && !dst.resolve(e.anchor_i, e.anchor_j, ci, cj)) continue;
-    if (!tile.holds(ci, cj)) continue;
-    double* sum = tile.sums.data() + (std::size_t(cj - tile.y0) * tile.w + std::size_t(ci - tile.x0)) * stride;
-    for (int c = 0; c < C; ++c) sum[c] += e.weight * e.pixel[c];
-    sum[C] += e.weight;
+class TileSink {
+ public:
+  TileSink(const Parameterization& dst, int channels, TileSums& tile)
+      : dst_(dst), C_(kC > 0 ? kC : channels), tile_(tile), zeros_(std::size_t(C_), 0.0f) {}
+
+  /// Listed shares, in list order.
+  void operator()(const Contribution* list, int n) {
+    for (int k = 0; k < n; ++k) {
+      const Contribution& e = list[k];
+      if (!block_.holds(e.anchor_i, e.anchor_j)) block_ = dst_.tap_block(e.anchor_i, e.anchor_j);
+      int ci = e.cell_i, cj = e.cell_j;
+      if (!block_.holds(ci, cj) && !dst_.resolve(e.anchor_i, e.anchor_j, ci, cj)) continue;
+      if (!tile_.holds(ci, cj)) continue;
+      add(sums_at(ci - tile_.x0, cj - tile_.y0), e.weight, e.pixel);
+    }
   }
-}
+
+  /// The lanes' 2 x 2 shares of texel k: added at once when all four cells lie in the tile and in the anchor's block
+  /// (so resolve to themselves); a share not listed adds +0 to a sum that cannot be -0 (the sums start at +0), which
+  /// leaves it as it was. Otherwise as listed.
+  void quad(const Shares& s, int k, int ti, int tj, unsigned listed, const float* px) {
+    const int ci = s.ci[k], cj = s.cj[k];
+    const unsigned x = unsigned(ci - tile_.x0), y = unsigned(cj - tile_.y0);
+    if (!block_.holds(ti, tj)) block_ = dst_.tap_block(ti, tj);
+    if (x < unsigned(tile_.w - 1) && y < unsigned(tile_.h - 1) && block_.holds(ci, cj) &&
+        block_.holds(ci + 1, cj + 1)) [[likely]] {
+      const int stride = C_ + 1;
+      double* s00 = sums_at(int(x), int(y));
+      double* s01 = s00 + std::size_t(tile_.w) * stride;
+      const float* zero = zeros_.data();
+      add(s00, s.w00[k], px);
+      add(s00 + stride, listed & 1 ? s.w10[k] : 0.0, listed & 1 ? px : zero);
+      add(s01, listed & 2 ? s.w01[k] : 0.0, listed & 2 ? px : zero);
+      add(s01 + stride, listed & 4 ? s.w11[k] : 0.0, listed & 4 ? px : zero);
+      return;
+    }
+    Contribution list[4];
+    int n = 0;
+    list[n++] = {ci, cj, ti, tj, s.w00[k], px};
+    if (listed & 1) list[n++] = {ci + 1, cj, ti, tj, s.w10[k], px};
+    if (listed & 2) list[n++] = {ci, cj + 1, ti, tj, s.w01[k], px};
+    if (listed & 4) list[n++] = {ci + 1, cj + 1, ti, tj, s.w11[k], px};
+    (*this)(list, n);
+  }
+
+ private:
+  double* sums_at(int x, int y) { return tile_.sums.data() + (std::size_t(y) * tile_.w + std::size_t(x)) * (C_ + 1); }
+  void add(double* sum, double weight, const float* px) const {
+    const int C = kC > 0 ? kC : C_;
+    for (int c = 0; c < C; ++c) sum[c] += weight * px[c];
+    sum[C] += weight;
+  }
+
+  const Parameterization& dst_;
+  int C_;
+  TileSums& tile_;
+  std::vector<float> zeros_;
+  Parameterization::TapBlock block_;
+};
 
 }  // namespace
 
@@ -337,13 +411,6 @@ void scatter_in_output_order(const MapRef& s, const Parameterization& dst, const
     for (int t : row_tiles[j]) ++first[std::size_t(t) + 1];
   for (int t = 0; t < tiles; ++t) first[std::size_t(t) + 1] += first[t];
   std::vector<ColumnRange> ranges(first[tiles]);
-  if (std::getenv("ENVKIT_DEBUG_TILES")) {  // DEBUG
-    std::size_t texels = 0;
-    for (int j = 0; j < H; ++j)
-      for (const ColumnRange& c : row_ranges[j]) texels += c.count;
-    std::fprintf(stderr, "tiles %d ranges %zu texels %zu of %zu (%.3f)\n", tiles, ranges.size(), texels,
-                 std::size_t(W) * H, double(texels) / (double(W) * H));
-  }
   {
     std::vector<std::size_t> next(first.begin(), first.end() - 1);
     for (int j = 0; j < H; ++j) {
@@ -371,14 +438,9 @@ void scatter_in_output_order(const MapRef& s, const Parameterization& dst, const
     Scratch& sc = scratch.local();
     if (!sc.lister) sc.lister = std::make_unique<ShareLister>(g, lanes);
     TileSums& tile = sc.tile;
-    const auto add = [&](const Contribution* list, int n) {
-      if (C == 3)
-        add_in_tile<3>(dst, list, n, C, tile);
-      else if (C == 4)
-        add_in_tile<4>(dst, list, n, C, tile);
-      else
-        add_in_tile<0>(dst, list, n, C, tile);
-    };
+    TileSink<3> sink3(dst, C, tile);
+    TileSink<4> sink4(dst, C, tile);
+    TileSink<0> sink(dst, C, tile);
     for (int t = r.begin(); t < r.end(); ++t) {
       tile.x0 = (t % tiles_x) * kTile;
       tile.y0 = (t / tiles_x) * kTile;
@@ -396,7 +458,12 @@ void scatter_in_output_order(const MapRef& s, const Parameterization& dst, const
           const auto h1 = std::lower_bound(h0, hot.end(), row + part[1]);
           HotCursor cursor{hot.data() + (h0 - hot.begin()), hot.data() + (h1 - hot.begin()),
                            hot_copies.data() + std::size_t(h0 - hot.begin()) * C, C};
-          sc.lister->texels(img, cr.row, part[0], part[1], cursor, add);
+          if (C == 3)
+            sc.lister->texels(img, cr.row, part[0], part[1], cursor, sink3);
+          else if (C == 4)
+            sc.lister->texels(img, cr.row, part[0], part[1], cursor, sink4);
+          else
+            sc.lister->texels(img, cr.row, part[0], part[1], cursor, sink);
         }
       }
       for (int y = 0; y < tile.h; ++y)

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstddef>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "cube_projection.h"
@@ -159,7 +160,10 @@ struct HotCursor {
 /// overlaps the 2 x 2 cells from the one holding its corner; their fractions are computed alike for every such square
 /// (on AVX2 lanes when `lanes` and the output has no row scales, to the same doubles) and the shares that are zero
 /// are dropped from the list by its count, not by branches. Larger squares take the per-axis overlap loop. The list
-/// goes to `add(list, n)` in the order of the texels, and of the cells row by row within a texel.
+/// goes to `add(list, n)` in the order of the texels, and of the cells row by row within a texel. A sink with
+/// `quad(shares, k, ti, tj, listed, pixel)` takes the lanes' 2 x 2 shares of landed texel k (anchor (ti, tj))
+/// directly instead, bits 0-2 of `listed` saying whether the last three are listed (f10, f01, f11); each
+/// texel's shares still reach the sink in the texels' order.
 class ShareLister {
  public:
   ShareLister(const ScatterGeometry& g, bool lanes);
@@ -235,7 +239,19 @@ void ShareLister::texels(const Image& img, int j, int i_begin, int i_end, HotCur
           overlap_shares(k, n);
           continue;
         }
-        const int ci = s.ci[k], cj = s.cj[k], ti = l.ti[k], tj = l.tj[k];
+        const int ti = l.ti[k], tj = l.tj[k];
+        if constexpr (requires { add.quad(std::as_const(s), k, ti, tj, 0u, l.pixel[k]); }) {
+          // The sink takes the 2 x 2 shares as they are, after what is listed before them.
+          if (n > 0) [[unlikely]] {
+            add(list, n);
+            n = 0;
+          }
+          const unsigned listed = ((s.f10[word] >> bit) & 1) | ((s.f01[word] >> bit) & 1) << 1 |
+                                  ((s.f11[word] >> bit) & 1) << 2;
+          add.quad(std::as_const(s), k, ti, tj, listed, l.pixel[k]);
+          continue;
+        }
+        const int ci = s.ci[k], cj = s.cj[k];
         const float* px = l.pixel[k];
         list[n] = {ci, cj, ti, tj, s.w00[k], px};
         n += 1;
