@@ -165,9 +165,17 @@ TEST(ScatterOutputOrder, SameBytesWhateverTheThreadCount) {
     }
 }
 
-// Auto takes the tiles for a lat-long source, the chunks for others.
-TEST(ScatterOutputOrder, ChosenForLatLongSources) {
-  EXPECT_EQ(detail::scatter_kernel_for(LatLongMap(64, 32)), ScatterKernel::OutputOrder);
-  EXPECT_EQ(detail::scatter_kernel_for(CubeMap(16)), ScatterKernel::Batched);
-  EXPECT_EQ(detail::scatter_kernel_for(OctahedralMap(33)), ScatterKernel::Batched);
+// Auto takes the tiles for a lat-long source into a cube whose faces the tiles align with, the chunks otherwise.
+TEST(ScatterOutputOrder, ChosenForLatLongSourcesIntoAlignedCubes) {
+  const LatLongMap latlong(64, 32);
+  EXPECT_EQ(detail::scatter_kernel_for(latlong, CubeMap(1024)), ScatterKernel::OutputOrder);
+  EXPECT_EQ(detail::scatter_kernel_for(latlong, CubeMap(128)), ScatterKernel::OutputOrder);
+  EXPECT_EQ(detail::scatter_kernel_for(latlong, CubeMap(100)), ScatterKernel::Batched);  // faces cut by tiles
+  EXPECT_EQ(detail::scatter_kernel_for(LatLongMap(4096, 2048), CubeMap(512)), ScatterKernel::OutputOrder);
+  EXPECT_EQ(detail::scatter_kernel_for(LatLongMap(4096, 2048), CubeMap(64)), ScatterKernel::Batched);  // 341 : 1
+  EXPECT_EQ(detail::scatter_kernel_for(latlong, LatLongMap(33, 17)), ScatterKernel::Batched);
+  EXPECT_EQ(detail::scatter_kernel_for(latlong, OctahedralMap(45)), ScatterKernel::Batched);
+  EXPECT_EQ(detail::scatter_kernel_for(latlong, DualParaboloidMap(48, 24)), ScatterKernel::Batched);
+  EXPECT_EQ(detail::scatter_kernel_for(CubeMap(16), CubeMap(1024)), ScatterKernel::Batched);
+  EXPECT_EQ(detail::scatter_kernel_for(OctahedralMap(33), CubeMap(1024)), ScatterKernel::Batched);
 }

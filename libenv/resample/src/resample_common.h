@@ -100,8 +100,14 @@ Image resample_area_gather(const MapRef& src, const TexelSource& source, const P
 /// summed in another order. Auto: scatter_kernel_for().
 enum class ScatterKernel { Auto, Batched, PerTexel, BatchedPortable, OutputOrder };
 
-/// The scatter kernel Auto takes for a source: OutputOrder for lat-long sources, Batched for the rest.
-ScatterKernel scatter_kernel_for(const Parameterization& src);
+/// The scatter kernel Auto takes: OutputOrder for a lat-long source into a cube map whose faces the tiles align with
+/// (output_tiles_aligned) and that has at most 16 source texels per output texel, Batched for the rest.
+ScatterKernel scatter_kernel_for(const Parameterization& src, const Parameterization& dst);
+
+/// Whether OutputOrder's tiles never straddle the output's blocks in which taps resolve to themselves
+/// (Parameterization::tap_cell: 0, or a multiple of the tile size): then a texel whose square's cells lie in one tile
+/// is settled without resolving them; otherwise every texel is resolved cell by cell (right, but slower).
+bool output_tiles_aligned(const Parameterization& dst);
 
 /// One run a scatter kernel hands on: an output texel and, in double, its C flux-weighted channel sums then the weight.
 struct ScatterRun {

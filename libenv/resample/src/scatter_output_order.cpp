@@ -164,8 +164,7 @@ class RowReaches {
       : g_(g), tiles_x_(tiles_x), lanes_(lanes), slot_(tiles, -1), x_(g.W), y_(g.W), code_(g.W) {
     // Whether tiles never straddle the blocks in which taps resolve to themselves, so that a box whose cells lie in
     // one tile holding its anchor needs no resolving (else every texel is looked at closely).
-    const int tc = g.dst.tap_cell();
-    aligned_ = tc == 0 || (tc > 0 && tc % kTile == 0);
+    aligned_ = output_tiles_aligned(g.dst);
     std::vector<double> scale_x(g.DH), scale_y(g.DH), least(g.DH, 0.0);
     for (int tj = 0; tj < g.DH; ++tj) {
       if (!g.row_scales.x.empty()) {
@@ -384,6 +383,11 @@ class TileSink {
 };
 
 }  // namespace
+
+bool output_tiles_aligned(const Parameterization& dst) {
+  const int tc = dst.tap_cell();
+  return tc == 0 || (tc > 0 && tc % kTile == 0);
+}
 
 void scatter_in_output_order(const MapRef& s, const Parameterization& dst, const SolidAngleTable& src_omega,
                              const SolidAngleTable& dst_omega, const std::vector<std::size_t>& hot,
