@@ -46,11 +46,11 @@ constexpr int kSlotBits = 14;
 /// the chunk's texels, never on the thread that projected it.
 struct Chunk {
   int first_row = 0, end_row = 0;
-  std::vector<std::size_t> cells;      // output texel of each run
-  std::vector<double> sums;            // per run: C flux-weighted channel sums, then the weight
-  std::vector<std::size_t> slot_cell;  // output texel held by each slot, kEmpty when none
-  std::vector<double> slot_sums;       // per slot: as sums
-  std::vector<float> hot_pixels;       // the batched kernel's copies of hot texels, colour zeroed
+  std::vector<std::size_t> cells;       // output texel of each run
+  std::vector<double> sums;             // per run: C flux-weighted channel sums, then the weight
+  std::vector<std::size_t> slot_cell;   // output texel held by each slot, kEmpty when none
+  std::vector<double> slot_sums;        // per slot: as sums
+  std::vector<float> hot_pixels;        // the batched kernel's copies of hot texels, colour zeroed
   std::unique_ptr<ShareLister> lister;  // the batched kernel's lists of shares
   static constexpr std::size_t kEmpty = std::size_t(-1);
 
@@ -320,7 +320,7 @@ ScatterKernel scatter_kernel_for(const Parameterization& src, const Parameteriza
   const bool rows_on_lanes = src.kind() == Kind::LatLong && dst.kind() == Kind::CubeMap;
   const double ratio = double(src.width()) * double(src.height()) / std::max(1.0, double(dst.width()) * dst.height());
   return rows_on_lanes && output_tiles_aligned(dst) && ratio <= kOutputOrderMaxRatio ? ScatterKernel::OutputOrder
-                                                                                      : ScatterKernel::Batched;
+                                                                                     : ScatterKernel::Batched;
 }
 
 Image resample_area_scatter(const MapRef& s, const TexelSource& source, const Parameterization& dst,

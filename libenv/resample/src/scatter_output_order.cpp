@@ -131,8 +131,9 @@ ENVKIT_AVX2 int tile_codes_avx2(const TileBox& b, const double* x, const double*
   int i = 0;
   for (; i + 4 <= n; i += 4) {
     const __m256d px = _mm256_loadu_pd(x + i), py = _mm256_loadu_pd(y + i);
-    const __m256d out = _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(px, zero, _CMP_LT_OQ), _mm256_cmp_pd(py, zero, _CMP_LT_OQ)),
-                                     _mm256_or_pd(_mm256_cmp_pd(px, dw, _CMP_GT_OQ), _mm256_cmp_pd(py, dh, _CMP_GT_OQ)));
+    const __m256d out =
+        _mm256_or_pd(_mm256_or_pd(_mm256_cmp_pd(px, zero, _CMP_LT_OQ), _mm256_cmp_pd(py, zero, _CMP_LT_OQ)),
+                     _mm256_or_pd(_mm256_cmp_pd(px, dw, _CMP_GT_OQ), _mm256_cmp_pd(py, dh, _CMP_GT_OQ)));
     const __m128i cx0 = cell_avx2(_mm256_sub_pd(px, hx)), cx1 = cell_avx2(_mm256_add_pd(px, hx));
     const __m128i cy0 = cell_avx2(_mm256_sub_pd(py, hy)), cy1 = cell_avx2(_mm256_add_pd(py, hy));
     const __m128i tx0 = _mm_srai_epi32(cx0, kTileBits), ty0 = _mm_srai_epi32(cy0, kTileBits);
@@ -142,8 +143,7 @@ ENVKIT_AVX2 int tile_codes_avx2(const TileBox& b, const double* x, const double*
     one = _mm_and_si128(one, _mm_and_si128(_mm_cmplt_epi32(cx1, width), _mm_cmplt_epi32(cy1, height)));
     const __m128i tile = _mm_add_epi32(_mm_mullo_epi32(ty0, tiles_x), tx0);
     // The low halves of the 64-bit masks, as 32-bit masks.
-    const __m128i outside =
-        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(out), low_halves));
+    const __m128i outside = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(out), low_halves));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(code + i),
                      _mm_blendv_epi8(_mm_blendv_epi8(exact, tile, one), none, outside));
   }
@@ -346,8 +346,8 @@ class TileSink {
     const int ci = s.ci[k], cj = s.cj[k];
     const unsigned x = unsigned(ci - tile_.x0), y = unsigned(cj - tile_.y0);
     if (!block_.holds(ti, tj)) block_ = dst_.tap_block(ti, tj);
-    if (x < unsigned(tile_.w - 1) && y < unsigned(tile_.h - 1) && block_.holds(ci, cj) &&
-        block_.holds(ci + 1, cj + 1)) [[likely]] {
+    if (x < unsigned(tile_.w - 1) && y < unsigned(tile_.h - 1) && block_.holds(ci, cj) && block_.holds(ci + 1, cj + 1))
+        [[likely]] {
       const int stride = C_ + 1;
       double* s00 = sums_at(int(x), int(y));
       double* s01 = s00 + std::size_t(tile_.w) * stride;

@@ -246,8 +246,8 @@ void ShareLister::texels(const Image& img, int j, int i_begin, int i_end, HotCur
             add(list, n);
             n = 0;
           }
-          const unsigned listed = ((s.f10[word] >> bit) & 1) | ((s.f01[word] >> bit) & 1) << 1 |
-                                  ((s.f11[word] >> bit) & 1) << 2;
+          const unsigned listed =
+              ((s.f10[word] >> bit) & 1) | ((s.f01[word] >> bit) & 1) << 1 | ((s.f11[word] >> bit) & 1) << 2;
           add.quad(std::as_const(s), k, ti, tj, listed, l.pixel[k]);
           continue;
         }
