@@ -151,6 +151,34 @@ ENVKIT_AVX2 int tile_codes_avx2(const TileBox& b, const double* x, const double*
 }
 #endif
 
+/// What bounds square() over ranges of output rows: per row the largest scale along x and y (ScatterGeometry's
+/// row scales, or its largest 1 / sqrt(omega)) and the least side (1 where a texel without solid angle is in the row).
+struct SquareBounds {
+  RangeMax scale_x, scale_y, least;
+  explicit SquareBounds(const ScatterGeometry& g)
+      : scale_x(row_values(g, 0)), scale_y(row_values(g, 1)), least(row_values(g, 2)) {}
+
+ private:
+  static std::vector<double> row_values(const ScatterGeometry& g, int which) {
+    std::vector<double> v(g.DH, 0.0);
+    tbb::parallel_for(0, g.DH, [&](int tj) {
+      if (!g.row_scales.x.empty()) {
+        v[tj] = which == 0 ? g.row_scales.x[tj] : which == 1 ? g.row_scales.y[tj] : 0.0;
+        return;
+      }
+      float largest = 0.0f;
+      bool unsized = false;
+      for (int ti = 0; ti < g.DW; ++ti) {
+        const float inverse = g.inverse_side[std::size_t(tj) * g.DW + ti];
+        largest = std::max(largest, inverse);
+        unsized = unsized || !(inverse > 0.0f);  // square() gives such a texel's squares a side of 1
+      }
+      v[tj] = which == 2 ? (unsized ? 1.0 : 0.0) : largest;
+    });
+    return v;
+  }
+};
+
 /// Per source row, the tiles its texels' squares reach, each with a column range. A row is scanned by one thread; the
 /// result depends only on the row.
 ///
@@ -160,30 +188,16 @@ ENVKIT_AVX2 int tile_codes_avx2(const TileBox& b, const double* x, const double*
 /// as the shares do.
 class RowReaches {
  public:
-  RowReaches(const ScatterGeometry& g, int tiles_x, int tiles, bool lanes)
-      : g_(g), tiles_x_(tiles_x), lanes_(lanes), slot_(tiles, -1), x_(g.W), y_(g.W), code_(g.W) {
-    // Whether tiles never straddle the blocks in which taps resolve to themselves, so that a box whose cells lie in
-    // one tile holding its anchor needs no resolving (else every texel is looked at closely).
-    aligned_ = output_tiles_aligned(g.dst);
-    std::vector<double> scale_x(g.DH), scale_y(g.DH), least(g.DH, 0.0);
-    for (int tj = 0; tj < g.DH; ++tj) {
-      if (!g.row_scales.x.empty()) {
-        scale_x[tj] = g.row_scales.x[tj];
-        scale_y[tj] = g.row_scales.y[tj];
-        continue;
-      }
-      float largest = 0.0f;
-      for (int ti = 0; ti < g.DW; ++ti) {
-        const float inverse = g.inverse_side[std::size_t(tj) * g.DW + ti];
-        largest = std::max(largest, inverse);
-        if (!(inverse > 0.0f)) least[tj] = 1.0;  // square() gives such texels' squares a side of 1
-      }
-      scale_x[tj] = scale_y[tj] = largest;
-    }
-    scale_x_ = std::make_unique<RangeMax>(std::move(scale_x));
-    scale_y_ = std::make_unique<RangeMax>(std::move(scale_y));
-    least_ = std::make_unique<RangeMax>(std::move(least));
-  }
+  RowReaches(const ScatterGeometry& g, const SquareBounds& bounds, int tiles_x, int tiles, bool lanes)
+      : g_(g),
+        bounds_(bounds),
+        tiles_x_(tiles_x),
+        lanes_(lanes),
+        aligned_(output_tiles_aligned(g.dst)),
+        slot_(tiles, -1),
+        x_(g.W),
+        y_(g.W),
+        code_(g.W) {}
 
   /// The tiles source row j reaches, as ranges (start, count) in plain columns.
   void scan(int j, std::vector<ColumnRange>& out, std::vector<int>& tiles_out) {
@@ -217,11 +231,11 @@ class RowReaches {
     }
     const int tj0 = std::clamp(static_cast<int>(std::max(y_low, 0.0)), 0, DH - 1);
     const int tj1 = std::clamp(static_cast<int>(std::min(y_high, double(DH))), tj0, DH - 1);
-    const double least = (*least_)(tj0, tj1);
+    const double least = bounds_.least(tj0, tj1);
     const auto half_side = [&](const RangeMax& scale) {
       return 0.5 * std::max(std::min(root * scale(tj0, tj1), kMaxSideInTexels), least) + TileBox::kMargin;
     };
-    const TileBox box{half_side(*scale_x_), half_side(*scale_y_), DW, DH, tiles_x_, aligned_};
+    const TileBox box{half_side(bounds_.scale_x), half_side(bounds_.scale_y), DW, DH, tiles_x_, aligned_};
     int i = 0;
 #if defined(ENVKIT_AVX2)
     if (lanes_) i = tile_codes_avx2(box, x_.data(), y_.data(), W, code_.data());
@@ -302,15 +316,14 @@ class RowReaches {
   }
 
   const ScatterGeometry& g_;
+  const SquareBounds& bounds_;
   int tiles_x_;
   bool lanes_;
-  bool aligned_;
+  bool aligned_;           // whether a box in one tile is in one block (output_tiles_aligned)
   std::vector<int> slot_;  // per tile: its entry in reach_, or -1
   std::vector<RowReach> reach_;
   std::vector<double> x_, y_;
   std::vector<int> code_;
-  // Per output row, the largest of square()'s scales and least sides, over ranges of rows.
-  std::unique_ptr<RangeMax> scale_x_, scale_y_, least_;
 };
 
 /// A tile's shares summed in double: C flux-weighted channel sums, then the weight, per texel.
@@ -402,10 +415,11 @@ void scatter_in_output_order(const MapRef& s, const Parameterization& dst, const
   std::vector<std::vector<ColumnRange>> row_ranges(H);
   std::vector<std::vector<int>> row_tiles(H);
   {
+    const SquareBounds bounds(g);
     tbb::enumerable_thread_specific<std::unique_ptr<RowReaches>> scanners;
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 8), [&](const tbb::blocked_range<int>& r) {
       auto& scanner = scanners.local();
-      if (!scanner) scanner = std::make_unique<RowReaches>(g, tiles_x, tiles, lanes);
+      if (!scanner) scanner = std::make_unique<RowReaches>(g, bounds, tiles_x, tiles, lanes);
       for (int j = r.begin(); j < r.end(); ++j) scanner->scan(j, row_ranges[j], row_tiles[j]);
     });
   }
