@@ -179,3 +179,35 @@ TEST(ScatterOutputOrder, ChosenForLatLongSourcesIntoAlignedCubes) {
   EXPECT_EQ(detail::scatter_kernel_for(CubeMap(16), CubeMap(1024)), ScatterKernel::Batched);
   EXPECT_EQ(detail::scatter_kernel_for(OctahedralMap(33), CubeMap(1024)), ScatterKernel::Batched);
 }
+
+// A constant map stays constant through the tiles (each texel is its shares' weighted mean), and the power is the
+// chunked scatter's: the same shares, summed in another order.
+TEST(ScatterOutputOrder, KeepsAConstantMapConstantAndThePower) {
+  const LatLongMap fine(1024, 512);
+  Image flat(fine.width(), fine.height(), 3);
+  for (int j = 0; j < fine.height(); ++j)
+    for (int i = 0; i < fine.width(); ++i) {
+      flat.at(i, j, 0) = 2.0f;
+      flat.at(i, j, 1) = 0.5f;
+      flat.at(i, j, 2) = 1e-3f;
+    }
+  Image sunny = detailed(fine, 3);
+  for (int c = 0; c < 3; ++c) sunny.at(700, 90, c) = 1e9f;
+  const std::vector<Named> cubes = {{"cube 64", std::make_shared<CubeMap>(64)},
+                                    {"cube 128", std::make_shared<CubeMap>(128)}};
+  for (const Named& b : cubes) {
+    const Image out = scatter(flat, fine, Mat3(), *b.p, ScatterKernel::OutputOrder);
+    for (int j = 0; j < b.p->height(); ++j)
+      for (int i = 0; i < b.p->width(); ++i) {
+        ASSERT_NEAR(out.at(i, j, 0), 2.0f, 2e-6f) << b.name << " at " << i << "," << j;
+        ASSERT_NEAR(out.at(i, j, 2), 1e-3f, 1e-9f) << b.name << " at " << i << "," << j;
+      }
+    const auto source = total_power(sunny, fine);
+    const auto tiles = total_power(scatter(sunny, fine, Mat3(), *b.p, ScatterKernel::OutputOrder), *b.p);
+    const auto chunks = total_power(scatter(sunny, fine, Mat3(), *b.p, ScatterKernel::Batched), *b.p);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(tiles[c], chunks[c], 1e-7 * chunks[c]) << b.name;
+      EXPECT_NEAR(tiles[c], source[c], 1e-4 * source[c]) << b.name;
+    }
+  }
+}
