@@ -20,32 +20,13 @@
 
 #include "resample/src/resample_common.h"
 #include "resample_kernel_support.h"
+#include "scatter_test_cases.h"
 
 using namespace envkit;
 using namespace envkit::testing;
 using detail::ScatterKernel;
 
 namespace {
-
-Image scatter(const Image& src, const Parameterization& sp, const Mat3& to_world, const Parameterization& dst,
-              ScatterKernel kernel) {
-  ResampleOptions opt;
-  opt.area_method = AreaMethod::Scatter;
-  return detail::resample_area_scatter({src, sp, to_world}, TexelSource(src, sp), dst, transposed(to_world), opt,
-                                       detail::AreaTables(sp, dst), kernel);
-}
-
-const std::vector<Named>& sources() {
-  static const std::vector<Named> maps = {
-      {"latlong 512x256", std::make_shared<LatLongMap>(512, 256)},
-      {"latlong 515x259 (odd)", std::make_shared<LatLongMap>(515, 259)},
-      {"latlong 256x128 corner", std::make_shared<LatLongMap>(256, 128, TexelGrid::Corner)},
-      {"latlong 3x1", std::make_shared<LatLongMap>(3, 1)},
-      {"latlong 1x1", std::make_shared<LatLongMap>(1, 1)},
-      {"cube 67", std::make_shared<CubeMap>(67)},
-      {"octahedral 181", std::make_shared<OctahedralMap>(181)}};
-  return maps;
-}
 
 const std::vector<Named>& outputs() {
   static const std::vector<Named> maps = {
@@ -96,29 +77,7 @@ void expect_kernels_agree(const Image& src, const Parameterization& sp, const Ma
 
 }  // namespace
 
-TEST(ResampleScatterKernels, AgreeOnEveryPair) {
-  for (const Named& a : sources()) expect_kernels_agree(detailed(*a.p, 3), *a.p, Mat3(), a.name);
-}
-
-TEST(ResampleScatterKernels, AgreeWithAnAlphaChannel) {
-  const LatLongMap fine(300, 150);
-  expect_kernels_agree(detailed(fine, 4), fine, Mat3(), "latlong 300x150 RGBA");
-}
-
-TEST(ResampleScatterKernels, AgreeWithA1e9Sun) {
-  for (const Named& a : sources()) {
-    Image src = detailed(*a.p, 3);
-    const int i = a.p->width() / 3, j = a.p->height() / 3;
-    for (int c = 0; c < 3; ++c) src.at(i, j, c) = 1e9f;  // hot: splatted exactly, given zero colour by both kernels
-    expect_kernels_agree(src, *a.p, Mat3(), a.name + " with a 1e9 sun");
-  }
-}
-
-TEST(ResampleScatterKernels, AgreeUnderRotation) {
-  const Mat3 rotation(0.36, 0.48, -0.8, -0.8, 0.6, 0.0, 0.48, 0.64, 0.6);  // a proper rotation, no symmetry
-  const LatLongMap fine(400, 200);
-  expect_kernels_agree(detailed(fine, 3), fine, rotation, "latlong 400x200 rotated");
-}
+TEST(ResampleScatterKernels, AgreeOnEveryCase) { each_scatter_case(expect_kernels_agree); }
 
 // The tolerance above can fail: a kernel that dropped the second cell of straddling squares would differ by far more.
 TEST(ResampleScatterKernels, DifferenceMeasureSeesAChange) {
