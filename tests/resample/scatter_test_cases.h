@@ -1,10 +1,12 @@
 #pragma once
 // Shared by the area scatter's kernel tests (test_resample_scatter: the chunked kernels against each other;
-// test_scatter_output_order: the tiles against the chunks): the scatter forced with a kernel, the sources, and the
-// cases every comparison runs (every source, an alpha channel, a 1e9 sun, a rotation).
+// test_scatter_output_order: the tiles against the chunks): the scatter forced with a kernel, the sources and outputs,
+// and the cases every comparison runs (every source, an alpha channel, a 1e9 sun, a rotation).
 #include <envkit/maps/cubemap.h>
 #include <envkit/maps/latlong.h>
+#include <envkit/maps/mirrorball.h>
 #include <envkit/maps/octahedral.h>
+#include <envkit/maps/paraboloid.h>
 #include <envkit/resample/resample.h>
 
 #include <functional>
@@ -34,6 +36,24 @@ inline const std::vector<Named>& scatter_sources() {
       {"latlong 1x1", std::make_shared<LatLongMap>(1, 1)},
       {"cube 67", std::make_shared<CubeMap>(67)},
       {"octahedral 181", std::make_shared<OctahedralMap>(181)}};
+  return maps;
+}
+
+inline const std::vector<Named>& scatter_outputs() {
+  static const std::vector<Named> maps = {
+      {"cube 64", std::make_shared<CubeMap>(64)},  // faces of whole tiles: most texels settled without resolving
+      {"cube 32", std::make_shared<CubeMap>(32)},
+      {"cube 17 corner",
+       std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
+      {"cube 13 hcross gl", std::make_shared<CubeMap>(13, CubeLayout::HorizontalCross, CubeBasis::GL)},
+      {"latlong 160x80", std::make_shared<LatLongMap>(160, 80)},  // more than one tile across
+      {"latlong 64x32", std::make_shared<LatLongMap>(64, 32)},
+      {"latlong 33x17 corner", std::make_shared<LatLongMap>(33, 17, TexelGrid::Corner)},
+      {"latlong 3x1", std::make_shared<LatLongMap>(3, 1)},
+      {"latlong 1x1", std::make_shared<LatLongMap>(1, 1)},
+      {"octahedral 45", std::make_shared<OctahedralMap>(45)},
+      {"paraboloid 48x24", std::make_shared<DualParaboloidMap>(48, 24)},
+      {"mirrorball 41", std::make_shared<MirrorBallMap>(41, 41)}};
   return maps;
 }
 

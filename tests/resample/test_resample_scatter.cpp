@@ -28,22 +28,6 @@ using detail::ScatterKernel;
 
 namespace {
 
-const std::vector<Named>& outputs() {
-  static const std::vector<Named> maps = {
-      {"cube 32", std::make_shared<CubeMap>(32)},
-      {"cube 17 corner",
-       std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
-      {"cube 13 hcross gl", std::make_shared<CubeMap>(13, CubeLayout::HorizontalCross, CubeBasis::GL)},
-      {"latlong 64x32", std::make_shared<LatLongMap>(64, 32)},
-      {"latlong 33x17 corner", std::make_shared<LatLongMap>(33, 17, TexelGrid::Corner)},
-      {"latlong 3x1", std::make_shared<LatLongMap>(3, 1)},
-      {"latlong 1x1", std::make_shared<LatLongMap>(1, 1)},
-      {"octahedral 45", std::make_shared<OctahedralMap>(45)},
-      {"paraboloid 48x24", std::make_shared<DualParaboloidMap>(48, 24)},
-      {"mirrorball 41", std::make_shared<MirrorBallMap>(41, 41)}};
-  return maps;
-}
-
 // Whether the batched kernel gives the same runs (output texel, double sums) with and without the lanes.
 bool same_runs(const Image& src, const Parameterization& sp, const Mat3& to_world, const Parameterization& dst) {
   const detail::AreaTables tables(sp, dst);
@@ -60,7 +44,7 @@ bool same_runs(const Image& src, const Parameterization& sp, const Mat3& to_worl
 }
 
 void expect_kernels_agree(const Image& src, const Parameterization& sp, const Mat3& to_world, const std::string& what) {
-  for (const Named& b : outputs()) {
+  for (const Named& b : scatter_outputs()) {
     const Image want = scatter(src, sp, to_world, *b.p, ScatterKernel::PerTexel);
     const Image got = scatter(src, sp, to_world, *b.p, ScatterKernel::Batched);
     ASSERT_EQ(got.pixels.size(), want.pixels.size());

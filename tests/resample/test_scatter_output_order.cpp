@@ -28,24 +28,6 @@ using detail::ScatterKernel;
 
 namespace {
 
-const std::vector<Named>& outputs() {
-  static const std::vector<Named> maps = {
-      {"cube 64", std::make_shared<CubeMap>(64)},  // faces of whole tiles: most texels settled without resolving
-      {"cube 32", std::make_shared<CubeMap>(32)},
-      {"cube 17 corner",
-       std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
-      {"cube 13 hcross gl", std::make_shared<CubeMap>(13, CubeLayout::HorizontalCross, CubeBasis::GL)},
-      {"latlong 160x80", std::make_shared<LatLongMap>(160, 80)},  // more than one tile across
-      {"latlong 64x32", std::make_shared<LatLongMap>(64, 32)},
-      {"latlong 33x17 corner", std::make_shared<LatLongMap>(33, 17, TexelGrid::Corner)},
-      {"latlong 3x1", std::make_shared<LatLongMap>(3, 1)},
-      {"latlong 1x1", std::make_shared<LatLongMap>(1, 1)},
-      {"octahedral 45", std::make_shared<OctahedralMap>(45)},
-      {"paraboloid 48x24", std::make_shared<DualParaboloidMap>(48, 24)},
-      {"mirrorball 41", std::make_shared<MirrorBallMap>(41, 41)}};
-  return maps;
-}
-
 // Largest relative difference over the texels with a solid angle; the texels without one (outside a disk map's
 // disks) must be 0 in `got`. The chunked scatter with float sums leaves there the unnormalised sums of the shares that
 // fell on them (its sums live in the output, and only texels with a solid angle are normalised); the tiles write
@@ -67,7 +49,7 @@ double difference_where_covered(const Image& got, const Image& want, const Param
 }
 
 void expect_orders_agree(const Image& src, const Parameterization& sp, const Mat3& to_world, const std::string& what) {
-  for (const Named& b : outputs()) {
+  for (const Named& b : scatter_outputs()) {
     const Image want = scatter(src, sp, to_world, *b.p, ScatterKernel::Batched);
     const Image got = scatter(src, sp, to_world, *b.p, ScatterKernel::OutputOrder);
     ASSERT_EQ(got.pixels.size(), want.pixels.size());
