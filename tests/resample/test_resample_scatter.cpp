@@ -20,48 +20,13 @@
 
 #include "resample/src/resample_common.h"
 #include "resample_kernel_support.h"
+#include "scatter_test_cases.h"
 
 using namespace envkit;
 using namespace envkit::testing;
 using detail::ScatterKernel;
 
 namespace {
-
-Image scatter(const Image& src, const Parameterization& sp, const Mat3& to_world, const Parameterization& dst,
-              ScatterKernel kernel) {
-  ResampleOptions opt;
-  opt.area_method = AreaMethod::Scatter;
-  return detail::resample_area_scatter({src, sp, to_world}, TexelSource(src, sp), dst, transposed(to_world), opt,
-                                       detail::AreaTables(sp, dst), kernel);
-}
-
-const std::vector<Named>& sources() {
-  static const std::vector<Named> maps = {
-      {"latlong 512x256", std::make_shared<LatLongMap>(512, 256)},
-      {"latlong 515x259 (odd)", std::make_shared<LatLongMap>(515, 259)},
-      {"latlong 256x128 corner", std::make_shared<LatLongMap>(256, 128, TexelGrid::Corner)},
-      {"latlong 3x1", std::make_shared<LatLongMap>(3, 1)},
-      {"latlong 1x1", std::make_shared<LatLongMap>(1, 1)},
-      {"cube 67", std::make_shared<CubeMap>(67)},
-      {"octahedral 181", std::make_shared<OctahedralMap>(181)}};
-  return maps;
-}
-
-const std::vector<Named>& outputs() {
-  static const std::vector<Named> maps = {
-      {"cube 32", std::make_shared<CubeMap>(32)},
-      {"cube 17 corner",
-       std::make_shared<CubeMap>(17, CubeLayout::VerticalStrip, CubeBasis::Envkit, TexelGrid::Corner)},
-      {"cube 13 hcross gl", std::make_shared<CubeMap>(13, CubeLayout::HorizontalCross, CubeBasis::GL)},
-      {"latlong 64x32", std::make_shared<LatLongMap>(64, 32)},
-      {"latlong 33x17 corner", std::make_shared<LatLongMap>(33, 17, TexelGrid::Corner)},
-      {"latlong 3x1", std::make_shared<LatLongMap>(3, 1)},
-      {"latlong 1x1", std::make_shared<LatLongMap>(1, 1)},
-      {"octahedral 45", std::make_shared<OctahedralMap>(45)},
-      {"paraboloid 48x24", std::make_shared<DualParaboloidMap>(48, 24)},
-      {"mirrorball 41", std::make_shared<MirrorBallMap>(41, 41)}};
-  return maps;
-}
 
 // Whether the batched kernel gives the same runs (output texel, double sums) with and without the lanes.
 bool same_runs(const Image& src, const Parameterization& sp, const Mat3& to_world, const Parameterization& dst) {
@@ -79,7 +44,7 @@ bool same_runs(const Image& src, const Parameterization& sp, const Mat3& to_worl
 }
 
 void expect_kernels_agree(const Image& src, const Parameterization& sp, const Mat3& to_world, const std::string& what) {
-  for (const Named& b : outputs()) {
+  for (const Named& b : scatter_outputs()) {
     const Image want = scatter(src, sp, to_world, *b.p, ScatterKernel::PerTexel);
     const Image got = scatter(src, sp, to_world, *b.p, ScatterKernel::Batched);
     ASSERT_EQ(got.pixels.size(), want.pixels.size());
@@ -96,29 +61,7 @@ void expect_kernels_agree(const Image& src, const Parameterization& sp, const Ma
 
 }  // namespace
 
-TEST(ResampleScatterKernels, AgreeOnEveryPair) {
-  for (const Named& a : sources()) expect_kernels_agree(detailed(*a.p, 3), *a.p, Mat3(), a.name);
-}
-
-TEST(ResampleScatterKernels, AgreeWithAnAlphaChannel) {
-  const LatLongMap fine(300, 150);
-  expect_kernels_agree(detailed(fine, 4), fine, Mat3(), "latlong 300x150 RGBA");
-}
-
-TEST(ResampleScatterKernels, AgreeWithA1e9Sun) {
-  for (const Named& a : sources()) {
-    Image src = detailed(*a.p, 3);
-    const int i = a.p->width() / 3, j = a.p->height() / 3;
-    for (int c = 0; c < 3; ++c) src.at(i, j, c) = 1e9f;  // hot: splatted exactly, given zero colour by both kernels
-    expect_kernels_agree(src, *a.p, Mat3(), a.name + " with a 1e9 sun");
-  }
-}
-
-TEST(ResampleScatterKernels, AgreeUnderRotation) {
-  const Mat3 rotation(0.36, 0.48, -0.8, -0.8, 0.6, 0.0, 0.48, 0.64, 0.6);  // a proper rotation, no symmetry
-  const LatLongMap fine(400, 200);
-  expect_kernels_agree(detailed(fine, 3), fine, rotation, "latlong 400x200 rotated");
-}
+TEST(ResampleScatterKernels, AgreeOnEveryCase) { each_scatter_case(expect_kernels_agree); }
 
 // The tolerance above can fail: a kernel that dropped the second cell of straddling squares would differ by far more.
 TEST(ResampleScatterKernels, DifferenceMeasureSeesAChange) {

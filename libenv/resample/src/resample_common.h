@@ -92,11 +92,22 @@ Image resample_area_gather(const MapRef& src, const TexelSource& source, const P
                            const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
                            GatherKernel kernel = GatherKernel::Batched);
 
-/// The area scatter's kernels: all give the same contributions in the same order (so the same output). PerTexel
-/// branches on where each texel's square lies; Batched lists a batch of texels' contributions, then adds them, their
-/// shares computed on AVX2 lanes where the CPU has them (and ENVKIT_SIMD allows) to the same doubles; BatchedPortable
-/// is Batched without the lanes (the tests hold Batched to it bit for bit).
-enum class ScatterKernel { Batched, PerTexel, BatchedPortable };
+/// The area scatter's kernels. The first three sum by chunks of source rows and give the same contributions in the
+/// same order (so the same output): PerTexel branches on where each texel's square lies; Batched lists a batch of
+/// texels' contributions, then adds them, their shares computed on AVX2 lanes where the CPU has them (and
+/// ENVKIT_SIMD allows) to the same doubles; BatchedPortable is Batched without the lanes (the tests hold Batched to it
+/// bit for bit). OutputOrder sums Batched's shares by tiles of the output (scatter_output_order.cpp): the same shares,
+/// summed in another order. Auto: scatter_kernel_for().
+enum class ScatterKernel { Auto, Batched, PerTexel, BatchedPortable, OutputOrder };
+
+/// The scatter kernel Auto takes: OutputOrder for a lat-long source into a cube map whose faces the tiles align with
+/// (output_tiles_aligned) and that has at most 16 source texels per output texel, Batched for the rest.
+ScatterKernel scatter_kernel_for(const Parameterization& src, const Parameterization& dst);
+
+/// Whether OutputOrder's tiles never straddle the output's blocks in which taps resolve to themselves
+/// (Parameterization::tap_cell: 0, or a multiple of the tile size): then a texel whose square's cells lie in one tile
+/// is settled without resolving them; otherwise every texel is resolved cell by cell (right, but slower).
+bool output_tiles_aligned(const Parameterization& dst);
 
 /// One run a scatter kernel hands on: an output texel and, in double, its C flux-weighted channel sums then the weight.
 struct ScatterRun {
@@ -112,6 +123,12 @@ std::vector<ScatterRun> scatter_runs(const MapRef& src, const Parameterization& 
 /// its solid angle, centred on its projection, overlaps. Needs a source with data in every texel.
 Image resample_area_scatter(const MapRef& src, const TexelSource& source, const Parameterization& dst,
                             const Mat3& dst_to_src, const ResampleOptions& opt, const AreaTables& omega,
-                            ScatterKernel kernel = ScatterKernel::Batched);
+                            ScatterKernel kernel = ScatterKernel::Auto);
+
+/// The scatter's shares summed by tiles of the output (ScatterKernel::OutputOrder) and normalised into `out` (each
+/// output texel's weighted mean; the nearest source texel where no square reached), hot texels with weight only.
+void scatter_in_output_order(const MapRef& s, const Parameterization& dst, const SolidAngleTable& src_omega,
+                             const SolidAngleTable& dst_omega, const std::vector<std::size_t>& hot,
+                             const Mat3& dst_to_src, bool lanes, ProgressCounter& progress, Image& out);
 
 }  // namespace envkit::detail
