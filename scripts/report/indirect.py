@@ -23,7 +23,6 @@ machine = machine_line()
 common = ["--max-depth", DEPTH]
 
 
-
 def default_value():
     """envrender's --regularize when the option is not given, from the metadata of a tiny render without it (the
     recommendation names it); None when that render fails."""
@@ -124,7 +123,8 @@ text.append("\n" + commands_block(ctx))
 ctx.write_md("indirect.md", "\n".join(text))
 ctx.save_summary({"values": VALUES, "probes": list(results), "results": {p: {f"{v:g}": row for v, row in rows.items()}
                                                                         for p, rows in results.items()},
-                  "default": DEFAULT, "spp": SPP, "converged_spp": CONVERGED_SPP, "ref_spp": REF_SPP, "depth": DEPTH, "res": RES,
+                  "default": DEFAULT, "spp": SPP, "converged_spp": CONVERGED_SPP, "ref_spp": REF_SPP, "depth": DEPTH,
+                  "res": RES,
                   "geomean_efficiency": {f"{v:g}": geomean([rows[v]["efficiency"] for rows in results.values()
                                                             if v in rows and rows[v]["efficiency"]])
                                          for v in VALUES}})
