@@ -182,10 +182,8 @@ void project_chunk_batched(const ScatterGeometry& g, const Image& img, const std
   // Hot texels' channels with zero colour, alpha kept.
   const auto hot_begin = std::lower_bound(hot.begin(), hot.end(), std::size_t(chunk.first_row) * W);
   const auto hot_end = std::lower_bound(hot.begin(), hot.end(), std::size_t(chunk.end_row) * W);
-  chunk.hot_pixels.assign(std::size_t(hot_end - hot_begin) * C, 0.0f);
-  for (auto h = hot_begin; h != hot_end; ++h)
-    if (img.alpha_channel >= 0)
-      chunk.hot_pixels[std::size_t(h - hot_begin) * C + img.alpha_channel] = img.pixels[*h * C + img.alpha_channel];
+  chunk.hot_pixels =
+      hot_weight_copies(img, hot.data() + (hot_begin - hot.begin()), hot.data() + (hot_end - hot.begin()));
   if (!chunk.lister) chunk.lister = std::make_unique<ShareLister>(g, lanes);
   HotCursor cursor{hot.data() + (hot_begin - hot.begin()), hot.data() + (hot_end - hot.begin()),
                    chunk.hot_pixels.data(), C};

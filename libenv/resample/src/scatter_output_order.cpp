@@ -110,10 +110,7 @@ void scatter_in_output_order(const MapRef& s, const Parameterization& dst, const
 
   // Hot texels' channels with zero colour, alpha kept: their squares hand out weight only (they are splatted exactly
   // afterwards).
-  std::vector<float> hot_copies(hot.size() * std::size_t(C), 0.0f);
-  if (img.alpha_channel >= 0)
-    for (std::size_t h = 0; h < hot.size(); ++h)
-      hot_copies[h * C + img.alpha_channel] = img.pixels[hot[h] * C + img.alpha_channel];
+  const std::vector<float> hot_copies = hot_weight_copies(img, hot.data(), hot.data() + hot.size());
 
   // Pass 2: each tile's shares, summed in the tile, normalised into the output.
   struct Scratch {

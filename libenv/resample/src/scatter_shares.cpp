@@ -167,4 +167,13 @@ ENVKIT_AVX2 void shares_avx2(const Landed& l, int m, const float* inverse_side, 
 void shares_avx2(const Landed&, int, const float*, int, Shares&) { std::abort(); }  // never called: lanes are off
 #endif
 
+std::vector<float> hot_weight_copies(const Image& img, const std::size_t* begin, const std::size_t* end) {
+  const int C = img.channels;
+  std::vector<float> copies(std::size_t(end - begin) * std::size_t(C), 0.0f);
+  if (img.alpha_channel >= 0)
+    for (const std::size_t* h = begin; h != end; ++h)
+      copies[std::size_t(h - begin) * C + img.alpha_channel] = img.pixels[*h * C + img.alpha_channel];
+  return copies;
+}
+
 }  // namespace envkit::detail

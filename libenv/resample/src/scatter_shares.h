@@ -155,6 +155,9 @@ struct HotCursor {
   }
 };
 
+/// HotCursor's copies for the hot texels [begin, end) of img: C floats each, zero but for the alpha channel's value.
+std::vector<float> hot_weight_copies(const Image& img, const std::size_t* begin, const std::size_t* end);
+
 /// Lists source texels' shares a batch at a time: pass 1 projects the batch (whole lat-long rows into a cube on the
 /// lanes of LatLongRowsInCube), pass 2 gives each landed texel's shares. A square at most one output texel on a side
 /// overlaps the 2 x 2 cells from the one holding its corner; their fractions are computed alike for every such square
